@@ -1,0 +1,64 @@
+"""Errors raised by the gray-box core.
+
+Every error a user can cause derives from :class:`GrayBoxError`, so callers (the flows, the
+command line) can tell bad input from a bug.
+"""
+from __future__ import annotations
+
+
+class GrayBoxError(Exception):
+    """Base class of every error the gray-box core raises on bad input or configuration."""
+
+
+class ModelSpecError(GrayBoxError):
+    """A physics-model plugin is badly declared, cannot be loaded, or is badly configured."""
+
+
+class TelemetryError(GrayBoxError):
+    """Telemetry that cannot be used, with where it was found.
+
+    Parameters
+    ----------
+    asset_id : str
+        The asset whose telemetry is bad.
+    kind : str
+        A short machine-readable reason: ``"schema"``, ``"non_finite"``, ``"duplicate_timestamp"``,
+        ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``, ``"too_few_samples"``,
+        ``"no_data"`` or ``"unreadable"``.
+    message : str
+        What is wrong, in words.
+    file : str or None
+        The Parquet file the bad row came from.
+    row : int or None
+        The 0-based row index inside ``file``.
+    """
+
+    def __init__(self, asset_id: str, kind: str, message: str, file: str | None = None,
+                 row: int | None = None):
+        self.asset_id = asset_id
+        self.kind = kind
+        self.message = message
+        self.file = file
+        self.row = row
+        where = f"asset {asset_id!r}"
+        if file is not None:
+            where += f", file {file}"
+        if row is not None:
+            where += f", row {row}"
+        super().__init__(f"{where}: {message} [{kind}]")
+
+
+class InsufficientDataError(GrayBoxError):
+    """Too little data for the requested fit (for example a window shorter than the model needs)."""
+
+
+class StructureMismatchError(GrayBoxError):
+    """Two signatures were fitted with different frozen structures and cannot be compared."""
+
+
+class ArtifactError(GrayBoxError):
+    """A stored signature, calibration or weight file is missing, malformed or tampered with."""
+
+
+class InvalidAssetIdError(GrayBoxError):
+    """An asset id that does not match ``[A-Za-z0-9_.-]{1,64}`` (rejected before any path or name use)."""

@@ -1,0 +1,7 @@
+"""Physics-model plugins: the white boxes used to filter telemetry into residuals."""
+from graybox.models.base import WhiteBoxModel, load_model
+from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
+from graybox.models.linear import DriveTrain, LinearStateSpace, linear_parameters
+
+__all__ = ["WhiteBoxModel", "load_model", "GasTurbineShaft", "LangevinShaft",
+           "LinearStateSpace", "DriveTrain", "linear_parameters"]

@@ -1,0 +1,212 @@
+"""The physics-model plugin contract (DESIGN section 4).
+
+A vehicle class names its white-box model as ``package.module:ClassName``. A model declares
+its state and input variables and its default parameters as class attributes, and computes
+the derivatives ``dx/dt = f(x, u)`` over a whole window at once.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+import re
+from typing import ClassVar, Mapping
+
+import numpy as np
+
+from graybox.exceptions import ModelSpecError, TelemetryError
+
+_SPEC = re.compile(r"^[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_]\w*$")
+_NAME = re.compile(r"^[A-Za-z_]\w*$")
+
+
+class WhiteBoxModel:
+    """Base class of physics models used as the residual filter (the white box).
+
+    Subclasses declare three class attributes and implement :meth:`derivatives`:
+
+    ``states``
+        Names of the state variables, observed in telemetry (tuple of identifiers).
+    ``inputs``
+        Names of the known inputs, observed in telemetry (tuple of identifiers, may be empty).
+    ``default_parameters``
+        Mapping of parameter name to float.
+
+    A subclass meant only as a base for others is declared with ``abstract=True``
+    (``class LinearStateSpace(WhiteBoxModel, abstract=True)``) and is not checked.
+
+    Parameters
+    ----------
+    parameters : mapping of str to float, optional
+        Overrides of ``default_parameters``. Unknown names are an error.
+    columns : mapping of str to str, optional
+        Model variable name -> telemetry column, where they differ.
+    """
+
+    states: ClassVar[tuple[str, ...]] = ()
+    inputs: ClassVar[tuple[str, ...]] = ()
+    default_parameters: ClassVar[Mapping[str, float]] = {}
+    _abstract: ClassVar[bool] = True
+
+    def __init_subclass__(cls, abstract: bool = False, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls._abstract = abstract
+        if not abstract:
+            _check_declarations(cls)
+
+    def __init__(self, parameters: Mapping[str, float] | None = None,
+                 columns: Mapping[str, str] | None = None):
+        if type(self)._abstract:
+            raise ModelSpecError(f"{type(self).__name__} is an abstract model base; subclass it")
+        merged = dict(self.default_parameters)
+        for name, value in (parameters or {}).items():
+            if name not in merged:
+                raise ModelSpecError(
+                    f"{self.spec()}: unknown parameter {name!r}; "
+                    f"known parameters: {', '.join(sorted(merged)) or '(none)'}")
+            merged[name] = _as_finite_float(value, f"{self.spec()}: parameter {name!r}")
+        self.parameters: dict[str, float] = merged
+        variables = self.states + self.inputs
+        mapping = {name: name for name in variables}
+        for name, column in (columns or {}).items():
+            if name not in mapping:
+                raise ModelSpecError(
+                    f"{self.spec()}: column map names {name!r}, which is not a model variable; "
+                    f"variables: {', '.join(variables)}")
+            if not isinstance(column, str) or not column:
+                raise ModelSpecError(f"{self.spec()}: column for {name!r} must be a non-empty string")
+            mapping[name] = column
+        if len(set(mapping.values())) != len(mapping):
+            raise ModelSpecError(f"{self.spec()}: two model variables map to the same column: {mapping}")
+        self.columns: dict[str, str] = mapping
+        self.check_parameters()
+
+    # -- what subclasses provide -------------------------------------------------------------
+    def derivatives(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Return ``dx/dt = f(x, u)``.
+
+        Parameters
+        ----------
+        x : ndarray of shape (T, len(states))
+        u : ndarray of shape (T, len(inputs))
+
+        Returns
+        -------
+        ndarray of shape (T, len(states))
+        """
+        raise NotImplementedError
+
+    def check_parameters(self) -> None:
+        """Raise :class:`ModelSpecError` if the parameters are physically invalid (hook)."""
+
+    # -- shared behaviour ----------------------------------------------------------------------
+    @classmethod
+    def spec(cls) -> str:
+        """The ``package.module:ClassName`` string that loads this model."""
+        return f"{cls.__module__}:{cls.__qualname__}"
+
+    @property
+    def state_columns(self) -> tuple[str, ...]:
+        """Telemetry columns of the states, in declaration order."""
+        return tuple(self.columns[name] for name in self.states)
+
+    @property
+    def input_columns(self) -> tuple[str, ...]:
+        """Telemetry columns of the inputs, in declaration order."""
+        return tuple(self.columns[name] for name in self.inputs)
+
+    @property
+    def required_columns(self) -> tuple[str, ...]:
+        """Every telemetry column the model reads: states, then inputs."""
+        return self.state_columns + self.input_columns
+
+    def check_columns(self, available, asset_id: str = "?", file: str | None = None) -> None:
+        """Raise :class:`TelemetryError` naming every required column missing from ``available``."""
+        available = set(available)
+        missing = [f"{self.columns[v]!r} (model variable {v!r})"
+                   for v in self.states + self.inputs if self.columns[v] not in available]
+        if missing:
+            raise TelemetryError(
+                asset_id, "schema",
+                f"{type(self).__name__} needs column(s) {', '.join(missing)}; "
+                f"telemetry has: {', '.join(sorted(available)) or '(none)'}", file=file)
+
+    def to_dict(self) -> dict:
+        """Spec, parameters and column map: enough to rebuild the model with :func:`load_model`."""
+        return {"spec": self.spec(), "parameters": dict(self.parameters),
+                "columns": dict(self.columns)}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(parameters={self.parameters!r})"
+
+
+def _as_finite_float(value, what: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ModelSpecError(f"{what} must be a number, got {value!r}") from None
+    if isinstance(value, bool) or not math.isfinite(number):
+        raise ModelSpecError(f"{what} must be a finite number, got {value!r}")
+    return number
+
+
+def _check_declarations(cls) -> None:
+    name = cls.__qualname__
+    for attribute in ("states", "inputs"):
+        value = getattr(cls, attribute)
+        if not isinstance(value, tuple) or not all(isinstance(v, str) and _NAME.match(v) for v in value):
+            raise ModelSpecError(f"{name}.{attribute} must be a tuple of identifiers, got {value!r}")
+        if len(set(value)) != len(value):
+            raise ModelSpecError(f"{name}.{attribute} repeats a name: {value!r}")
+    if not cls.states:
+        raise ModelSpecError(f"{name}.states must name at least one state variable")
+    overlap = set(cls.states) & set(cls.inputs)
+    if overlap:
+        raise ModelSpecError(f"{name}: {sorted(overlap)} declared both as state and input")
+    if not isinstance(cls.default_parameters, Mapping):
+        raise ModelSpecError(f"{name}.default_parameters must be a mapping of name to float")
+    for key, value in cls.default_parameters.items():
+        if not isinstance(key, str):
+            raise ModelSpecError(f"{name}.default_parameters has a non-string key {key!r}")
+        _as_finite_float(value, f"{name}.default_parameters[{key!r}]")
+    if cls.derivatives is WhiteBoxModel.derivatives:
+        raise ModelSpecError(f"{name} must implement derivatives(x, u)")
+
+
+def load_model(spec: str, parameters: Mapping[str, float] | None = None,
+               columns: Mapping[str, str] | None = None) -> WhiteBoxModel:
+    """Import and instantiate a physics model named ``package.module:ClassName``.
+
+    Parameters
+    ----------
+    spec : str
+        For example ``"graybox.models:GasTurbineShaft"``.
+    parameters : mapping, optional
+        Overrides of the model's ``default_parameters``.
+    columns : mapping, optional
+        Model variable name -> telemetry column.
+
+    Returns
+    -------
+    WhiteBoxModel
+
+    Raises
+    ------
+    ModelSpecError
+        If the spec is malformed, the module or class does not exist, the class is not a
+        concrete :class:`WhiteBoxModel`, or a parameter or column is unknown or invalid.
+    """
+    if not isinstance(spec, str) or not _SPEC.match(spec):
+        raise ModelSpecError(f"model spec {spec!r} is not of the form 'package.module:ClassName'")
+    module_name, class_name = spec.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ModelSpecError(f"model spec {spec!r}: cannot import {module_name!r}: {error}") from None
+    cls = getattr(module, class_name, None)
+    if cls is None:
+        raise ModelSpecError(f"model spec {spec!r}: module {module_name!r} has no {class_name!r}")
+    if not (isinstance(cls, type) and issubclass(cls, WhiteBoxModel)):
+        raise ModelSpecError(f"model spec {spec!r}: {class_name} is not a WhiteBoxModel subclass")
+    if cls._abstract:
+        raise ModelSpecError(f"model spec {spec!r}: {class_name} is an abstract model base")
+    return cls(parameters=parameters, columns=columns)
