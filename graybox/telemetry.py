@@ -552,7 +552,7 @@ def _check_stuck(raw, asset_id, values, channels, stuck_samples):
     if stuck_samples == 0 or len(values) < stuck_samples:
         return
     best = None  # (start, column, length)
-    for j, name in enumerate(channels):
+    for j in range(len(channels)):
         v = values[:, j]
         starts = np.concatenate([[0], np.flatnonzero(v[1:] != v[:-1]) + 1])
         lengths = np.diff(np.concatenate([starts, [len(v)]]))
