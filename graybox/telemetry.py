@@ -526,7 +526,7 @@ def _check_finite(raw, asset_id, ts, channels):
         _fail(raw, asset_id, "non_finite", "timestamp is missing (NaT)", int(first_ts))
     if first_val < len(ts):
         i = int(first_val)
-        names = [f"{channels[j]!r}={values[i, j]!r}" for j in np.flatnonzero(bad[i])]
+        names = [f"{channels[j]!r}={float(values[i, j])!r}" for j in np.flatnonzero(bad[i])]
         _fail(raw, asset_id, "non_finite", f"non-finite value in column {', '.join(names)}", i)
     return values
 
@@ -562,7 +562,7 @@ def _check_stuck(raw, asset_id, values, channels, stuck_samples):
     if best is not None:
         i, j, length = best
         _fail(raw, asset_id, "stuck_channel",
-              f"channel {channels[j]!r} stuck at {values[i, j]!r} for {length} consecutive "
+              f"channel {channels[j]!r} stuck at {float(values[i, j])!r} for {length} consecutive "
               f"samples (stuck_samples={stuck_samples})", i)
 
 
