@@ -1,0 +1,142 @@
+"""Drift: how far a candidate's parameters moved from the healthy baseline (zeta, Eq. 28)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from graybox.exceptions import StructureMismatchError
+from graybox.noise_tier import MOMENT_WEIGHTS
+from graybox.signature import TIERS, ChannelSignature, Signature, tier_parameters
+
+
+def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
+                tier: str) -> tuple[list[str], np.ndarray]:
+    """Per-parameter changes whose squares sum to zeta.
+
+    Linear tier: ``a_i - a_i0``. Nonlinear tier: ``W_1j - W_1j0`` and ``w_jk - w_jk0``, so that
+    zeta is exactly Eq. 28. Noise tier: moment changes in units of the baseline noise standard
+    deviation (mean), relative (variance), or as they are (skewness, kurtosis), each scaled by
+    the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS`.
+    """
+    names, current = tier_parameters(candidate, tier)
+    _, healthy = tier_parameters(baseline, tier)
+    if current.shape != healthy.shape:
+        raise StructureMismatchError(
+            f"channel {candidate.channel!r} {tier} tier has {current.size} parameters, "
+            f"the baseline {healthy.size}: fit the candidate with the baseline's structure")
+    delta = current - healthy
+    if tier == "noise":
+        variance = baseline.noise.variance
+        delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
+        delta = delta * np.sqrt(MOMENT_WEIGHTS)
+    return names, delta
+
+
+@dataclass(frozen=True)
+class ParameterChange:
+    """One parameter's move, in the units zeta adds up."""
+
+    name: str
+    baseline: float
+    candidate: float
+    contribution: float   #: its share of zeta (squared scaled change)
+
+
+@dataclass(frozen=True)
+class TierDrift:
+    """Zeta of one tier of one channel, and its threshold when calibrated."""
+
+    channel: str
+    tier: str
+    zeta: float
+    epsilon: float | None
+    top_changes: tuple[ParameterChange, ...]
+
+    @property
+    def ratio(self) -> float | None:
+        """``zeta / epsilon`` (above 1 is an alarm)."""
+        if self.epsilon is None:
+            return None
+        return self.zeta / self.epsilon if self.epsilon > 0 else float("inf")
+
+    @property
+    def exceeded(self) -> bool:
+        """No alarm while ``zeta <= epsilon`` (Eq. 29)."""
+        return self.epsilon is not None and self.zeta > self.epsilon
+
+
+@dataclass(frozen=True)
+class Drift:
+    """Zeta per tier and channel of a candidate against its baseline."""
+
+    entries: tuple[TierDrift, ...]
+    n_samples: int
+
+    def get(self, channel: str, tier: str) -> TierDrift:
+        for entry in self.entries:
+            if entry.channel == channel and entry.tier == tier:
+                return entry
+        raise KeyError((channel, tier))
+
+    @property
+    def zeta(self) -> dict[tuple[str, str], float]:
+        return {(e.channel, e.tier): e.zeta for e in self.entries}
+
+    @property
+    def alarms(self) -> tuple[TierDrift, ...]:
+        """The entries whose zeta exceeds epsilon."""
+        return tuple(e for e in self.entries if e.exceeded)
+
+    @property
+    def alarmed(self) -> bool:
+        return bool(self.alarms)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def check_comparable(candidate: Signature, baseline: Signature) -> None:
+    """Raise :class:`StructureMismatchError` unless the two share the frozen structure."""
+    mine, theirs = candidate.frozen_structure(), baseline.frozen_structure()
+    if mine != theirs:
+        differing = [key for key in mine if mine[key] != theirs.get(key)]
+        raise StructureMismatchError(
+            f"candidate and baseline differ in {differing}; a candidate must be fitted with the "
+            f"baseline's frozen structure (GrayBox(..., baseline=...))")
+
+
+def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
+                  top: int = 3) -> Drift:
+    """Zeta of every tier and channel of ``candidate`` against ``baseline``.
+
+    Parameters
+    ----------
+    candidate, baseline : Signature
+        Fitted with the same frozen structure (checked).
+    calibration : graybox.calibration.Calibration, optional
+        Supplies epsilon per tier and channel (scaled to the candidate's sample count).
+    top : int, default 3
+        Parameter changes kept per entry as a root-cause hint.
+
+    Returns
+    -------
+    Drift
+    """
+    check_comparable(candidate, baseline)
+    entries = []
+    for channel in candidate.channels:
+        healthy = baseline.channel(channel.channel)
+        for tier in TIERS:
+            names, delta = tier_deltas(channel, healthy, tier)
+            contributions = delta ** 2
+            order = np.argsort(contributions)[::-1][:top]
+            _, current = tier_parameters(channel, tier)
+            _, reference = tier_parameters(healthy, tier)
+            changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
+                                            float(contributions[i])) for i in order)
+            epsilon = (None if calibration is None else
+                       calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples))
+            entries.append(TierDrift(channel.channel, tier, float(contributions.sum()), epsilon,
+                                     changes))
+    return Drift(tuple(entries), candidate.n_samples)
