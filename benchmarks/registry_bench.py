@@ -1,0 +1,198 @@
+"""Registry timings with 1,000 and 10,000 runs in the store.
+
+Run from the repository root::
+
+    python -m benchmarks.registry_bench                 # 1,000 and 10,000 runs
+    python -m benchmarks.registry_bench --runs 1000     # quicker
+
+The store (embedded SQLite, WAL) is filled with nightly-candidate-like records spread over
+``--assets`` assets (a run with the registry's tags, params and zeta/epsilon metrics, and a
+model version tagged with its idempotence key), then real fits are recorded and looked up:
+
+* ``record``: :meth:`Registry.record_fit` of a new nightly candidate (run, artifacts, pyfunc
+  model, version, alias), without and with the PNG plots;
+* ``re-record``: the same fit again (idempotent: one key look-up, nothing written);
+* ``watermark``: :meth:`Registry.watermark` (one ``get_registered_model``);
+* ``baseline``: :meth:`Registry.baseline` (alias look-up, download, verification);
+* ``zeta history``: :meth:`Registry.zeta_history` of one asset.
+
+Times are medians in milliseconds. Filling 10,000 runs takes a few minutes (three SQLite
+transactions per filler record).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import shutil
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+FILL_BATCH = 500
+
+
+def make_day(day: int, seed: int, n: int = 2000, gamma: float = 0.06, noise: float = 0.3,
+             dt: float = 10.0) -> pd.DataFrame:
+    """A Langevin shaft driven by coloured noise (uniform grid, columns omega, fuel_rate)."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(seed)
+    force = lfilter([1], [1, -1.2728, 0.81], rng.normal(size=n)) * 0.2 / 3.4
+    omega = np.zeros(n)
+    phi = np.exp(-gamma * dt)
+    for t in range(1, n):
+        omega[t] = phi * omega[t - 1] + (1 - phi) / gamma * force[t]
+    index = pd.date_range(pd.Timestamp("2026-01-01", tz="UTC") + pd.Timedelta(days=day),
+                          periods=n, freq="10s", name="timestamp").as_unit("ns")
+    return pd.DataFrame({"omega": omega + 1000 + noise * rng.normal(size=n),
+                         "fuel_rate": np.ones(n)}, index=index)
+
+
+def _median_ms(function, repeat: int) -> float:
+    times = []
+    for i in range(repeat):
+        start = time.perf_counter()
+        function(i)
+        times.append(time.perf_counter() - start)
+    return 1000 * statistics.median(times)
+
+
+class Filler:
+    """Writes nightly-candidate-like records fast (no artifacts, no plots)."""
+
+    def __init__(self, registry, signature, drift, assets: int):
+        from mlflow.entities import Metric, Param
+
+        from registry import naming
+        from registry.records import code_version, fit_metrics, structure_params
+
+        self.registry, self.assets, self.naming = registry, assets, naming
+        self.client = registry.backend.client
+        self.experiment_id = registry.backend.experiment_id("turbine", create=True)
+        self.params = [Param(k, v) for k, v in structure_params(signature).items()][:100]
+        now = int(time.time() * 1000)
+        self.metrics = [Metric(k, v, now, 0) for k, v in fit_metrics(signature, None, drift).items()]
+        self.code = code_version()
+        # every filler version points at the artifacts of one real recorded fit
+        seed = registry.record_fit("FILL-SEED", "turbine", signature, role="candidate",
+                                   drift=drift, window_start="2000-01-01",
+                                   window_end="2000-01-02", data_hash="seed", plots=False)
+        self.source = self.client.get_logged_model(seed.model_id).artifact_location
+        self.model_id = seed.model_id
+        self.count = 1
+        for a in range(assets):
+            self.registry.backend.ensure_registered_model(self._asset(a), "turbine",
+                                                          self.experiment_id)
+
+    def _asset(self, a: int) -> str:
+        return f"B-{a:04d}"
+
+    def fill_to(self, total: int) -> None:
+        naming = self.naming
+        while self.count < total:
+            k = self.count
+            asset = self._asset(k % self.assets)
+            start = pd.Timestamp("2020-01-01", tz="UTC") + pd.Timedelta(days=k // self.assets)
+            end = start + pd.Timedelta(days=1)
+            key = naming.fit_key(asset, start, end, "candidate", f"fill-{k}")
+            tags = {naming.TAG_ASSET_ID: asset, naming.TAG_VEHICLE_CLASS: "turbine",
+                    naming.TAG_WINDOW_START: start.isoformat(),
+                    naming.TAG_WINDOW_END: end.isoformat(), naming.TAG_ROLE: "candidate",
+                    naming.TAG_DATA_HASH: f"fill-{k}", naming.TAG_CODE_VERSION: self.code,
+                    naming.TAG_FIT_KEY: key, naming.TAG_COMPLETE: "true",
+                    naming.TAG_ALARM: "false"}
+            run = self.client.create_run(self.experiment_id, tags=tags,
+                                         run_name=f"{asset} candidate fill {k}")
+            self.client.log_batch(run.info.run_id, metrics=self.metrics, params=self.params)
+            self.client.create_model_version(
+                naming.model_name(asset), source=self.source, run_id=run.info.run_id,
+                model_id=self.model_id,
+                tags={naming.TAG_FIT_KEY: key, naming.TAG_ROLE: "candidate",
+                      naming.TAG_ASSET_ID: asset, naming.TAG_WINDOW_START: start.isoformat(),
+                      naming.TAG_WINDOW_END: end.isoformat(), naming.TAG_CALIBRATED: "false"})
+            self.count += 1
+            if self.count % FILL_BATCH == 0:
+                print(f"  filled {self.count} runs", flush=True)
+
+
+def measure(registry, fits, level: int, repeat: int) -> dict[str, float]:
+    """Timings with the store at its current size (``level`` is used to make fresh windows)."""
+    asset = "B-0000"
+    night0 = 10_000 + level
+
+    def record(i, plots=False, offset=0):
+        start = pd.Timestamp("2030-01-01", tz="UTC") + pd.Timedelta(days=night0 + offset + i)
+        return registry.record_fit(asset, "turbine", fits["candidate"], role="candidate",
+                                   drift=fits["drift"], window=fits["night"] if plots else None,
+                                   window_start=start, window_end=start + pd.Timedelta(days=1),
+                                   data_hash=f"bench-{level}-{offset}-{i}", plots=plots)
+
+    out = {"record": _median_ms(lambda i: record(i), repeat),
+           "record + plots": _median_ms(lambda i: record(i, plots=True, offset=1000), max(3, repeat // 3)),
+           "re-record": _median_ms(lambda i: record(i % repeat), repeat),
+           "watermark": _median_ms(lambda i: registry.watermark(asset), 10 * repeat),
+           "baseline": _median_ms(lambda i: registry.baseline("BASE"), repeat),
+           "zeta history": _median_ms(lambda i: registry.zeta_history(asset), max(3, repeat // 3))}
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.registry_bench",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, nargs="+", default=[1000, 10000],
+                        help="store sizes to measure at (default: 1000 10000)")
+    parser.add_argument("--assets", type=int, default=100, help="assets the runs spread over")
+    parser.add_argument("--repeat", type=int, default=10, help="repetitions per timing")
+    parser.add_argument("--workdir", type=Path, help="keep the store here (default: a temp dir)")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING)
+
+    from graybox.drift import compute_drift
+    from graybox.estimator import GrayBox
+    from graybox.models import LangevinShaft
+    from registry import Registry
+
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
+    workdir.mkdir(parents=True, exist_ok=True)
+    print(f"store: sqlite:///{workdir}/mlflow.db")
+    model = LangevinShaft()
+    days = [make_day(d, seed=d) for d in range(4)]
+    baseline = GrayBox(model).fit(days)
+    night = make_day(5, seed=5)
+    candidate = GrayBox(model, baseline=baseline.signature_).fit(night)
+    drift = compute_drift(candidate.signature_, baseline.signature_, baseline.calibration_)
+    fits = {"candidate": candidate.signature_, "drift": drift, "night": night}
+
+    registry = Registry(f"sqlite:///{workdir}/mlflow.db", user="bench")
+    base = registry.record_fit("BASE", "turbine", baseline.signature_, role="baseline",
+                               calibration=baseline.calibration_, window=days, plots=False)
+    registry.promote("BASE", base.version, reason="benchmark")
+    filler = Filler(registry, candidate.signature_, drift, args.assets)
+    registry.commit_watermark("B-0000", "2026-01-01")
+    rows = []
+    for level in sorted(args.runs):
+        started = time.perf_counter()
+        filler.fill_to(level)
+        print(f"store holds {filler.count} filler runs (filled in "
+              f"{time.perf_counter() - started:.0f} s); measuring", flush=True)
+        rows.append((level, measure(registry, fits, level, args.repeat)))
+    columns = list(rows[0][1])
+    print()
+    print("median ms per call, embedded SQLite store (WAL), "
+          f"{args.assets} assets, {args.repeat} repetitions")
+    header = f"| {'runs in store':>13} | " + " | ".join(f"{c:>14}" for c in columns) + " |"
+    print(header)
+    print("|" + "|".join("-" * (len(part) + 0) for part in header.split("|")[1:-1]) + "|")
+    for level, timings in rows:
+        print(f"| {level:>13,} | " + " | ".join(f"{timings[c]:>14.1f}" for c in columns) + " |")
+    if args.workdir is None:
+        shutil.rmtree(workdir, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

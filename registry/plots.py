@@ -1,0 +1,168 @@
+"""Figures logged with every fit, drawn to be looked at rather than read.
+
+* :func:`residual_figure`: the white-box residual ``r(t)`` with its autocorrelation, and the
+  autocorrelation of the final noise against the white-noise band (how much structure the
+  three tiers took out);
+* :func:`tier_fit_figure`: each tier's fit: the stationarized residual against the AR
+  forecast, the AR residual against the network forecast, and the noise histogram against
+  the Gaussian with the noise tier's mean and variance;
+* :func:`zeta_trend_figure`: the asset's zeta per tier and channel over the nights, with
+  epsilon drawn in and alarms marked.
+
+Figures are plain :class:`matplotlib.figure.Figure` objects on the Agg canvas: no pyplot,
+no global backend state, safe in threads.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.dates import AutoDateLocator, ConciseDateFormatter
+from matplotlib.figure import Figure
+
+from graybox.decompose import ChannelDecomposition
+from graybox.signature import TIERS, Signature
+
+ZOOM_SAMPLES = 400
+ACF_LAGS = 60
+_BLUE, _ORANGE, _RED, _GREY = "#1f77b4", "#ff7f0e", "#d62728", "#7f7f7f"
+
+
+def _figure(width: float, height: float) -> Figure:
+    figure = Figure(figsize=(width, height), dpi=100, layout="constrained")
+    FigureCanvasAgg(figure)
+    return figure
+
+
+def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Sample autocorrelation at lags ``0..max_lag`` (biased estimator, as in the ACF plot)."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)] - np.nanmean(x)
+    n = len(x)
+    if n < 2 or not np.any(x):
+        return np.zeros(min(max_lag, max(n - 1, 0)) + 1)
+    max_lag = min(max_lag, n - 1)
+    size = 1 << (2 * n - 1).bit_length()
+    spectrum = np.fft.rfft(x, size)
+    acov = np.fft.irfft(spectrum * np.conj(spectrum), size)[: max_lag + 1]
+    return acov / acov[0]
+
+
+def residual_figure(decompositions: Sequence[ChannelDecomposition], title: str = "") -> Figure:
+    """The residual of each channel over the window, and its ACF beside the final noise's."""
+    rows = len(decompositions)
+    figure = _figure(12, 3.2 * rows)
+    axes = figure.subplots(rows, 2, squeeze=False, width_ratios=(2, 1))
+    for (left, right), part in zip(axes, decompositions):
+        residual = part.residual
+        left.plot(residual.index, residual.to_numpy(), lw=0.5, color=_BLUE)
+        left.axhline(0.0, color=_GREY, lw=0.8)
+        left.set_title(f"{part.channel}: residual r(t) = x*(t) - x^(t)")
+        left.set_ylabel("residual")
+        raw = autocorrelation(residual.to_numpy(), ACF_LAGS)
+        noise = autocorrelation(part.noise.to_numpy(), ACF_LAGS)
+        lags = np.arange(len(raw))
+        right.vlines(lags, 0, raw, color=_BLUE, lw=2, label="residual")
+        right.plot(np.arange(len(noise)), noise, "o", ms=3, color=_ORANGE, label="final noise")
+        band = 1.96 / np.sqrt(max(len(part.noise), 1))
+        right.axhspan(-band, band, color=_GREY, alpha=0.25, lw=0, label="white-noise 95% band")
+        right.axhline(0.0, color=_GREY, lw=0.8)
+        right.set_xlabel("lag (samples)")
+        right.set_title("autocorrelation")
+        right.legend(fontsize=7, loc="upper right")
+    if title:
+        figure.suptitle(title)
+    return figure
+
+
+def tier_fit_figure(decompositions: Sequence[ChannelDecomposition], signature: Signature,
+                    title: str = "") -> Figure:
+    """Each tier's fit per channel (the last ``ZOOM_SAMPLES`` samples of the window)."""
+    rows = len(decompositions)
+    figure = _figure(15, 3.2 * rows)
+    axes = figure.subplots(rows, 3, squeeze=False)
+    for (linear, nonlinear, noise_axis), part in zip(axes, decompositions):
+        channel = signature.channel(part.channel)
+        stationary = part.stationary.iloc[-ZOOM_SAMPLES:]
+        forecast = part.ar_prediction.iloc[-ZOOM_SAMPLES:]
+        linear.plot(stationary.index, stationary.to_numpy(), lw=0.8, color=_BLUE,
+                    label="stationarized residual")
+        linear.plot(forecast.index, forecast.to_numpy(), lw=0.8, color=_ORANGE,
+                    label=f"AR({channel.linear.order}) forecast")
+        linear.set_title(f"{part.channel}: linear tier")
+        linear.legend(fontsize=7, loc="upper right")
+        w = part.ar_residual.iloc[-ZOOM_SAMPLES:]
+        net = part.network_prediction.iloc[-ZOOM_SAMPLES:]
+        needed = "used" if channel.structure.nonlinear_needed else "monitored only"
+        nonlinear.plot(w.index, w.to_numpy(), lw=0.8, color=_BLUE, label="AR residual w(t)")
+        nonlinear.plot(net.index, net.to_numpy(), lw=0.8, color=_ORANGE,
+                       label=f"network forecast ({needed})")
+        nonlinear.set_title(f"{part.channel}: nonlinear tier (tau={channel.structure.tau}, "
+                            f"m={channel.structure.embedding_dim})")
+        nonlinear.legend(fontsize=7, loc="upper right")
+        values = part.noise.to_numpy()
+        values = values[np.isfinite(values)]
+        noise_axis.hist(values, bins=50, density=True, color=_BLUE, alpha=0.6, label="final noise")
+        tier = channel.noise
+        sd = np.sqrt(max(tier.variance, 1e-300))
+        grid = np.linspace(tier.mean - 4 * sd, tier.mean + 4 * sd, 200)
+        noise_axis.plot(grid, np.exp(-0.5 * ((grid - tier.mean) / sd) ** 2) / (sd * np.sqrt(2 * np.pi)),
+                        color=_ORANGE, lw=1.5, label="Gaussian, same mean and variance")
+        noise_axis.set_title(f"{part.channel}: noise tier")
+        noise_axis.text(0.02, 0.97, f"skewness {tier.skewness:.2f}\nexcess kurtosis "
+                                    f"{tier.excess_kurtosis:.2f}\nLjung-Box p {tier.ljung_box_pvalue:.2f}",
+                        transform=noise_axis.transAxes, va="top", fontsize=7)
+        noise_axis.legend(fontsize=7, loc="upper right")
+    for axis in axes.ravel():
+        for label in axis.get_xticklabels():
+            label.set_rotation(20)
+    if title:
+        figure.suptitle(title)
+    return figure
+
+
+def zeta_trend_figure(history: pd.DataFrame, title: str = "") -> Figure:
+    """Zeta over the nights per channel and tier, epsilon dashed, alarms in red.
+
+    Parameters
+    ----------
+    history : pandas.DataFrame
+        Columns ``window_end, channel, tier, zeta, epsilon`` (as from
+        ``Registry.zeta_history``).
+    """
+    channels = list(dict.fromkeys(history["channel"])) if len(history) else ["(none)"]
+    figure = _figure(4.2 * len(TIERS), 2.8 * len(channels))
+    axes = figure.subplots(len(channels), len(TIERS), squeeze=False, sharex=True)
+    for row, channel in zip(axes, channels):
+        for axis, tier in zip(row, TIERS):
+            part = history[(history["channel"] == channel) & (history["tier"] == tier)] \
+                if len(history) else history
+            part = part.sort_values("window_end")
+            axis.set_title(f"{channel}: {tier} tier")
+            if not len(part):
+                axis.text(0.5, 0.5, "no nights yet", ha="center", va="center",
+                          transform=axis.transAxes, color=_GREY)
+                continue
+            when = pd.to_datetime(part["window_end"], utc=True)
+            zeta = part["zeta"].to_numpy(float)
+            epsilon = part["epsilon"].to_numpy(float)
+            axis.plot(when, zeta, "-o", ms=3, lw=1, color=_BLUE, label="zeta")
+            if np.isfinite(epsilon).any():
+                axis.plot(when, epsilon, "--" if len(when) > 1 else "_", ms=20, mew=1.5,
+                          drawstyle="steps-mid", color=_ORANGE, lw=1.2, label="epsilon")
+            alarm = np.isfinite(epsilon) & (zeta > epsilon)
+            if alarm.any():
+                axis.plot(when[alarm], zeta[alarm], "o", ms=6, color=_RED, label="alarm")
+            top = np.nanmax(np.concatenate([zeta, epsilon[np.isfinite(epsilon)]]))
+            axis.set_ylim(0, 1.15 * top if top > 0 else 1.0)
+            if len(when) == 1:
+                axis.set_xlim(when.iloc[0] - pd.Timedelta(days=2), when.iloc[0] + pd.Timedelta(days=2))
+            locator = AutoDateLocator(minticks=3, maxticks=6)
+            axis.xaxis.set_major_locator(locator)
+            axis.xaxis.set_major_formatter(ConciseDateFormatter(locator))
+            axis.legend(fontsize=7, loc="upper left")
+    if title:
+        figure.suptitle(title)
+    return figure

@@ -1,0 +1,314 @@
+"""Where the registry lives: tracking-URI handling, SQLite set-up, retries and per-asset locks.
+
+Embedded default
+    ``sqlite:///<workdir>/mlflow.db``, artifacts in ``<workdir>/mlartifacts``. Relative SQLite
+    paths are resolved against the working directory once, so every later use (and every
+    process) means the same file.
+Any other tracking URI
+    (``http://host:port`` of an ``mlflow server``, a database URI) is used as given; the
+    server chooses where artifacts go.
+
+SQLite and concurrent writers
+    MLflow opens SQLite with a 20 s busy timeout, but SQLite still answers "database is
+    locked" at once when a read transaction must be upgraded to a write while another writer
+    has committed (no busy handler runs in that case), and schema creation races when two
+    processes open a new file together (MLflow PR #20014 and its issue are the known cases).
+    So: the file is switched to write-ahead logging (``PRAGMA journal_mode=WAL``, persistent)
+    and its tables are created under a file lock before any MLflow writer opens it, and every
+    MLflow call the registry makes goes through :func:`call_with_retry`, which retries only
+    "database is locked"/"database is busy" errors, with exponential backoff and jitter,
+    logging each retry. The same errors relayed by an ``mlflow server`` (HTTP 500 with that
+    message) are retried the same way.
+
+Locks
+    :meth:`Store.asset_lock` is an exclusive ``fcntl.flock`` on one file per asset. For a local
+    SQLite store the lock files sit beside the database, so every process using the store
+    shares them. Against a remote server they sit in the user's cache directory: they then
+    serialize operations from this host only.
+"""
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import logging
+import os
+import pathlib
+import random
+import sqlite3
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator, TypeVar
+
+from graybox.telemetry import validate_asset_id
+from registry.exceptions import RegistryError
+
+logger = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+DEFAULT_DB_NAME = "mlflow.db"
+ARTIFACTS_DIR_NAME = "mlartifacts"
+LOCKS_DIR_NAME = ".fleet-health-locks"
+
+_LOCKED_MESSAGES = ("database is locked", "database is busy", "database table is locked")
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    """Backoff of :func:`call_with_retry`.
+
+    Attributes
+    ----------
+    attempts : int
+        Tries in all (the first call included).
+    base_delay : float
+        Seconds before the second try; doubled after each further failure.
+    max_delay : float
+        Cap on one wait, before jitter.
+    jitter : float
+        Each wait is multiplied by a uniform factor in ``[1 - jitter, 1 + jitter]``.
+    """
+
+    attempts: int = 12
+    base_delay: float = 0.05
+    max_delay: float = 2.0
+    jitter: float = 0.5
+
+    def delay(self, failures: int) -> float:
+        """Seconds to wait after ``failures`` consecutive failures (>= 1)."""
+        raw = min(self.max_delay, self.base_delay * 2 ** (failures - 1))
+        return raw * random.uniform(1 - self.jitter, 1 + self.jitter)
+
+
+def is_locked_error(error: BaseException) -> bool:
+    """Whether ``error`` (or an exception it was raised from) is SQLite's "database is locked"."""
+    seen = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        text = str(current).lower()
+        if any(message in text for message in _LOCKED_MESSAGES):
+            return True
+        current = current.__cause__ or current.__context__
+    return False
+
+
+def call_with_retry(function: Callable[..., T], *args, policy: RetryPolicy = RetryPolicy(),
+                    what: str | None = None, **kwargs) -> T:
+    """Call ``function(*args, **kwargs)``, retrying only "database is locked" errors.
+
+    Parameters
+    ----------
+    function : callable
+    policy : RetryPolicy, optional
+    what : str, optional
+        Name used in the log message (defaults to the function's name).
+
+    Returns
+    -------
+    Whatever ``function`` returns.
+
+    Raises
+    ------
+    Exception
+        The last error once ``policy.attempts`` tries failed, or at once any other error.
+    """
+    name = what or getattr(function, "__name__", repr(function))
+    for attempt in range(1, policy.attempts + 1):
+        try:
+            return function(*args, **kwargs)
+        except Exception as error:
+            if not is_locked_error(error) or attempt == policy.attempts:
+                raise
+            wait = policy.delay(attempt)
+            logger.warning("%s: database is locked (attempt %d of %d); retrying in %.3f s",
+                           name, attempt, policy.attempts, wait)
+            time.sleep(wait)
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+class RetryingClient:
+    """An ``MlflowClient`` whose every method call goes through :func:`call_with_retry`.
+
+    Parameters
+    ----------
+    client : mlflow.MlflowClient
+    policy : RetryPolicy, optional
+    """
+
+    def __init__(self, client: Any, policy: RetryPolicy = RetryPolicy()):
+        self._client = client
+        self._policy = policy
+
+    @property
+    def wrapped(self) -> Any:
+        """The underlying ``MlflowClient``."""
+        return self._client
+
+    def __getattr__(self, name: str) -> Any:
+        attribute = getattr(self._client, name)
+        if not callable(attribute):
+            return attribute
+
+        def call(*args, **kwargs):
+            return call_with_retry(attribute, *args, policy=self._policy, what=f"mlflow {name}",
+                                   **kwargs)
+
+        call.__name__ = name
+        return call
+
+
+@dataclass(frozen=True)
+class Store:
+    """A resolved tracking store.
+
+    Attributes
+    ----------
+    tracking_uri : str
+        Normalized URI (absolute path for SQLite).
+    db_path : pathlib.Path or None
+        The SQLite file, for an embedded store.
+    artifact_root : str or None
+        ``file://`` URI under which experiments created by the registry keep their artifacts
+        (SQLite stores only; a server decides for itself).
+    lock_dir : pathlib.Path
+    """
+
+    tracking_uri: str
+    db_path: pathlib.Path | None
+    artifact_root: str | None
+    lock_dir: pathlib.Path
+
+    @property
+    def is_local(self) -> bool:
+        return self.db_path is not None
+
+    def experiment_artifact_location(self, experiment_name: str) -> str | None:
+        """Artifact location for a new experiment (None lets the server choose)."""
+        if self.artifact_root is None:
+            return None
+        digest = hashlib.sha256(experiment_name.encode()).hexdigest()[:8]
+        safe = experiment_name.replace("/", "_")
+        return f"{self.artifact_root}/{safe}-{digest}"
+
+    @contextlib.contextmanager
+    def asset_lock(self, asset_id: str, timeout: float = 120.0) -> Iterator[None]:
+        """Hold the exclusive lock of one asset (promotions, rejections, records, watermark).
+
+        Raises
+        ------
+        RegistryError
+            If the lock is not acquired within ``timeout`` seconds.
+        """
+        validate_asset_id(asset_id)
+        with file_lock(self.lock_dir / f"{asset_id}.lock", timeout=timeout,
+                       what=f"asset {asset_id!r}"):
+            yield
+
+
+@contextlib.contextmanager
+def file_lock(path: pathlib.Path, timeout: float = 120.0, what: str | None = None) -> Iterator[None]:
+    """An exclusive ``flock`` on ``path`` (created if needed), polled until ``timeout``.
+
+    ``flock`` locks belong to the open file, so two threads of one process exclude each
+    other as two processes do.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    deadline = time.monotonic() + timeout
+    with open(path, "a+") as handle:
+        delay = 0.005
+        while True:
+            try:
+                fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise RegistryError(f"could not lock {what or path} within {timeout:g} s "
+                                        f"(lock file {path})") from None
+                time.sleep(delay)
+                delay = min(0.1, delay * 2)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+
+
+def default_tracking_uri(workdir: str | os.PathLike | None = None) -> str:
+    """The embedded store, ``sqlite:///<workdir>/mlflow.db`` (workdir defaults to the cwd)."""
+    base = pathlib.Path(workdir) if workdir is not None else pathlib.Path.cwd()
+    return "sqlite:///" + str((base / DEFAULT_DB_NAME).resolve())
+
+
+def resolve_store(tracking_uri: str | None = None,
+                  workdir: str | os.PathLike | None = None) -> Store:
+    """Normalize a tracking URI and decide where artifacts and locks go.
+
+    Parameters
+    ----------
+    tracking_uri : str, optional
+        ``sqlite:///relative.db`` (resolved against ``workdir``), ``sqlite:////abs.db``,
+        ``http(s)://...`` or another MLflow database URI. None means the embedded default.
+    workdir : path-like, optional
+        Base of relative SQLite paths and of the default; the current directory if omitted.
+
+    Returns
+    -------
+    Store
+    """
+    if tracking_uri is None:
+        tracking_uri = default_tracking_uri(workdir)
+    if not isinstance(tracking_uri, str) or not tracking_uri:
+        raise ValueError(f"tracking URI must be a non-empty string, got {tracking_uri!r}")
+    if tracking_uri.startswith("sqlite:"):
+        if not tracking_uri.startswith("sqlite:///") or tracking_uri in ("sqlite:///", "sqlite:///:memory:"):
+            raise ValueError(f"SQLite tracking URI {tracking_uri!r} must name a file: "
+                             f"sqlite:///relative/path.db or sqlite:////absolute/path.db")
+        raw = tracking_uri[len("sqlite:///"):].split("?", 1)[0]
+        path = pathlib.Path(raw)
+        if not path.is_absolute():
+            path = (pathlib.Path(workdir) if workdir is not None else pathlib.Path.cwd()) / path
+        path = path.resolve()
+        return Store("sqlite:///" + str(path), path, (path.parent / ARTIFACTS_DIR_NAME).as_uri(),
+                     path.parent / LOCKS_DIR_NAME)
+    if "://" not in tracking_uri:
+        raise ValueError(f"tracking URI {tracking_uri!r} is not a URI: use sqlite:///path.db for "
+                         f"the embedded store or http://host:port for an MLflow server")
+    cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
+    digest = hashlib.sha256(tracking_uri.encode()).hexdigest()[:16]
+    return Store(tracking_uri.rstrip("/"), None, None, cache / "fleet-health" / "locks" / digest)
+
+
+def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
+    """Switch the store's SQLite file to WAL and create MLflow's tables, once, under a lock.
+
+    Safe to call from many processes at once: the first creates the file and the schema,
+    the others wait for the lock and find both in place.
+    """
+    if store.db_path is None:
+        return
+    store.db_path.parent.mkdir(parents=True, exist_ok=True)
+    with file_lock(store.db_path.with_name(store.db_path.name + ".init.lock"), timeout=300,
+                   what=f"database {store.db_path}"):
+        call_with_retry(_enable_wal, store.db_path, policy=policy, what="enable WAL")
+        from mlflow import MlflowClient
+
+        client = MlflowClient(tracking_uri=store.tracking_uri, registry_uri=store.tracking_uri)
+        # the first use of the URI in this process builds MLflow's store (and, on a new file,
+        # its tables); doing it under the lock keeps two processes from migrating together
+        call_with_retry(client.search_experiments, max_results=1, policy=policy,
+                        what="open tracking store")
+        call_with_retry(client.search_registered_models, max_results=1, policy=policy,
+                        what="open model registry")
+
+
+def _enable_wal(path: pathlib.Path) -> None:
+    connection = sqlite3.connect(str(path), timeout=30)
+    try:
+        mode = connection.execute("PRAGMA journal_mode").fetchone()[0]
+        if str(mode).lower() != "wal":
+            mode = connection.execute("PRAGMA journal_mode=WAL").fetchone()[0]
+            if str(mode).lower() != "wal":
+                logger.warning("could not switch %s to WAL (journal_mode=%s)", path, mode)
+    finally:
+        connection.close()

@@ -1,0 +1,47 @@
+"""Watermarks: per asset, the end of the last committed telemetry window.
+
+The watermark is a tag (``fleet_health.watermark``, ISO UTC) on the asset's registered
+model, so reading it is one ``get_registered_model`` call whatever the number of runs.
+It only moves forward, and only when the flow says its results are committed
+(:func:`commit_watermark`, under the asset's lock).
+"""
+from __future__ import annotations
+
+import pandas as pd
+
+from registry import naming
+from registry.backend import Backend
+
+
+def watermark(backend: Backend, asset_id: str) -> pd.Timestamp | None:
+    """End (exclusive, UTC) of the asset's last committed window, or None if none yet."""
+    model = backend.registered_model(asset_id)
+    if model is None:
+        return None
+    value = (model.tags or {}).get(naming.TAG_WATERMARK)
+    return None if not value else pd.Timestamp(value)
+
+
+def commit_watermark(backend: Backend, asset_id: str, end) -> pd.Timestamp:
+    """Advance the asset's watermark to ``end`` (never moves it backwards).
+
+    Returns
+    -------
+    pandas.Timestamp
+        The watermark now in place (``end``, or the later one already there).
+
+    Raises
+    ------
+    registry.exceptions.NotFoundError
+        If nothing was ever recorded for the asset (record its fit first).
+    """
+    name = naming.model_name(asset_id)
+    end = pd.Timestamp(naming.iso_utc(end))
+    with backend.store.asset_lock(asset_id):
+        model = backend.require_registered_model(asset_id)
+        value = (model.tags or {}).get(naming.TAG_WATERMARK)
+        current = None if not value else pd.Timestamp(value)
+        if current is not None and current >= end:
+            return current
+        backend.client.set_registered_model_tag(name, naming.TAG_WATERMARK, end.isoformat())
+        return end
