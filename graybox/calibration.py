@@ -1,24 +1,28 @@
 """Calibration of the drift threshold epsilon per tier and channel (the paper has no method).
 
-Method (leave one window out, scaled chi-square, predictive F quantile):
+Method (healthy pieces, scaled chi-square, predictive F quantile):
 
-1. The baseline period is split into K healthy windows of the nightly length. For each k, the
-   tiers are refitted on the other K-1 windows (theta_-k, frozen structure, network started
-   from the baseline's weights) and on window k alone (theta_k, started from theta_-k's
-   weights, exactly as a nightly candidate starts from its baseline). The change
-   d_k = theta_k - theta_-k is a healthy drift: it contains the sampling noise of one window
-   and the day-to-day variation of a healthy asset, and window k's data never sits on both
-   sides (comparing a window with a baseline that contains it would underestimate zeta).
-2. A healthy zeta = |d|^2 is a quadratic form of a roughly Gaussian vector, well described by
+1. The baseline period consists of K >= 3 healthy windows of the nightly length; each is cut
+   into q pieces (K q pieces in all). Every piece is refitted exactly as a nightly candidate
+   is (frozen structure, same starting weights), and its change d_k = theta_k - theta_0 from
+   the baseline is a healthy drift: sampling noise plus the variation of a healthy asset.
+2. A piece is shorter than a night and is part of the baseline, so its change is rescaled to
+   the change of an independent nightly window: parameter estimates are asymptotically
+   averages, Var(theta_n) = V / n, so Var(theta_k - theta_0) = V (1/n_k - 1/N_0) while a
+   night of N samples gives V (1/N + 1/N_0); d_k is multiplied by the square root of the
+   ratio. Cutting windows into pieces gives K q healthy drifts instead of K, which matters
+   for estimating a tail.
+3. A healthy zeta = |d|^2 is a quadratic form of a roughly Gaussian vector, well described by
    g * chi2(h) (Satterthwaite): g h = tr(Sigma), h = tr(Sigma)^2 / tr(Sigma^2). tr(Sigma) is the
-   mean of the K zetas; tr(Sigma^2) is estimated without bias from the cross products
-   (d_k . d_l)^2 of distinct windows.
-3. With g estimated from only K windows, a new healthy zeta divided by the mean of the K is
-   F(h, K h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K h). This accounts
-   for the uncertainty of a small K instead of trusting a plug-in quantile.
-4. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
-   rate stays at or below the target. A candidate window shorter than the calibration windows
-   gets epsilon scaled up by the ratio of sample counts (parameter variance ~ 1/N).
+   mean of the zetas; tr(Sigma^2) is estimated without bias from the cross products
+   (d_k . d_l)^2 of distinct pieces. A second estimate of h comes from the spread of the
+   zetas themselves (variance 2 g^2 h); the smaller h (the heavier tail) is used.
+4. With g estimated from only K q pieces, a new healthy zeta divided by their mean is
+   F(h, K q h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K q h): the
+   uncertainty of a small sample is part of the threshold, not ignored.
+5. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
+   rate stays at or below the target. A candidate window shorter than the reference window
+   gets epsilon scaled up by the ratio of sample counts.
 """
 from __future__ import annotations
 
@@ -31,7 +35,7 @@ from scipy import stats
 
 from graybox.exceptions import ArtifactError, InsufficientDataError
 
-METHOD = "leave-one-window-out zeta, scaled chi-square, predictive F quantile"
+METHOD = "healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
 
 @dataclass(frozen=True)
@@ -58,9 +62,9 @@ class Calibration:
     test_alpha : float
         Per-threshold rate after the Bonferroni split.
     reference_samples : int
-        Residual samples of one calibration window.
+        Residual samples of one healthy window (a night).
     n_windows : int
-        K, the healthy windows used.
+        Healthy pieces the thresholds were estimated from (K windows times q pieces).
     method : str
     """
 
@@ -134,7 +138,7 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[f
     deltas = [np.asarray(d, dtype=float) for d in deltas]
     k = len(deltas)
     if k < 3:
-        raise InsufficientDataError(f"calibration needs at least 3 healthy windows, got {k}")
+        raise InsufficientDataError(f"calibration needs at least 3 healthy changes, got {k}")
     size = deltas[0].size
     zetas = np.array([d @ d for d in deltas])
     mean = float(zetas.mean())
@@ -142,6 +146,11 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[f
         return 0.0, mean, float(max(size, 1))
     cross = [(deltas[i] @ deltas[j]) ** 2 for i in range(k) for j in range(k) if i != j]
     trace_sq = float(np.mean(cross))
-    dof = size if trace_sq <= 0 else float(np.clip(mean ** 2 / trace_sq, 1.0, size))
+    dof_cross = np.inf if trace_sq <= 0 else mean ** 2 / trace_sq
+    # the zetas' own spread gives a second estimate (g chi2(h) has variance 2 g^2 h); it
+    # guards against non-Gaussian changes, e.g. a network landing in different minima
+    spread = float(zetas.var(ddof=1))
+    dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread
+    dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
     epsilon = mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof))
     return epsilon, mean, dof

@@ -53,6 +53,8 @@ class GrayBoxSettings:
         deviations, which keeps targets well inside tanh's (-1, 1).
     min_samples : int
         Fewest residual samples per window after differencing and embedding.
+    calibration_splits : int
+        Pieces each healthy window is cut into for calibrating epsilon.
     """
 
     residual: str = "one_step"
@@ -68,6 +70,7 @@ class GrayBoxSettings:
     network: FitSettings = FitSettings()
     nn_scale_factor: float = 4.0
     min_samples: int = 200
+    calibration_splits: int = 4
 
     def __post_init__(self):
         if self.residual not in RESIDUAL_METHODS:
@@ -242,18 +245,20 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
     for (dim, hidden), members in groups.items():
         fresh = [(item, i, c) for item, i, c in members if item.request.baseline is None]
         warm = [(item, i, c) for item, i, c in members if item.request.baseline is not None]
-        if warm:
+        for needed in (True, False):
+            members_now = [m for m in warm if m[2].structure.nonlinear_needed == needed]
+            if not members_now:
+                continue
             problems, starts = [], []
-            for item, _, channel in warm:
+            for item, _, channel in members_now:
                 source = item.request.warm_start or item.request.baseline
                 problems.append(_design(channel.w_segments, channel.structure))
-                if channel.structure.nonlinear_needed:
-                    starts.append(source.channel(channel.name).nonlinear.weight_arrays())
-                else:
-                    starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
-                                                  settings.network.init_scale))
-            fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size)
-            for (item, _, channel), fit in zip(warm, fits):
+                starts.append(source.channel(channel.name).nonlinear.weight_arrays() if needed
+                              else initial_weights(hidden, dim, channel.structure.init_seed,
+                                                   settings.network.init_scale))
+            fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
+                                train_input_weights=needed)
+            for (item, _, channel), fit in zip(members_now, fits):
                 channel.nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None,
                                                               fit.iterations)
         if fresh:
@@ -262,7 +267,7 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
 
 def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int) -> None:
     """New baselines: fit on the head of every window, measure the gain on the held-out tails,
-    decide whether the tier is needed, then refit on everything from the head fit."""
+    decide whether the tier is needed, then fit on everything."""
     train, test = [], []
     for _, _, channel in members:
         heads, tails = [], []
@@ -275,17 +280,30 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
     seeds = [channel.structure.init_seed for _, _, channel in members]
     head_fits = fit_networks(train, hidden, None, settings.network, random_state=seeds,
                              chunk_size=chunk_size)
-    problems = [_design(c.w_segments, c.structure) for _, _, c in members]
-    full_fits = fit_networks(problems, hidden, [(f.w, f.W) for f in head_fits], settings.network,
-                             chunk_size=chunk_size)
-    for (_, _, channel), head, full, (X_test, y_test) in zip(members, head_fits, full_fits, test):
+    gains = []
+    for (_, _, channel), head, (X_test, y_test) in zip(members, head_fits, test):
         prediction = np.tanh(np.tanh(X_test @ head.w.T) @ head.W)
         zero_error = float(np.mean(y_test ** 2))
-        gain = 1.0 - float(np.mean((y_test - prediction) ** 2)) / zero_error if zero_error > 0 else 0.0
+        gains.append(1.0 - float(np.mean((y_test - prediction) ** 2)) / zero_error
+                     if zero_error > 0 else 0.0)
         channel.structure = replace(channel.structure,
-                                    nonlinear_needed=bool(gain > settings.min_heldout_gain))
-        channel.nonlinear = NonlinearTier.from_arrays(full.w, full.W, full.mse, gain,
-                                                      full.iterations)
+                                    nonlinear_needed=bool(gains[-1] > settings.min_heldout_gain))
+    # The full fit starts from the seeded random weights, as the candidates of a baseline
+    # without nonlinear structure do: zeta compares weights fitted by the same procedure.
+    # Without structure, a fully trained network only fits noise, landing in one of many
+    # shallow minima; its hidden layer then stays at the random weights (fixed features) and
+    # only the output weights are fitted, a problem with a single minimum.
+    for needed in (True, False):
+        chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
+        if not chosen:
+            continue
+        problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
+        fits = fit_networks(problems, hidden, None, settings.network,
+                            random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
+                            train_input_weights=needed)
+        for i, fit in zip(chosen, fits):
+            members[i][2].nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, gains[i],
+                                                                fit.iterations)
 
 
 def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
@@ -352,8 +370,9 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
                   ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
 
-    Each request's windows are its K >= 3 healthy windows (typically one per day). The
-    leave-one-window-out refits of every asset are batched like the baselines themselves.
+    Each request's windows are its K >= 3 healthy windows, each as long as a nightly window
+    (typically one day). Every window is cut into ``settings.calibration_splits`` pieces that
+    are refitted like nightly candidates; all assets' refits are batched like the baselines.
 
     Returns
     -------
@@ -365,7 +384,8 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
     signatures = fit_signatures(fresh, settings, chunk_size)
     results: list = list(signatures)
-    jobs = []  # (position, baseline signature, K)
+    jobs = []  # (position, baseline signature, number of pieces)
+    piece_requests = []
     for position, (request, signature) in enumerate(zip(fresh, signatures)):
         if isinstance(signature, GrayBoxError):
             continue
@@ -374,43 +394,49 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
                 f"asset {signature.asset_id!r}: calibration needs at least 3 healthy windows "
                 f"(one per night), got {len(request.windows)}")
             continue
-        jobs.append((position, signature, len(request.windows)))
-    left_out_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
-                                 baseline=sig)
-                         for p, sig, count in jobs for k in range(count)]
-    left_out = fit_signatures(left_out_requests, settings, chunk_size)
-    single_requests, offset = [], 0
-    for p, sig, count in jobs:
-        for k in range(count):
-            start = left_out[offset + k]
-            single_requests.append(replace(fresh[p], windows=[fresh[p].windows[k]], baseline=sig,
-                                           warm_start=start if isinstance(start, Signature) else sig))
-        offset += count
-    singles = fit_signatures(single_requests, settings, chunk_size)
+        pieces = [piece for window in request.windows
+                  for piece in _split(window, settings.calibration_splits)]
+        piece_requests += [replace(request, windows=[piece], baseline=signature) for piece in pieces]
+        jobs.append((position, signature, len(pieces), len(request.windows)))
+    fits = fit_signatures(piece_requests, settings, chunk_size)
     offset = 0
-    for p, sig, count in jobs:
-        pairs = list(zip(left_out[offset: offset + count], singles[offset: offset + count]))
-        offset += count
-        failure = next((x for pair in pairs for x in pair if isinstance(x, GrayBoxError)), None)
+    for position, signature, count, windows in jobs:
+        pieces, offset = fits[offset: offset + count], offset + count
+        failure = next((f for f in pieces if isinstance(f, GrayBoxError)), None)
         if failure is not None:
-            results[p] = failure
+            results[position] = failure
             continue
-        results[p] = (sig, _calibrate(sig, pairs, false_alarm_rate))
+        results[position] = (signature, _calibrate(signature, pieces, windows, false_alarm_rate))
     return results
 
 
-def _calibrate(baseline: Signature, pairs, false_alarm_rate: float) -> Calibration:
+def _split(window, parts: int) -> list[pd.DataFrame]:
+    """Cut a window into ``parts`` contiguous pieces of (nearly) equal length."""
+    frame = getattr(window, "frame", window)
+    bounds = np.linspace(0, len(frame), parts + 1).round().astype(int)
+    return [frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _calibrate(baseline: Signature, pieces: list[Signature], windows: int,
+               false_alarm_rate: float) -> Calibration:
     alpha = false_alarm_rate / (len(baseline.channels) * len(TIERS))
+    total = baseline.n_samples
+    reference = total / windows
     thresholds = []
     for channel in baseline.channel_names:
         for tier in TIERS:
-            deltas = [tier_deltas(single.channel(channel), rest.channel(channel), tier)[1]
-                      for rest, single in pairs]
+            deltas = []
+            for piece in pieces:
+                delta = tier_deltas(piece.channel(channel), baseline.channel(channel), tier)[1]
+                # a piece is part of the baseline and shorter than a night: rescale its change
+                # to what an independent window of the reference length would show
+                scale = (1 / reference + 1 / total) / (1 / piece.n_samples - 1 / total)
+                deltas.append(delta * np.sqrt(scale))
             epsilon, mean, dof = threshold_from_deltas(deltas, alpha)
             thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
                                             tuple(float(d @ d) for d in deltas)))
-    reference = int(np.median([single.n_samples for _, single in pairs]))
-    return Calibration(tuple(thresholds), false_alarm_rate, alpha, reference, len(pairs))
+    return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
+                       len(pieces))
 
 
 class GrayBox:

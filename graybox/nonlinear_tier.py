@@ -5,8 +5,9 @@
 The network has no biases, exactly as Eq. 25, so it represents odd functions of the delay
 vector. It is fitted by back-propagation with a full-batch L-BFGS written for *batches of
 independent series*: every series of a batch keeps its own curvature history, step size and
-stopping test, so fitting a series inside a batch gives the same weights as fitting it alone,
-while the fleet pays for one batched computation instead of thousands of small ones.
+stopping test, and series are padded to length buckets, so fitting a series inside a batch
+gives bit for bit the weights it gets alone, while the fleet pays for one batched computation
+instead of thousands of small ones.
 """
 from __future__ import annotations
 
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-import torch
 
 from graybox.exceptions import InsufficientDataError
 
@@ -99,14 +99,16 @@ class FitSettings:
     history : int
         L-BFGS memory.
     init_scale : float
-        Standard deviation of random initial weights, divided by sqrt(fan-in).
+        Standard deviation of random initial weights, divided by sqrt(fan-in). With inputs
+        scaled to a quarter of their standard deviation (the estimator's default), 4 gives
+        the hidden units unit-variance pre-activations: inside tanh's nonlinear range.
     """
 
     max_iter: int = 200
     tolerance: float = 1e-9
     weight_decay: float = 1e-4
     history: int = 10
-    init_scale: float = 1.0
+    init_scale: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -126,18 +128,11 @@ def initial_weights(hidden: int, dim: int, seed, scale: float = 1.0) -> tuple[np
             rng.normal(0.0, scale / np.sqrt(hidden), hidden))
 
 
-def _forward(theta: torch.Tensor, X: torch.Tensor, hidden: int, dim: int) -> torch.Tensor:
-    batch = theta.shape[0]
-    w = theta[:, : hidden * dim].reshape(batch, hidden, dim)
-    W = theta[:, hidden * dim:].reshape(batch, hidden, 1)
-    return torch.tanh(torch.bmm(torch.tanh(torch.bmm(X, w.transpose(1, 2))), W))[..., 0]
-
-
 def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                  initial: Sequence[tuple[np.ndarray, np.ndarray] | None] | None = None,
                  settings: FitSettings = FitSettings(),
                  random_state: int | Sequence[int] | None = 0,
-                 chunk_size: int = 32) -> list[NetworkFit]:
+                 chunk_size: int = 32, train_input_weights: bool = True) -> list[NetworkFit]:
     """Fit one Eq. 25 network per problem, in batches of independent series.
 
     Parameters
@@ -156,6 +151,10 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
         and data, never on the rest of its batch.
     chunk_size : int, default 32
         Series per batched computation (small chunks keep activations in cache).
+    train_input_weights : bool, default True
+        When False the hidden layer ``w_jk`` keeps its starting values (fixed random
+        features) and only ``W_1j`` is fitted: a well-posed problem with one minimum, used
+        where there is no nonlinear structure to learn (see :mod:`graybox.estimator`).
 
     Returns
     -------
@@ -182,119 +181,28 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                 raise ValueError(f"warm start shapes {w.shape}, {W.shape} do not match "
                                  f"J={hidden}, m={dim}")
         starts.append(np.concatenate([w.ravel(), W]))
-    results = []
-    for first in range(0, len(problems), chunk_size):
-        chunk = slice(first, first + chunk_size)
-        results.extend(_fit_chunk(problems[chunk], starts[chunk], hidden, dim, settings))
+    # Series are padded to a length bucket and batched only with series of the same bucket:
+    # every array shape a series meets then depends on its own length alone, so its float
+    # rounding (and hence its optimization path) is the same in any batch as alone.
+    from graybox.network_training import fit_chunk  # torch loads only when fitting
+
+    buckets: dict[int, list[int]] = {}
+    for index, (_, y) in enumerate(problems):
+        buckets.setdefault(_bucket(len(y)), []).append(index)
+    results: list[NetworkFit | None] = [None] * len(problems)
+    for length, members in sorted(buckets.items()):
+        for first in range(0, len(members), chunk_size):
+            chunk = members[first: first + chunk_size]
+            fits = fit_chunk([problems[i] for i in chunk], [starts[i] for i in chunk],
+                             hidden, dim, settings, length, train_input_weights)
+            for index, fit in zip(chunk, fits):
+                results[index] = fit
     return results
 
 
-def _fit_chunk(problems, starts, hidden, dim, settings: FitSettings) -> list[NetworkFit]:
-    batch = len(problems)
-    length = max(len(y) for _, y in problems)
-    if min(len(y) for _, y in problems) == 0:
-        raise InsufficientDataError("a series has no samples after embedding")
-    X = torch.zeros(batch, length, dim, dtype=torch.float64)
-    y = torch.zeros(batch, length, dtype=torch.float64)
-    mask = torch.zeros(batch, length, dtype=torch.float64)
-    for b, (Xb, yb) in enumerate(problems):
-        X[b, : len(yb)] = torch.from_numpy(np.ascontiguousarray(Xb, dtype=float))
-        y[b, : len(yb)] = torch.from_numpy(np.ascontiguousarray(yb, dtype=float))
-        mask[b, : len(yb)] = 1.0 / len(yb)
-    theta = torch.from_numpy(np.stack(starts)).to(torch.float64)
-    decay = settings.weight_decay
-
-    def evaluate(params: torch.Tensor, need_grad: bool = True):
-        params = params.detach().requires_grad_(need_grad)
-        with torch.set_grad_enabled(need_grad):
-            error = ((y - _forward(params, X, hidden, dim)) ** 2 * mask).sum(dim=1)
-            loss = error + decay * (params ** 2).sum(dim=1)
-            grad = torch.autograd.grad(loss.sum(), params)[0] if need_grad else None
-        return loss.detach(), error.detach(), grad
-
-    theta, iterations = _batched_lbfgs(theta, evaluate, settings)
-    _, error, _ = evaluate(theta, need_grad=False)
-    out = []
-    for b in range(batch):
-        params = theta[b].numpy()
-        out.append(NetworkFit(params[: hidden * dim].reshape(hidden, dim).copy(),
-                              params[hidden * dim:].copy(), float(error[b]), int(iterations[b])))
-    return out
-
-
-def _batched_lbfgs(theta: torch.Tensor, evaluate, settings: FitSettings):
-    """Minimize a sum of independent losses; each row of ``theta`` is its own problem.
-
-    Standard L-BFGS two-loop recursion and a backtracking Armijo line search, with every
-    quantity (history, step, convergence) kept per row.
-    """
-    batch = theta.shape[0]
-    loss, _, grad = evaluate(theta)
-    active = torch.ones(batch, dtype=torch.bool)
-    iterations = torch.zeros(batch, dtype=torch.long)
-    s_hist, y_hist = [], []
-    for _ in range(settings.max_iter):
-        active &= grad.abs().amax(dim=1) > settings.tolerance
-        if not active.any():
-            break
-        direction = -_two_loop(grad, s_hist, y_hist)
-        slope = (grad * direction).sum(dim=1)
-        bad = slope >= 0  # not a descent direction: fall back to steepest descent
-        direction[bad] = -grad[bad]
-        slope = (grad * direction).sum(dim=1)
-        step = torch.ones(batch, dtype=theta.dtype)
-        if not s_hist:
-            step = torch.clamp(1.0 / grad.abs().sum(dim=1), max=1.0)
-        step = torch.where(active, step, torch.zeros_like(step))
-        accepted = ~active
-        new_theta, new_loss, new_grad = theta, loss, grad
-        for _ in range(30):
-            trial = theta + step[:, None] * direction
-            trial_loss, _, trial_grad = evaluate(trial)
-            ok = (trial_loss <= loss + 1e-4 * step * slope) & ~accepted
-            new_theta = torch.where(ok[:, None], trial, new_theta)
-            new_loss = torch.where(ok, trial_loss, new_loss)
-            new_grad = torch.where(ok[:, None], trial_grad, new_grad)
-            accepted |= ok
-            if accepted.all():
-                break
-            step = torch.where(accepted, step, step * 0.5)
-        moved = accepted & active
-        # rows whose line search failed have converged as far as float precision allows
-        active &= moved
-        s, yv = new_theta - theta, new_grad - grad
-        curvature = (s * yv).sum(dim=1)
-        keep = moved & (curvature > 1e-12)
-        s_hist.append(torch.where(keep[:, None], s, torch.zeros_like(s)))
-        y_hist.append(torch.where(keep[:, None], yv, torch.zeros_like(yv)))
-        if len(s_hist) > settings.history:
-            s_hist.pop(0)
-            y_hist.pop(0)
-        relative = (loss - new_loss) / torch.clamp(loss.abs(), min=1e-300)
-        iterations += moved.long()
-        theta, loss, grad = new_theta, new_loss, new_grad
-        active &= relative > settings.tolerance
-    return theta, iterations
-
-
-def _two_loop(grad: torch.Tensor, s_hist, y_hist) -> torch.Tensor:
-    q = grad.clone()
-    alphas = []
-    rhos = []
-    for s, y in zip(reversed(s_hist), reversed(y_hist)):
-        sy = (s * y).sum(dim=1)
-        rho = torch.where(sy > 0, 1.0 / torch.where(sy > 0, sy, torch.ones_like(sy)), torch.zeros_like(sy))
-        alpha = rho * (s * q).sum(dim=1)
-        q = q - alpha[:, None] * y
-        alphas.append(alpha)
-        rhos.append(rho)
-    gamma = torch.ones(grad.shape[0], dtype=grad.dtype)
-    for s, y in zip(reversed(s_hist), reversed(y_hist)):
-        sy, yy = (s * y).sum(dim=1), (y * y).sum(dim=1)
-        usable = (sy > 0) & (yy > 0) & (gamma == 1.0)
-        gamma = torch.where(usable, sy / torch.where(yy > 0, yy, torch.ones_like(yy)), gamma)
-    r = gamma[:, None] * q
-    for (s, y), alpha, rho in zip(zip(s_hist, y_hist), reversed(alphas), reversed(rhos)):
-        beta = rho * (y * r).sum(dim=1)
-        r = r + s * (alpha - beta)[:, None]
-    return r
+def _bucket(length: int) -> int:
+    """Padded length: the next multiple of 1/16 of the next power of two (<= 6.25 % padding)."""
+    if length <= 256:
+        return 256
+    step = 1 << (int(np.ceil(np.log2(length))) - 4)
+    return int(np.ceil(length / step)) * step

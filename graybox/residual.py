@@ -133,5 +133,5 @@ def infer_sample_interval(index: pd.DatetimeIndex) -> float:
     """Seconds between consecutive samples of a uniform-grid index."""
     if len(index) < 2:
         raise InsufficientDataError("cannot infer a sample interval from fewer than 2 samples")
-    steps = np.diff(index.asi8) / 1e9
+    steps = np.diff(index.as_unit("ns").asi8) / 1e9   # pandas may store us or s ticks
     return float(np.median(steps))

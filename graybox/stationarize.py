@@ -127,12 +127,12 @@ def acf_area(segments: Sequence[np.ndarray], lags: int) -> float:
 
 
 def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 3,
-                min_correlation: float = 0.3) -> int:
+                min_correlation: float = 0.2) -> int:
     """Dominant seasonal period of a series in samples, or 0 if there is none.
 
-    The candidate comes from the periodogram's highest peak (after removing a linear trend);
-    it is refined to the integer lag with the highest autocorrelation near it and accepted
-    only if that autocorrelation exceeds ``min_correlation``.
+    The candidate comes from the periodogram's highest peak (after removing a linear trend),
+    located between frequency bins by parabolic interpolation, rounded to whole samples, and
+    accepted only if the autocorrelation at that lag exceeds ``min_correlation``.
 
     Parameters
     ----------
@@ -141,7 +141,7 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
         Longest period considered; at most ``len(x) // min_cycles``.
     min_cycles : int, default 3
         The series must hold at least this many periods.
-    min_correlation : float, default 0.3
+    min_correlation : float, default 0.2
         Autocorrelation at the period needed to call it seasonal.
     """
     x = np.asarray(x, dtype=float)
@@ -159,14 +159,17 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
     if not allowed.any():
         return 0
     k = int(np.argmax(np.where(allowed, power, -1.0)))
-    rho = autocorrelation(detrended, min(n - 1, limit + 1))
-    # the periodogram's resolution is n/k^2 lags around n/k; search that neighbourhood
-    width = max(1, int(np.ceil(n / k ** 2)))
-    low, high = max(2, int(n / k) - width), min(limit, int(np.ceil(n / k)) + width)
-    if low > high:
+    # the peak frequency between bins, by a parabola through the log power around it
+    offset = 0.0
+    if 0 < k < len(power) - 1 and np.all(power[k - 1: k + 2] > 0):
+        left, centre, right = np.log(power[k - 1: k + 2])
+        curvature = left - 2 * centre + right
+        if curvature < 0:
+            offset = 0.5 * (left - right) / curvature
+    best = int(round(n / (k + offset)))
+    if not 2 <= best <= limit:
         return 0
-    lags = np.arange(low, high + 1)
-    best = int(lags[np.argmax(rho[lags])])
+    rho = autocorrelation(detrended, best)
     return best if rho[best] >= min_correlation else 0
 
 
@@ -245,7 +248,11 @@ def choose_differencing(segments: Sequence[np.ndarray], max_order: int = 2,
     if max_period is None:
         max_period = shortest // 3
     longest = max(segments, key=len)
-    period = find_period(longest, max_period=max_period) if max_seasonal_order > 0 else 0
+    period = 0
+    if max_seasonal_order > 0:
+        # a trend can hide the season from the periodogram: look again after one difference
+        period = (find_period(longest, max_period=max_period)
+                  or find_period(np.diff(longest), max_period=max_period))
     area_lags = min(max(lags, 2 * period), shortest // 4)
     if area_lags < 2:
         raise InsufficientDataError(f"segments of {shortest} samples are too short to stationarize")

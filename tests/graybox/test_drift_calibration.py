@@ -1,0 +1,97 @@
+import numpy as np
+import pytest
+from conftest import make_channel, make_signature
+from scipy import stats
+
+from graybox.calibration import Calibration, TierThreshold, threshold_from_deltas
+from graybox.drift import compute_drift, tier_deltas
+from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
+from graybox.noise_tier import MOMENT_WEIGHTS
+
+
+def test_nonlinear_zeta_is_exactly_eq28():
+    w0, W0 = np.array([[0.1, 0.2, 0.3], [-0.1, 0.0, 0.5]]), np.array([0.3, -0.4])
+    w1, W1 = w0 + np.array([[0.01, 0, 0], [0, -0.02, 0]]), W0 + np.array([0.05, 0.0])
+    base = make_signature((make_channel(w=w0, W=W0),))
+    cand = make_signature((make_channel(w=w1, W=W1, selection=False),))
+    drift = compute_drift(cand, base)
+    expected = np.sum((W1 - W0) ** 2) + np.sum((w1 - w0) ** 2)
+    assert drift.get("omega", "nonlinear").zeta == pytest.approx(expected, rel=1e-12)
+    assert drift.get("omega", "linear").zeta == 0.0
+    top = drift.get("omega", "nonlinear").top_changes[0]
+    assert top.name == "W1_1" and top.contribution == pytest.approx(0.05 ** 2)
+
+
+def test_linear_and_noise_zeta():
+    base = make_signature((make_channel(a=(0.5, -0.2), moments=(0.0, 2.0, 0.0, 0.0)),))
+    cand = make_signature((make_channel(a=(0.6, -0.2), moments=(0.1, 3.0, 0.2, 1.2)),))
+    drift = compute_drift(cand, base)
+    assert drift.get("omega", "linear").zeta == pytest.approx(0.01)
+    expected = (MOMENT_WEIGHTS[0] * (0.1 / np.sqrt(2.0)) ** 2 + MOMENT_WEIGHTS[1] * 0.5 ** 2
+                + MOMENT_WEIGHTS[2] * 0.2 ** 2 + MOMENT_WEIGHTS[3] * 1.2 ** 2)
+    assert drift.get("omega", "noise").zeta == pytest.approx(expected)
+    names, delta = tier_deltas(cand.channels[0], base.channels[0], "noise")
+    assert names[1] == "variance" and delta[1] == pytest.approx(0.5 * np.sqrt(0.5))
+
+
+def test_alarm_only_when_zeta_exceeds_epsilon_and_epsilon_scales_with_window():
+    base = make_signature((make_channel(a=(0.5,)),))
+    cand = make_signature((make_channel(a=(0.6,), n_samples=500),))
+    thresholds = tuple(TierThreshold("omega", tier, eps, eps / 5, 2.0, (0.1, 0.2, 0.3))
+                       for tier, eps in (("linear", 0.009), ("nonlinear", 1.0), ("noise", 1.0)))
+    calibration = Calibration(thresholds, 0.01, 0.01 / 3, 1000, 12)
+    # the candidate has half the reference samples: epsilon doubles, 0.018 > zeta 0.01
+    drift = compute_drift(cand, base, calibration)
+    entry = drift.get("omega", "linear")
+    assert entry.epsilon == pytest.approx(0.018) and not entry.exceeded and not drift.alarmed
+    full = make_signature((make_channel(a=(0.6,), n_samples=1000),))
+    drift = compute_drift(full, base, calibration)
+    assert drift.get("omega", "linear").exceeded and drift.alarms[0].tier == "linear"
+    assert drift.get("omega", "linear").ratio == pytest.approx(0.01 / 0.009)
+
+
+def test_structure_mismatch_is_refused():
+    base = make_signature((make_channel(a=(0.5, -0.2)),))
+    other = make_signature((make_channel(a=(0.5,)),))
+    with pytest.raises(StructureMismatchError, match="frozen structure"):
+        compute_drift(other, base)
+    with pytest.raises(StructureMismatchError):
+        compute_drift(make_signature(residual_method="inverse"), base)
+
+
+def test_threshold_meets_its_false_alarm_rate_for_gaussian_changes():
+    """Known answer: changes d ~ N(0, Sigma) make zeta a weighted chi-square; epsilon from
+    a small healthy sample must be exceeded by new healthy zetas at most about alpha."""
+    rng = np.random.default_rng(0)
+    scales = np.array([3.0, 1.0, 1.0, 0.5, 0.2, 0.1])
+    alpha, exceed, trials = 0.01, 0, 300
+    for _ in range(trials):
+        healthy = [rng.normal(size=6) * scales for _ in range(16)]
+        epsilon, mean, dof = threshold_from_deltas(healthy, alpha)
+        fresh = rng.normal(size=(200, 6)) * scales
+        exceed += np.mean((fresh ** 2).sum(axis=1) > epsilon)
+    rate = exceed / trials
+    assert rate < alpha * 1.5
+    assert rate > alpha / 10       # and not absurdly conservative
+
+
+def test_threshold_known_answer_for_isotropic_changes():
+    rng = np.random.default_rng(1)
+    deltas = [rng.normal(size=4) for _ in range(2000)]
+    epsilon, mean, dof = threshold_from_deltas(deltas, 0.05)
+    assert mean == pytest.approx(4.0, rel=0.05)
+    assert dof == pytest.approx(4.0, rel=0.15)
+    assert epsilon == pytest.approx(stats.chi2.ppf(0.95, 4), rel=0.05)
+    with pytest.raises(InsufficientDataError):
+        threshold_from_deltas(deltas[:2], 0.05)
+
+
+def test_calibration_json_round_trip_and_refusal():
+    calibration = Calibration((TierThreshold("omega", "linear", 0.1, 0.02, 3.0, (0.01, 0.03)),),
+                              0.01, 0.0033, 8000, 16)
+    assert Calibration.from_json(calibration.to_json()) == calibration
+    assert calibration.epsilon("omega", "linear") == 0.1
+    with pytest.raises(KeyError):
+        calibration.epsilon("omega", "noise")
+    with pytest.raises(ArtifactError):
+        Calibration.from_json('{"thresholds": [{"channel": "omega"}]}')
