@@ -15,8 +15,9 @@ class FitRecord:
     Attributes
     ----------
     asset_id, vehicle_class, role : str
-    version : int
-        The registered model version of the fit.
+    version : int or None
+        The registered model version of the fit (None for a reanalysis, which registers no
+        version).
     run_id, model_id : str
         The MLflow run and logged model.
     fit_key : str
@@ -33,7 +34,7 @@ class FitRecord:
     asset_id: str
     vehicle_class: str
     role: str
-    version: int
+    version: int | None
     run_id: str
     model_id: str
     fit_key: str

@@ -57,6 +57,7 @@ TAG_REJECTION_REASON = _P + "rejection_reason"
 TAG_ROLLED_BACK_AT = _P + "rolled_back_at"
 TAG_ROLLED_BACK_BY = _P + "rolled_back_by"
 TAG_ROLLBACK_REASON = _P + "rollback_reason"
+TAG_REANALYSIS = _P + "reanalysis"               #: "true" on runs of an ad-hoc reanalysis
 
 
 def validate_vehicle_class(vehicle_class: str) -> str:
@@ -107,12 +108,17 @@ def iso_utc(value) -> str:
     return stamp.as_unit("ns").isoformat()
 
 
-def fit_key(asset_id: str, window_start, window_end, role: str, data_hash: str) -> str:
+def fit_key(asset_id: str, window_start, window_end, role: str, data_hash: str,
+            variant: str | None = None) -> str:
     """The idempotence key of a recorded fit.
 
     Recording the same ``(asset_id, window_start, window_end, role, data_hash)`` twice finds
     the first record through this key (a tag on its run and model version) instead of
     creating a second one.
+
+    ``variant`` keeps other kinds of record of the same window apart (a reanalysis against
+    baseline version 3 is ``"reanalysis:v3"``); None is a nightly or baseline fit, whose key
+    is unchanged.
 
     Returns
     -------
@@ -122,7 +128,10 @@ def fit_key(asset_id: str, window_start, window_end, role: str, data_hash: str) 
     validate_asset_id(asset_id)
     if role not in ROLES:
         raise ValueError(f"role must be one of {ROLES}, got {role!r}")
-    text = "\n".join([asset_id, iso_utc(window_start), iso_utc(window_end), role, data_hash])
+    parts = [asset_id, iso_utc(window_start), iso_utc(window_end), role, data_hash]
+    if variant is not None:
+        parts.append(variant)
+    text = "\n".join(parts)
     return hashlib.sha256(text.encode()).hexdigest()[:40]
 
 

@@ -17,6 +17,12 @@ second recording returns the first one. A recording interrupted half-way is fini
 replaced on the next attempt: an incomplete run (no ``fleet_health.complete`` tag) is
 deleted and logged again; a complete run without a version gets its version.
 
+A **reanalysis** (``reanalysis=True``) records only the run, tagged ``fleet_health.reanalysis``:
+no logged model, no model version, no alias move (and the flows move no watermark). Its key
+also names the baseline version it was compared with, so reanalysing a window against
+another version is another record, and the same reanalysis twice is one. The zeta history
+and the alerts leave reanalysis runs out.
+
 Also here: the asset's zeta history and the recorded alerts, both found by tag-filtered
 searches.
 """
@@ -184,7 +190,8 @@ def drift_document(drift: Drift, baseline_version: int | None) -> dict:
 def record_fit(backend: Backend, asset_id: str, vehicle_class: str, signature: Signature, *,
                role: str, calibration: Calibration | None = None, drift: Drift | None = None,
                window=None, data_hash_: str | None = None, window_start=None, window_end=None,
-               baseline_version: int | None = None, plots: bool = True) -> FitRecord:
+               baseline_version: int | None = None, plots: bool = True,
+               reanalysis: bool = False) -> FitRecord:
     """Record one fit (see :meth:`registry.Registry.record_fit` for the parameters)."""
     name = naming.model_name(asset_id)
     naming.validate_vehicle_class(vehicle_class)
@@ -209,6 +216,11 @@ def record_fit(backend: Backend, asset_id: str, vehicle_class: str, signature: S
     if data_hash_ is None:
         data_hash_ = data_hash(window) if window is not None else \
             hashlib.sha256(signature.to_json().encode()).hexdigest()
+    if reanalysis:
+        if role != naming.CANDIDATE:
+            raise ValueError("a reanalysis records a candidate fit (role='candidate')")
+        return _record_reanalysis(backend, asset_id, vehicle_class, signature, drift, window,
+                                  data_hash_, start, end, baseline_version, plots)
     key = naming.fit_key(asset_id, start, end, role, data_hash_)
     client = backend.client
 
@@ -257,6 +269,30 @@ def record_fit(backend: Backend, asset_id: str, vehicle_class: str, signature: S
                          key, start, end, data_hash_, created=True, alarm=alarm)
 
 
+def _record_reanalysis(backend: Backend, asset_id, vehicle_class, signature, drift, window,
+                       data_hash_, start, end, baseline_version, plots) -> FitRecord:
+    """A reanalysis run: no logged model, no version, no alias; idempotent on its key."""
+    if baseline_version is None:
+        raise ValueError("a reanalysis names the version it was compared with "
+                         "(baseline_version)")
+    key = naming.fit_key(asset_id, start, end, naming.CANDIDATE, data_hash_,
+                         variant=f"reanalysis:v{int(baseline_version)}")
+    with backend.store.asset_lock(asset_id):
+        experiment_id = backend.experiment_id(vehicle_class, create=True)
+        backend.ensure_registered_model(asset_id, vehicle_class, experiment_id)
+        run = _find_complete_run(backend, experiment_id, key)
+        created = run is None
+        if created:
+            run_id, _, _ = _log_run(backend, experiment_id, asset_id, vehicle_class, signature,
+                                    naming.CANDIDATE, None, drift, window, data_hash_, start, end,
+                                    key, baseline_version, plots, reanalysis=True)
+        else:
+            run_id = run.info.run_id
+    alarm = None if drift is None else drift.alarmed
+    return FitRecord(asset_id, vehicle_class, naming.CANDIDATE, None, run_id, "", key, start,
+                     end, data_hash_, created=created, alarm=alarm)
+
+
 def _describe(asset_id, role, start, end, calibration, drift, baseline_version) -> str:
     text = f"{role.capitalize()} fit of {asset_id} over {start} .. {end}."
     if calibration is not None:
@@ -303,7 +339,7 @@ def _find_complete_run(backend: Backend, experiment_id: str, key: str):
 
 def _log_run(backend: Backend, experiment_id, asset_id, vehicle_class, signature, role,
              calibration, drift, window, data_hash_, start, end, key, baseline_version,
-             plots) -> tuple[str, str, str]:
+             plots, reanalysis: bool = False) -> tuple[str, str, str]:
     client = backend.client
     tags = {naming.TAG_ASSET_ID: asset_id, naming.TAG_VEHICLE_CLASS: vehicle_class,
             naming.TAG_WINDOW_START: start, naming.TAG_WINDOW_END: end, naming.TAG_ROLE: role,
@@ -313,7 +349,10 @@ def _log_run(backend: Backend, experiment_id, asset_id, vehicle_class, signature
         tags[naming.TAG_ALARM] = "true" if drift.alarmed else "false"
     if baseline_version is not None:
         tags[naming.TAG_BASELINE_VERSION] = str(baseline_version)
-    run_name = f"{asset_id} {role} {start[:16]} .. {end[:16]}"
+    if reanalysis:
+        tags[naming.TAG_REANALYSIS] = "true"
+    kind = "reanalysis" if reanalysis else role
+    run_name = f"{asset_id} {kind} {start[:16]} .. {end[:16]}"
     run = client.create_run(experiment_id, tags=tags, run_name=run_name)
     run_id = run.info.run_id
     try:
@@ -332,9 +371,10 @@ def _log_run(backend: Backend, experiment_id, asset_id, vehicle_class, signature
             if plots:
                 _log_plots(backend, run_id, asset_id, role, signature, drift, window, end,
                            scratch / "plots")
-            model_id = _log_model(backend, experiment_id, run_id, asset_id, bundle,
-                                  scratch / "model")
-        client.set_tag(run_id, naming.TAG_MODEL_ID, model_id)
+            model_id = "" if reanalysis else _log_model(backend, experiment_id, run_id,
+                                                        asset_id, bundle, scratch / "model")
+        if model_id:
+            client.set_tag(run_id, naming.TAG_MODEL_ID, model_id)
         client.set_tag(run_id, naming.TAG_MANIFEST_SHA256, manifest_sha)
         client.set_tag(run_id, naming.TAG_COMPLETE, "true")
         client.set_terminated(run_id, "FINISHED")
@@ -455,6 +495,8 @@ def _asset_runs(backend: Backend, experiment_ids: list[str], filters: Iterable[s
     latest: dict[tuple, Any] = {}
     for run in runs:
         tags = run.data.tags
+        if tags.get(naming.TAG_REANALYSIS) == "true":
+            continue  # ad-hoc reanalyses are not part of the nightly record
         key = (tags.get(naming.TAG_ASSET_ID), tags.get(naming.TAG_WINDOW_START),
                tags.get(naming.TAG_WINDOW_END))
         if key not in latest or run.info.start_time > latest[key].info.start_time:

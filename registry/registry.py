@@ -65,7 +65,7 @@ class Registry:
                    calibration: Calibration | None = None, drift: Drift | None = None,
                    window=None, data_hash: str | None = None, window_start=None,
                    window_end=None, baseline_version: int | None = None,
-                   plots: bool = True) -> FitRecord:
+                   plots: bool = True, reanalysis: bool = False) -> FitRecord:
         """Record a fit as a run, a logged pyfunc model and a new version (alias ``candidate``).
 
         Idempotent: the same ``(asset_id, window_start, window_end, role, data_hash)``
@@ -98,6 +98,11 @@ class Registry:
             The baseline a candidate's drift was computed against (default: the version
             holding ``baseline`` now).
         plots : bool, default True
+        reanalysis : bool, default False
+            An ad-hoc reanalysis (role ``candidate``, ``baseline_version`` required): only the
+            run is recorded, tagged ``fleet_health.reanalysis``, with no logged model, no
+            version and no alias move; :meth:`zeta_history` and :meth:`alerts` leave it out.
+            Idempotent on the window, data hash and ``baseline_version``.
 
         Returns
         -------
@@ -107,7 +112,7 @@ class Registry:
                                   calibration=calibration, drift=drift, window=window,
                                   data_hash_=data_hash, window_start=window_start,
                                   window_end=window_end, baseline_version=baseline_version,
-                                  plots=plots)
+                                  plots=plots, reanalysis=reanalysis)
 
     # -- nightly reads -------------------------------------------------------------------------
     def baseline(self, asset_id: str) -> LoadedVersion | None:
