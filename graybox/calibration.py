@@ -1,17 +1,18 @@
 """Calibration of the drift threshold epsilon per tier and channel (the paper has no method).
 
-Method (healthy pieces, scaled chi-square, predictive F quantile):
+Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
 
-1. The baseline period consists of K >= 3 healthy windows of the nightly length; each is cut
-   into q pieces (K q pieces in all). Every piece is refitted exactly as a nightly candidate
-   is (frozen structure, same starting weights), and its change d_k = theta_k - theta_0 from
-   the baseline is a healthy drift: sampling noise plus the variation of a healthy asset.
-2. A piece is shorter than a night and is part of the baseline, so its change is rescaled to
-   the change of an independent nightly window: parameter estimates are asymptotically
-   averages, Var(theta_n) = V / n, so Var(theta_k - theta_0) = V (1/n_k - 1/N_0) while a
-   night of N samples gives V (1/N + 1/N_0); d_k is multiplied by the square root of the
-   ratio. Cutting windows into pieces gives K q healthy drifts instead of K, which matters
-   for estimating a tail.
+1. The baseline period consists of K >= 3 healthy windows of the nightly length. Each window
+   k is left out in turn: the tiers are refitted on the other K - 1 windows (theta_-k, frozen
+   structure), and window k, cut into q pieces, is fitted piece by piece exactly as nightly
+   candidates of theta_-k are. Each change d = theta_piece - theta_-k is a healthy drift
+   between independent data: sampling noise plus the variation of a healthy asset. (A piece
+   compared with a baseline that contains it would understate the drift.)
+2. A piece is shorter than a night, so its change is rescaled to the change of a nightly
+   window against the full baseline: parameter estimates are asymptotically averages,
+   Var(theta_n) = V / n, so Var(d) = V (1/n_piece + 1/n_rest) while a night of N samples gives
+   V (1/N + 1/N_baseline); d is multiplied by the square root of the ratio. Cutting windows
+   into pieces gives K q healthy drifts instead of K, which matters for estimating a tail.
 3. A healthy zeta = |d|^2 is a quadratic form of a roughly Gaussian vector, well described by
    g * chi2(h) (Satterthwaite): g h = tr(Sigma), h = tr(Sigma)^2 / tr(Sigma^2). tr(Sigma) is the
    mean of the zetas; tr(Sigma^2) is estimated without bias from the cross products
@@ -35,7 +36,7 @@ from scipy import stats
 
 from graybox.exceptions import ArtifactError, InsufficientDataError
 
-METHOD = "healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
+METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
 
 @dataclass(frozen=True)

@@ -19,8 +19,7 @@ from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.noise_tier import describe_noise
-from graybox.nonlinear_tier import (FitSettings, NonlinearTier, fit_networks, initial_weights,
-                                    lagged)
+from graybox.nonlinear_tier import FitSettings, NonlinearTier, fit_networks, lagged
 from graybox.residual import RESIDUAL_METHODS, infer_sample_interval, residual_frame
 from graybox.signature import (TIERS, ChannelSignature, ChannelStructure, Selection, Signature)
 from graybox.stationarize import choose_differencing
@@ -70,7 +69,7 @@ class GrayBoxSettings:
     network: FitSettings = FitSettings()
     nn_scale_factor: float = 4.0
     min_samples: int = 200
-    calibration_splits: int = 4
+    calibration_splits: int = 8
 
     def __post_init__(self):
         if self.residual not in RESIDUAL_METHODS:
@@ -251,11 +250,12 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
                 continue
             problems, starts = [], []
             for item, _, channel in members_now:
+                # start from the reference's weights; without nonlinear structure its hidden
+                # layer is the seeded random features and only the output weights are fitted,
+                # a problem with one minimum, so the start only saves iterations
                 source = item.request.warm_start or item.request.baseline
                 problems.append(_design(channel.w_segments, channel.structure))
-                starts.append(source.channel(channel.name).nonlinear.weight_arrays() if needed
-                              else initial_weights(hidden, dim, channel.structure.init_seed,
-                                                   settings.network.init_scale))
+                starts.append(source.channel(channel.name).nonlinear.weight_arrays())
             fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
                                 train_input_weights=needed)
             for (item, _, channel), fit in zip(members_now, fits):
@@ -371,8 +371,9 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
 
     Each request's windows are its K >= 3 healthy windows, each as long as a nightly window
-    (typically one day). Every window is cut into ``settings.calibration_splits`` pieces that
-    are refitted like nightly candidates; all assets' refits are batched like the baselines.
+    (typically one day). Each window is left out in turn: the others refit the baseline, and
+    the window, cut into ``settings.calibration_splits`` pieces, is fitted as nightly
+    candidates of that refit. All assets' refits are batched like the baselines.
 
     Returns
     -------
@@ -384,8 +385,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
     signatures = fit_signatures(fresh, settings, chunk_size)
     results: list = list(signatures)
-    jobs = []  # (position, baseline signature, number of pieces)
-    piece_requests = []
+    jobs = []  # (position, baseline signature, number of windows)
     for position, (request, signature) in enumerate(zip(fresh, signatures)):
         if isinstance(signature, GrayBoxError):
             continue
@@ -394,19 +394,32 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
                 f"asset {signature.asset_id!r}: calibration needs at least 3 healthy windows "
                 f"(one per night), got {len(request.windows)}")
             continue
-        pieces = [piece for window in request.windows
-                  for piece in _split(window, settings.calibration_splits)]
-        piece_requests += [replace(request, windows=[piece], baseline=signature) for piece in pieces]
-        jobs.append((position, signature, len(pieces), len(request.windows)))
-    fits = fit_signatures(piece_requests, settings, chunk_size)
-    offset = 0
-    for position, signature, count, windows in jobs:
-        pieces, offset = fits[offset: offset + count], offset + count
-        failure = next((f for f in pieces if isinstance(f, GrayBoxError)), None)
+        jobs.append((position, signature, len(request.windows)))
+    # every window is left out once: the others refit the baseline (frozen structure)...
+    rest_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
+                             baseline=sig)
+                     for p, sig, count in jobs for k in range(count)]
+    rests = fit_signatures(rest_requests, settings, chunk_size)
+    # ...and the left-out window's pieces are fitted as nightly candidates of that refit
+    piece_requests, owners = [], []
+    for (p, sig, count), first in zip(jobs, np.cumsum([0] + [c for _, _, c in jobs])):
+        for k in range(count):
+            rest = rests[first + k]
+            for piece in _split(fresh[p].windows[k], settings.calibration_splits):
+                piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
+                                              warm_start=rest if isinstance(rest, Signature) else sig))
+                owners.append((p, first + k))
+    pieces = fit_signatures(piece_requests, settings, chunk_size)
+    collected: dict[int, list] = {p: [] for p, _, _ in jobs}
+    for (p, rest_index), piece in zip(owners, pieces):
+        collected[p].append((rests[rest_index], piece))
+    for p, sig, count in jobs:
+        pairs = collected[p]
+        failure = next((x for pair in pairs for x in pair if isinstance(x, GrayBoxError)), None)
         if failure is not None:
-            results[position] = failure
+            results[p] = failure
             continue
-        results[position] = (signature, _calibrate(signature, pieces, windows, false_alarm_rate))
+        results[p] = (sig, _calibrate(sig, pairs, count, false_alarm_rate))
     return results
 
 
@@ -417,8 +430,10 @@ def _split(window, parts: int) -> list[pd.DataFrame]:
     return [frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _calibrate(baseline: Signature, pieces: list[Signature], windows: int,
+def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], windows: int,
                false_alarm_rate: float) -> Calibration:
+    """Epsilons from (rest, piece) pairs: a piece of a window against the baseline refitted
+    without that window, rescaled to a night against the full baseline."""
     alpha = false_alarm_rate / (len(baseline.channels) * len(TIERS))
     total = baseline.n_samples
     reference = total / windows
@@ -426,17 +441,18 @@ def _calibrate(baseline: Signature, pieces: list[Signature], windows: int,
     for channel in baseline.channel_names:
         for tier in TIERS:
             deltas = []
-            for piece in pieces:
-                delta = tier_deltas(piece.channel(channel), baseline.channel(channel), tier)[1]
-                # a piece is part of the baseline and shorter than a night: rescale its change
-                # to what an independent window of the reference length would show
-                scale = (1 / reference + 1 / total) / (1 / piece.n_samples - 1 / total)
+            for rest, piece in pairs:
+                delta = tier_deltas(piece.channel(channel), rest.channel(channel), tier)[1]
+                # Var(theta_n) ~ V / n: the piece and its reference are independent, so the
+                # change has variance V (1/n_piece + 1/n_rest); a night against the baseline
+                # has V (1/n_night + 1/n_baseline)
+                scale = (1 / reference + 1 / total) / (1 / piece.n_samples + 1 / rest.n_samples)
                 deltas.append(delta * np.sqrt(scale))
             epsilon, mean, dof = threshold_from_deltas(deltas, alpha)
             thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
                                             tuple(float(d @ d) for d in deltas)))
     return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
-                       len(pieces))
+                       len(pairs))
 
 
 class GrayBox:

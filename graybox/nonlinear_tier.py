@@ -184,19 +184,20 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
     # Series are padded to a length bucket and batched only with series of the same bucket:
     # every array shape a series meets then depends on its own length alone, so its float
     # rounding (and hence its optimization path) is the same in any batch as alone.
-    from graybox.network_training import fit_chunk  # torch loads only when fitting
+    from graybox.network_training import fit_chunk, single_thread  # torch loads only here
 
     buckets: dict[int, list[int]] = {}
     for index, (_, y) in enumerate(problems):
         buckets.setdefault(_bucket(len(y)), []).append(index)
     results: list[NetworkFit | None] = [None] * len(problems)
-    for length, members in sorted(buckets.items()):
-        for first in range(0, len(members), chunk_size):
-            chunk = members[first: first + chunk_size]
-            fits = fit_chunk([problems[i] for i in chunk], [starts[i] for i in chunk],
-                             hidden, dim, settings, length, train_input_weights)
-            for index, fit in zip(chunk, fits):
-                results[index] = fit
+    with single_thread():
+        for length, members in sorted(buckets.items()):
+            for first in range(0, len(members), chunk_size):
+                chunk = members[first: first + chunk_size]
+                fits = fit_chunk([problems[i] for i in chunk], [starts[i] for i in chunk],
+                                 hidden, dim, settings, length, train_input_weights)
+                for index, fit in zip(chunk, fits):
+                    results[index] = fit
     return results
 
 

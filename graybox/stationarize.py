@@ -132,7 +132,8 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
 
     The candidate comes from the periodogram's highest peak (after removing a linear trend),
     located between frequency bins by parabolic interpolation, rounded to whole samples, and
-    accepted only if the autocorrelation at that lag exceeds ``min_correlation``.
+    accepted only if the autocorrelation at one, two, ... ``min_cycles`` periods all exceed
+    ``min_correlation``: a season repeats, a stochastic resonance decays.
 
     Parameters
     ----------
@@ -142,7 +143,7 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
     min_cycles : int, default 3
         The series must hold at least this many periods.
     min_correlation : float, default 0.2
-        Autocorrelation at the period needed to call it seasonal.
+        Autocorrelation at each multiple of the period needed to call it seasonal.
     """
     x = np.asarray(x, dtype=float)
     n = len(x)
@@ -169,8 +170,12 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
     best = int(round(n / (k + offset)))
     if not 2 <= best <= limit:
         return 0
-    rho = autocorrelation(detrended, best)
-    return best if rho[best] >= min_correlation else 0
+    # a season repeats: the correlation must persist over min_cycles periods, which a
+    # stochastic resonance (a damped oscillation, e.g. an AR(2) with complex roots) does not
+    lags = best * np.arange(1, min_cycles + 1)
+    lags = lags[lags < n]
+    rho = autocorrelation(detrended, int(lags[-1]))
+    return best if np.min(rho[lags]) >= min_correlation else 0
 
 
 def adf_statistic(x: np.ndarray, lags: int | None = None) -> float:
@@ -226,8 +231,9 @@ def choose_differencing(segments: Sequence[np.ndarray], max_order: int = 2,
     by :func:`find_period`) is tried first, as the paper recommends, then regular differences.
     An operator is kept only if it shrinks the ACF area by at least ``min_improvement``
     (parsimony: over-differencing a stationary series also lowers the area a little while
-    damaging its structure). The unit-root cross-check then adds a regular difference while the
-    augmented Dickey-Fuller test cannot reject a unit root (5 %) on the result.
+    damaging its structure). The augmented Dickey-Fuller test cross-checks the regular
+    differences: a second or later difference is tried only while the series still has a unit
+    root (not rejected at 5 %), and one is added while the result has one.
 
     Parameters
     ----------
@@ -272,6 +278,8 @@ def choose_differencing(segments: Sequence[np.ndarray], max_order: int = 2,
                 break
             best, best_area = trial, trial_area
     while best.order < max_order:
+        if best.order >= 1 and adf_statistic(best.apply(longest)) < ADF_CRITICAL_5PCT:
+            break  # no unit root left: a further difference would only over-difference
         trial = Differencing(best.period, best.seasonal_order, best.order + 1)
         trial_area = area(trial)
         if trial_area * min_improvement > best_area:
