@@ -1,0 +1,135 @@
+"""Progress of long work, reported by the plain functions and shown by the command line.
+
+The flows' functions call :func:`start`, :func:`advance` and :func:`note`; by default these
+only log. The command line installs a reporter (a rich progress bar on a terminal, plain
+lines otherwise) with :func:`reporting`. A module-level reporter (not a context variable) is
+used on purpose: Prefect may run a task in another thread.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import sys
+import threading
+from typing import Iterator
+
+logger = logging.getLogger("flows.progress")
+
+
+class Reporter:
+    """Base reporter: log lines only."""
+
+    def start(self, description: str, total: int) -> None:
+        logger.info("%s: %d to do", description, total)
+
+    def advance(self, count: int = 1, text: str | None = None) -> None:
+        if text:
+            logger.info("%s", text)
+
+    def note(self, text: str) -> None:
+        logger.info("%s", text)
+
+    def stop(self) -> None:
+        pass
+
+
+class LineReporter(Reporter):
+    """Plain progress lines on a stream (logs, CI, pipes)."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stderr
+        self.total = 0
+        self.done = 0
+        self.description = ""
+
+    def start(self, description: str, total: int) -> None:
+        self.description, self.total, self.done = description, total, 0
+        print(f"{description}: {total} to do", file=self.stream, flush=True)
+
+    def advance(self, count: int = 1, text: str | None = None) -> None:
+        self.done += count
+        suffix = f" ({text})" if text else ""
+        print(f"{self.description}: {self.done}/{self.total}{suffix}", file=self.stream,
+              flush=True)
+
+    def note(self, text: str) -> None:
+        print(text, file=self.stream, flush=True)
+
+
+class RichReporter(Reporter):
+    """A rich progress bar on a terminal."""
+
+    def __init__(self, console):
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeElapsedColumn)
+
+        self.console = console
+        self.progress = Progress(TextColumn("{task.description}"), BarColumn(),
+                                 MofNCompleteColumn(), TimeElapsedColumn(),
+                                 TextColumn("{task.fields[last]}"), console=console,
+                                 transient=False)
+        self.task = None
+        self.progress.start()
+
+    def start(self, description: str, total: int) -> None:
+        if self.task is not None:
+            self.progress.update(self.task, visible=True)
+        self.task = self.progress.add_task(description, total=max(total, 1), last="")
+
+    def advance(self, count: int = 1, text: str | None = None) -> None:
+        if self.task is not None:
+            self.progress.update(self.task, advance=count, last=text or "")
+
+    def note(self, text: str) -> None:
+        self.progress.console.print(text)
+
+    def stop(self) -> None:
+        self.progress.stop()
+
+
+_lock = threading.Lock()
+_current: Reporter = Reporter()
+
+
+def current() -> Reporter:
+    return _current
+
+
+def start(description: str, total: int) -> None:
+    with _lock:
+        _current.start(description, total)
+
+
+def advance(count: int = 1, text: str | None = None) -> None:
+    with _lock:
+        _current.advance(count, text)
+
+
+def note(text: str) -> None:
+    with _lock:
+        _current.note(text)
+
+
+@contextlib.contextmanager
+def reporting(reporter: Reporter) -> Iterator[Reporter]:
+    """Install ``reporter`` for the duration of the block."""
+    global _current
+    previous = _current
+    _current = reporter
+    try:
+        yield reporter
+    finally:
+        try:
+            reporter.stop()
+        finally:
+            _current = previous
+
+
+def for_stream(stream=None) -> Reporter:
+    """A rich bar when ``stream`` (default stderr) is a terminal, else plain lines."""
+    stream = stream or sys.stderr
+    if getattr(stream, "isatty", lambda: False)():
+        from rich.console import Console
+
+        return RichReporter(Console(file=stream))
+    return LineReporter(stream)

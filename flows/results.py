@@ -1,0 +1,207 @@
+"""What a run reports: per window, per asset, per run; and how errors are described.
+
+Statuses of an asset in a run:
+
+``ok``            every pending window processed and committed
+``failed``        stopped by an error (its ``error`` says why, with file and row for bad
+                  telemetry); windows before the error are committed, the rest wait
+``no baseline``   nothing to compare with yet: fit and promote a baseline (skipped, not a
+                  failure)
+``up to date``    no new whole window since the watermark
+``no telemetry``  listed in fleet.toml or on the command line but no data in the store
+"""
+from __future__ import annotations
+
+import errno
+import logging
+from dataclasses import asdict, dataclass, field
+
+import pandas as pd
+
+logger = logging.getLogger(__name__)
+
+OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
+    "ok", "failed", "no baseline", "up to date", "no telemetry")
+STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY)
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class TransientError(RuntimeError):
+    """A transient failure (registry unreachable or locked, I/O hiccup) that stopped a batch;
+    the batch task is retried."""
+
+
+@dataclass
+class ErrorInfo:
+    """Why an asset failed: the message, and for bad telemetry its kind, file and row."""
+
+    message: str
+    type: str
+    kind: str | None = None
+    file: str | None = None
+    row: int | None = None
+    window_start: str | None = None
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict | None) -> "ErrorInfo | None":
+        return None if data is None else cls(**data)
+
+
+def describe_error(error: BaseException, window_start=None) -> ErrorInfo:
+    """An :class:`ErrorInfo` for an exception (TelemetryError keeps kind, file and row)."""
+    from graybox.exceptions import TelemetryError
+
+    start = None if window_start is None else pd.Timestamp(window_start).isoformat()
+    if isinstance(error, TelemetryError):
+        return ErrorInfo(str(error), type(error).__name__, error.kind, error.file, error.row,
+                         start)
+    text = str(error) or type(error).__name__
+    return ErrorInfo(text, type(error).__name__, None, None, None, start)
+
+
+def is_transient(error: BaseException) -> bool:
+    """Whether retrying could help: the registry or a file system was briefly unavailable.
+
+    Data and configuration errors (GrayBoxError, RegistryError, ConfigError, ValueError) are
+    never transient; neither are missing files or permissions.
+    """
+    from graybox.exceptions import GrayBoxError
+    from registry.exceptions import RegistryError
+    from registry.store import is_locked_error
+
+    if isinstance(error, TransientError):
+        return True
+    if isinstance(error, (GrayBoxError, RegistryError, ValueError, TypeError, KeyError)):
+        return False
+    if is_locked_error(error):
+        return True
+    if isinstance(error, (ConnectionError, TimeoutError)):
+        return True
+    if isinstance(error, OSError):
+        return error.errno not in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR,
+                                   errno.ENOTDIR, errno.EROFS)
+    try:
+        from mlflow.exceptions import MlflowException
+        from mlflow.protos import databricks_pb2
+    except ImportError:  # pragma: no cover
+        return False
+    if isinstance(error, MlflowException):
+        transient_codes = {databricks_pb2.ErrorCode.Name(code) for code in (
+            databricks_pb2.INTERNAL_ERROR, databricks_pb2.TEMPORARILY_UNAVAILABLE,
+            databricks_pb2.REQUEST_LIMIT_EXCEEDED, databricks_pb2.IO_ERROR)}
+        return error.error_code in transient_codes
+    return False
+
+
+@dataclass
+class WindowResult:
+    """One committed window of an asset."""
+
+    window_start: str
+    window_end: str
+    version: int | None
+    run_id: str
+    alarm: bool
+    max_ratio: float | None
+    created: bool
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class AssetResult:
+    """One asset's outcome in a run."""
+
+    asset_id: str
+    vehicle_class: str
+    status: str
+    windows: list[WindowResult] = field(default_factory=list)
+    watermark_before: str | None = None
+    watermark_after: str | None = None
+    baseline_version: int | None = None
+    error: ErrorInfo | None = None
+    alerts: list[dict] = field(default_factory=list)
+    note: str | None = None
+
+    @property
+    def failed(self) -> bool:
+        return self.status == FAILED
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["error"] = None if self.error is None else self.error.to_dict()
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "AssetResult":
+        data = dict(data)
+        data["windows"] = [WindowResult(**w) for w in data.get("windows", [])]
+        data["error"] = ErrorInfo.from_dict(data.get("error"))
+        return cls(**data)
+
+    def reason(self) -> str:
+        """One line: why it failed, or its note."""
+        if self.error is not None:
+            return self.error.message
+        return self.note or ""
+
+
+@dataclass
+class RunSummary:
+    """A run of a flow over the fleet (``nightly``, ``baseline`` or ``reanalyze``)."""
+
+    flow: str
+    started: str
+    finished: str | None = None
+    as_of: str | None = None
+    assets: list[AssetResult] = field(default_factory=list)
+    unmatched: list[str] = field(default_factory=list)
+    config: str | None = None
+    tracking_uri: str | None = None
+    flow_run_id: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def failed(self) -> list[AssetResult]:
+        return [a for a in self.assets if a.failed]
+
+    @property
+    def alerts(self) -> list[dict]:
+        return [alert for a in self.assets for alert in a.alerts]
+
+    @property
+    def exit_status(self) -> int:
+        """0 when every asset was processed (or had nothing to do), 1 when some failed."""
+        return EXIT_FAILED if self.failed else EXIT_OK
+
+    def counts(self) -> dict[str, int]:
+        out = {status: 0 for status in STATUSES}
+        for a in self.assets:
+            out[a.status] = out.get(a.status, 0) + 1
+        return out
+
+    def to_dict(self) -> dict:
+        return {"flow": self.flow, "started": self.started, "finished": self.finished,
+                "as_of": self.as_of, "config": self.config, "tracking_uri": self.tracking_uri,
+                "flow_run_id": self.flow_run_id, "exit_status": self.exit_status,
+                "counts": self.counts(), "unmatched_assets": list(self.unmatched),
+                "assets": [a.to_dict() for a in self.assets], "alerts": self.alerts,
+                **({"extra": self.extra} if self.extra else {})}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "RunSummary":
+        return cls(flow=data["flow"], started=data["started"], finished=data.get("finished"),
+                   as_of=data.get("as_of"),
+                   assets=[AssetResult.from_dict(a) for a in data.get("assets", [])],
+                   unmatched=list(data.get("unmatched_assets", [])), config=data.get("config"),
+                   tracking_uri=data.get("tracking_uri"), flow_run_id=data.get("flow_run_id"),
+                   extra=dict(data.get("extra", {})))
+
+
+def now_iso() -> str:
+    return pd.Timestamp.now(tz="UTC").isoformat(timespec="seconds")

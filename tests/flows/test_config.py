@@ -1,0 +1,158 @@
+"""fleet.toml: loading, defaults, paths, and errors that name the key."""
+from __future__ import annotations
+
+import pathlib
+
+import pytest
+
+from flows.config import ConfigError, load_config, render_config
+
+MINIMAL = '''
+[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+assets = ["T-*"]
+columns = { omega = "shaft_speed" }
+'''
+
+
+def write(tmp_path: pathlib.Path, text: str) -> pathlib.Path:
+    path = tmp_path / "fleet.toml"
+    path.write_text(text)
+    return path
+
+
+def test_minimal_file_gets_the_documented_defaults(tmp_path):
+    config = load_config(write(tmp_path, MINIMAL))
+    assert config.telemetry_root == (tmp_path / "telemetry").resolve()
+    assert config.tracking_uri == f"sqlite:///{(tmp_path / 'mlflow.db').resolve()}"
+    assert config.alerts.false_alarm_rate == 0.01
+    assert config.alerts.jsonl == (tmp_path / "alerts.jsonl").resolve()
+    assert (config.nightly.batch_size, config.nightly.window, config.nightly.plots) == \
+        (64, "1D", "alarms")
+    assert (config.schedule.cron, config.schedule.timezone) == ("30 2 * * *", "UTC")
+    turbine = config.classes["turbine"]
+    assert turbine.matches("T-001") and not turbine.matches("P-001")
+    model = turbine.load_model()
+    assert model.required_columns == ("shaft_speed", "fuel_rate")
+
+
+def test_full_file(tmp_path):
+    config = load_config(write(tmp_path, '''
+[telemetry]
+root = "data/telemetry"
+[mlflow]
+tracking_uri = "http://mlflow.example:5000"
+[alerts]
+false_alarm_rate = 0.001
+jsonl = "out/alerts.jsonl"
+major_ratio = 3.0
+critical_ratio = 10.0
+[nightly]
+batch_size = 16
+window = "6h"
+plots = "none"
+retries = 0
+retry_delay_seconds = 5
+[schedule]
+cron = "0 3 * * 1-5"
+timezone = "Europe/Berlin"
+[notifications]
+block = "slack-webhook/fleet"
+[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+parameters = { inertia = 10.0 }
+assets = ["T-*", "SPARE-1"]
+columns = { omega = "shaft_speed" }
+settings = { hidden_units = 4, max_ar_order = 10, network = { max_iter = 50 } }
+grid = { sample_interval = 10.0, max_fill = 5 }
+[classes.drive]
+model = "graybox.models:LangevinShaft"
+assets = ["D-*"]
+'''))
+    assert config.tracking_uri == "http://mlflow.example:5000"
+    assert config.telemetry_root == (tmp_path / "data" / "telemetry").resolve()
+    assert list(config.classes) == ["turbine", "drive"]
+    turbine = config.classes["turbine"]
+    assert turbine.settings.hidden_units == 4 and turbine.settings.network.max_iter == 50
+    assert turbine.grid.sample_interval == 10.0 and turbine.grid.max_fill == 5
+    assert turbine.explicit_assets() == ("SPARE-1",)
+    assert turbine.load_model().parameters["inertia"] == 10.0
+    assert config.nightly.window == "6h" and config.notifications.block == "slack-webhook/fleet"
+    assert config.class_of("D-7").name == "drive" and config.class_of("X-1") is None
+
+
+@pytest.mark.parametrize("text, where", [
+    (MINIMAL.replace('model = ', 'modle = '), "fleet.toml: classes.turbine.modle: unknown key"),
+    (MINIMAL.replace('"graybox.models:GasTurbineShaft"', '"graybox.models:NoSuchModel"'),
+     "fleet.toml: classes.turbine.model: "),
+    (MINIMAL.replace('"graybox.models:GasTurbineShaft"', '"not a spec"'),
+     "fleet.toml: classes.turbine.model: "),
+    (MINIMAL.replace('assets = ["T-*"]', 'assets = []'), "fleet.toml: classes.turbine.assets: "),
+    (MINIMAL.replace('assets = ["T-*"]', 'assets = ["../etc"]'),
+     "fleet.toml: classes.turbine.assets[0]: "),
+    (MINIMAL.replace('assets = ["T-*"]\n', ''), "fleet.toml: classes.turbine.assets: missing"),
+    (MINIMAL.replace('model = "graybox.models:GasTurbineShaft"\n', ''),
+     "fleet.toml: classes.turbine.model: missing"),
+    (MINIMAL.replace('omega = "shaft_speed"', 'speed = "shaft_speed"'),
+     "fleet.toml: classes.turbine.columns: "),
+    (MINIMAL + 'parameters = { gama = 0.1 }\n', "fleet.toml: classes.turbine.parameters: "),
+    (MINIMAL + 'parameters = { inertia = "big" }\n',
+     "fleet.toml: classes.turbine.parameters.inertia: must be a finite number"),
+    (MINIMAL + 'settings = { hiden_units = 3 }\n',
+     "fleet.toml: classes.turbine.settings.hiden_units: unknown setting"),
+    (MINIMAL + 'settings = { residual = "magic" }\n', "fleet.toml: classes.turbine.settings: "),
+    (MINIMAL + 'settings = { network = { iters = 3 } }\n',
+     "fleet.toml: classes.turbine.settings.network.iters: unknown setting"),
+    (MINIMAL + 'grid = { max_fill = -1 }\n', "fleet.toml: classes.turbine.grid: "),
+    (MINIMAL + 'grid = { fill = 1 }\n', "fleet.toml: classes.turbine.grid.fill: unknown setting"),
+    ("[alerts]\nfalse_alarm_rate = 1.5\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
+    ("[alerts]\nfalse_alarm_rate = true\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
+    ("[alerts]\nmajor_ratio = 9.0\n" + MINIMAL, "fleet.toml: alerts: need 1 <= major_ratio"),
+    ("[nightly]\nbatch_size = 0\n" + MINIMAL, "fleet.toml: nightly.batch_size: "),
+    ("[nightly]\nwindow = \"7h\"\n" + MINIMAL, "fleet.toml: nightly.window: "),
+    ("[nightly]\nwindow = \"soon\"\n" + MINIMAL, "fleet.toml: nightly.window: "),
+    ("[nightly]\nplots = \"some\"\n" + MINIMAL, "fleet.toml: nightly.plots: "),
+    ("[schedule]\ncron = \"every night\"\n" + MINIMAL, "fleet.toml: schedule.cron: "),
+    ("[schedule]\ntimezone = \"Mars/Olympus\"\n" + MINIMAL, "fleet.toml: schedule.timezone: "),
+    ("[mlflow]\ntracking_uri = \"mlflow.db\"\n" + MINIMAL, "fleet.toml: mlflow.tracking_uri: "),
+    ("[notifications]\nblock = \"slack\"\n" + MINIMAL, "fleet.toml: notifications.block: "),
+    ("[telemetry]\nroot = 3\n" + MINIMAL, "fleet.toml: telemetry.root: "),
+    ("[telemtry]\nroot = \"x\"\n" + MINIMAL, "fleet.toml: telemtry: unknown key"),
+    ("[telemetry]\nroot = \"x\"\n", "fleet.toml: classes: missing table"),
+    ("classes = 3\n", "fleet.toml: classes: must be a table"),
+    ("[classes.\"bad name\"]\nmodel = \"x:y\"\n", "fleet.toml: classes.bad name: "),
+    ("[classes\n", "fleet.toml: not valid TOML"),
+])
+def test_errors_name_the_key(tmp_path, text, where):
+    with pytest.raises(ConfigError) as error:
+        load_config(write(tmp_path, text))
+    message = str(error.value)
+    assert where in message, message
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match="no such configuration file"):
+        load_config(tmp_path / "nope.toml")
+
+
+def test_overlapping_classes_are_a_configuration_error(tmp_path):
+    config = load_config(write(tmp_path, MINIMAL + '''
+[classes.other]
+model = "graybox.models:LangevinShaft"
+assets = ["T-00*"]
+'''))
+    assert config.class_of("T-100").name == "turbine"
+    with pytest.raises(ConfigError, match="matches more than one vehicle class"):
+        config.class_of("T-001")
+
+
+def test_rendered_config_loads(tmp_path):
+    config = load_config(write(tmp_path, render_config()))
+    assert config.classes["turbine"].assets == ("T-*",)
+    assert config.nightly.plots == "alarms"
+
+
+def test_tracking_uri_override(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    config = load_config(write(tmp_path, MINIMAL)).with_tracking_uri("sqlite:///other.db")
+    assert config.tracking_uri == f"sqlite:///{(tmp_path / 'other.db').resolve()}"
