@@ -1,0 +1,133 @@
+"""Tables of a run: rows for the Prefect table artifacts and rich tables for the terminal."""
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from flows.results import FAILED, RunSummary
+
+
+def _when(value: str | None, fmt: str = "%Y-%m-%d %H:%M") -> str:
+    return "" if not value else pd.Timestamp(value).strftime(fmt)
+
+
+def window_label(start: str, end: str) -> str:
+    """``2026-01-07`` for a whole UTC day, else ``2026-01-07 06:00 → 12:00``."""
+    s, e = pd.Timestamp(start), pd.Timestamp(end)
+    if s == s.normalize() and e - s == pd.Timedelta(days=1):
+        return s.strftime("%Y-%m-%d")
+    if s.normalize() == (e - pd.Timedelta(microseconds=1)).normalize():
+        return f"{s:%Y-%m-%d %H:%M} → {e:%H:%M}"
+    return f"{s:%Y-%m-%d %H:%M} → {e:%Y-%m-%d %H:%M}"
+
+
+def _ratio(value) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    return "inf" if math.isinf(value) else f"{value:.2f}"
+
+
+def hint(alert: dict, count: int = 3) -> str:
+    """The parameters that moved most, e.g. ``a1 0.912→1.04, a2 ...``."""
+    return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
+                     for c in (alert.get("top_changes") or [])[:count])
+
+
+def fleet_rows(summary: RunSummary) -> list[dict]:
+    """One row per asset (the fleet table)."""
+    rows = []
+    for a in summary.assets:
+        ratios = [w.max_ratio for w in a.windows if w.max_ratio is not None]
+        rows.append({
+            "asset": a.asset_id, "class": a.vehicle_class, "status": a.status,
+            "windows": len(a.windows), "alarmed": sum(1 for w in a.windows if w.alarm),
+            "max ratio": _ratio(max(ratios)) if ratios else "",
+            "baseline": f"v{a.baseline_version}" if a.baseline_version else "",
+            "watermark": _when(a.watermark_after),
+            "reason": a.reason()})
+    return rows
+
+
+def alert_rows(alerts: list[dict]) -> list[dict]:
+    """One row per alert (asset, window, tier, channel): the alert table."""
+    rows = []
+    for alert in sorted(alerts, key=lambda a: (a["window_start"], a["asset_id"],
+                                               -(a.get("ratio") or 0))):
+        rows.append({"asset": alert["asset_id"],
+                     "night": window_label(alert["window_start"], alert["window_end"]),
+                     "tier": alert["tier"], "channel": alert["channel"],
+                     "zeta/epsilon": _ratio(alert.get("ratio")),
+                     "severity": alert["severity"], "moved most": hint(alert)})
+    return rows
+
+
+def publish_artifacts(summary: RunSummary, config=None) -> None:
+    """The night's fleet table (and alert table) as Prefect table artifacts."""
+    from prefect.artifacts import create_table_artifact
+
+    counts = summary.counts()
+    stamp = _when(summary.as_of)
+    description = (f"**fleet-health {summary.flow}** as of {stamp} UTC: "
+                   + ", ".join(f"{n} {status}" for status, n in counts.items() if n)
+                   + f"; {len(summary.alerts)} alert(s).")
+    if summary.unmatched:
+        description += (f" {len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
+                        f"class: {', '.join(summary.unmatched[:20])}.")
+    create_table_artifact(fleet_rows(summary), key=f"fleet-health-{summary.flow}",
+                          description=description)
+    if summary.alerts:
+        create_table_artifact(alert_rows(summary.alerts), key=f"fleet-health-{summary.flow}-alerts",
+                              description=f"Alerts of the fleet-health {summary.flow} run as of "
+                                          f"{stamp} UTC (zeta above its calibrated epsilon).")
+
+
+# -- rich -----------------------------------------------------------------------------------
+
+def fleet_table(summary: RunSummary, title: str | None = None):
+    from rich.table import Table
+
+    rows = fleet_rows(summary)
+    table = Table(title=title or f"Fleet ({len(rows)} assets)", title_justify="left")
+    for column in ("asset", "class", "status", "windows", "alarmed", "max ratio", "baseline",
+                   "watermark", "reason"):
+        table.add_column(column, no_wrap=column != "reason",
+                         justify="right" if column in ("windows", "alarmed", "max ratio")
+                         else "left")
+    styles = {"ok": "green", FAILED: "bold red", "no baseline": "yellow"}
+    for row in rows:
+        status = row["status"]
+        style = styles.get(status)
+        cells = [str(row[c]) for c in ("asset", "class")]
+        cells.append(f"[{style}]{status}[/]" if style else status)
+        alarmed = str(row["alarmed"]) if row["alarmed"] else ""
+        if alarmed:
+            alarmed = f"[bold red]{alarmed}[/]"
+        cells += [str(row["windows"]), alarmed, row["max ratio"], row["baseline"],
+                  row["watermark"], _escape(row["reason"])]
+        table.add_row(*cells)
+    return table
+
+
+def alert_table(alerts: list[dict], title: str | None = None):
+    from rich.table import Table
+
+    rows = alert_rows(alerts)
+    table = Table(title=title or f"Alerts ({len(rows)})", title_justify="left")
+    for column in ("asset", "night", "tier", "channel", "zeta/epsilon", "severity",
+                   "moved most"):
+        table.add_column(column, no_wrap=column != "moved most",
+                         justify="right" if column == "zeta/epsilon" else "left")
+    styles = {"critical": "bold red", "major": "red", "minor": "yellow"}
+    for row in rows:
+        style = styles.get(row["severity"], "")
+        table.add_row(row["asset"], row["night"], row["tier"], row["channel"],
+                      row["zeta/epsilon"], f"[{style}]{row['severity']}[/]" if style
+                      else row["severity"], _escape(row["moved most"]))
+    return table
+
+
+def _escape(text: str) -> str:
+    from rich.markup import escape
+
+    return escape(text or "")

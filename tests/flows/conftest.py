@@ -1,0 +1,158 @@
+"""Fixtures of the flow tests: one small simulated fleet, one Prefect test harness and one
+store with promoted baselines per session; a fresh copy of that store per test.
+
+The fleet: 5 gas-turbine vehicles over 6 days at 30 s (2,880 samples a day); T-002 gets a
+sensor-noise fault (x2) from the start of day 4 and T-004 blade flutter (nonlinear 0.5) from
+the start of day 5. Baselines are fitted on days 1-3; the nights to process are days 4-6.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sqlite3
+import tempfile
+
+# Prefect reads its settings on import: isolate its home before anything imports it
+os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="fleet-health-test-prefect-")
+os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "WARNING")
+os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
+os.environ.setdefault("FLEET_HEALTH_CODE_VERSION", "test")
+
+import pathlib  # noqa: E402
+from types import SimpleNamespace  # noqa: E402
+
+import pandas as pd  # noqa: E402
+import pytest  # noqa: E402
+
+from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day  # noqa: E402
+
+
+def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
+                 plots: str = "none", retries: int = 2, batch_size: int = 64,
+                 extra: str = "") -> pathlib.Path:
+    path.write_text(f'''
+[telemetry]
+root = "{telemetry}"
+[mlflow]
+tracking_uri = "sqlite:///{db}"
+[alerts]
+false_alarm_rate = 0.01
+jsonl = "alerts.jsonl"
+[nightly]
+batch_size = {batch_size}
+plots = "{plots}"
+retries = {retries}
+retry_delay_seconds = 0
+[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+assets = ["T-*"]
+columns = {{ omega = "shaft_speed" }}
+{extra}
+''')
+    return path
+
+
+@pytest.fixture(scope="session")
+def harness():
+    """One Prefect test server for the session (it takes seconds to start)."""
+    from prefect.testing.utilities import prefect_test_harness
+
+    with prefect_test_harness(server_startup_timeout=120):
+        yield
+
+
+@pytest.fixture(scope="session")
+def fleet(tmp_path_factory):
+    """The simulated fleet's telemetry (read-only: copy it before corrupting it)."""
+    from flows.demo import simulated_fleet, write_simulation
+    from graybox.simulator import Fault
+
+    root = tmp_path_factory.mktemp("fleet") / "telemetry"
+    faults = [(asset, Fault(kind, onset, magnitude))
+              for asset, (kind, onset, magnitude) in FAULTY.items()]
+    spec = simulated_fleet(len(ASSETS), DAYS, seed=7, sample_interval=30.0, faults=faults)
+    write_simulation(spec, root)
+    return SimpleNamespace(root=root, spec=spec)
+
+
+@pytest.fixture(scope="session")
+def baselined(tmp_path_factory, harness, fleet):
+    """A store whose assets all have a promoted baseline of days 1-3 (via the baseline flow)."""
+    from flows.baseline import baseline
+
+    directory = tmp_path_factory.mktemp("baselined")
+    db = directory / "mlflow.db"
+    config = write_config(directory / "fleet.toml", fleet.root, db, plots="none")
+    state = baseline(start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
+                     config_path=str(config), vehicle_class="turbine", promote=True,
+                     reason="healthy days 1-3", return_state=True)
+    assert state.is_completed(), state.message
+    summary = state.result()
+    connection = sqlite3.connect(db)
+    connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    connection.close()
+    return SimpleNamespace(db=db, summary=summary, directory=directory)
+
+
+@pytest.fixture
+def workspace(tmp_path, baselined, fleet):
+    """A fresh copy of the baselined store, a fleet.toml and an alerts file for one test."""
+    store = tmp_path / "store"
+    store.mkdir()
+    shutil.copy(baselined.db, store / "mlflow.db")
+    config = write_config(tmp_path / "fleet.toml", fleet.root, store / "mlflow.db")
+
+    def configure(**kwargs):
+        return write_config(tmp_path / "fleet.toml", kwargs.pop("telemetry", fleet.root),
+                            store / "mlflow.db", **kwargs)
+
+    def registry():
+        from registry import Registry
+
+        return Registry(f"sqlite:///{store / 'mlflow.db'}")
+
+    return SimpleNamespace(path=tmp_path, config=config, db=store / "mlflow.db",
+                           uri=f"sqlite:///{store / 'mlflow.db'}", configure=configure,
+                           registry=registry, alerts=tmp_path / "alerts.jsonl")
+
+
+@pytest.fixture
+def corrupt(tmp_path, fleet):
+    """``corrupt(asset, day_index, how)``: a copy of the telemetry with one file broken
+    (``"nan"``: a NaN shaft speed in row 100; ``"backward"``: row 200's timestamp before row
+    199's). Returns (telemetry root, the broken file)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    root = tmp_path / "telemetry"
+    shutil.copytree(fleet.root, root)
+
+    def apply(asset: str, day_index: int, how: str = "nan"):
+        path = (root / f"asset_id={asset}" / f"date={day(day_index):%Y-%m-%d}"
+                / "part-0.parquet")
+        frame = pq.read_table(path).to_pandas()
+        if how == "nan":
+            frame.loc[100, "shaft_speed"] = float("nan")
+        elif how == "backward":
+            frame.loc[200, "timestamp"] = frame.loc[199, "timestamp"] - pd.Timedelta(seconds=5)
+        else:
+            raise ValueError(how)
+        pq.write_table(pa.Table.from_pandas(frame, preserve_index=False), path)
+        return root, path
+
+    return apply
+
+
+@pytest.fixture
+def count():
+    """``count(registry)``: active runs, model versions and registry alerts of a store."""
+    def counts(registry) -> dict:
+        client = registry.backend.client
+        experiments = registry.backend.experiment_ids()
+        runs = (list(registry.backend.paged(client.search_runs, experiments, ""))
+                if experiments else [])
+        versions = list(registry.backend.paged(client.search_model_versions, ""))
+        return {"runs": len(runs), "versions": len(versions),
+                "alerts": len(registry.alerts())}
+    return counts

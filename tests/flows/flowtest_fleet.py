@@ -1,0 +1,16 @@
+"""The small simulated fleet the flow tests share (constants and helpers)."""
+from __future__ import annotations
+
+import pandas as pd
+
+START = pd.Timestamp("2026-01-01", tz="UTC")
+DAYS = 6
+BASELINE_DAYS = 3
+ASSETS = ("T-001", "T-002", "T-003", "T-004", "T-005")
+#: asset -> (fault kind, onset day, magnitude): noise x2 from day 4, flutter from day 5
+FAULTY = {"T-002": ("noise", 3.0, 1.0), "T-004": ("nonlinear", 4.0, 0.5)}
+
+
+def day(i: int) -> pd.Timestamp:
+    """Midnight (UTC) starting day ``i`` of the fleet (0-based)."""
+    return START + pd.Timedelta(days=i)

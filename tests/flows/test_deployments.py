@@ -1,0 +1,103 @@
+"""Deployments (prefect.yaml and `serve`) and the notification hook."""
+from __future__ import annotations
+
+import pathlib
+from types import SimpleNamespace
+
+import yaml
+
+from flows.config import load_config
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def test_prefect_yaml_is_valid_and_its_entrypoints_are_flows():
+    from prefect.cli.deploy._models import PrefectYamlModel
+    from prefect.flows import Flow, load_flow_from_entrypoint
+
+    data = yaml.safe_load((ROOT / "prefect.yaml").read_text())
+    model = PrefectYamlModel.model_validate(data)
+    by_name = {d.name: d for d in model.deployments}
+    assert set(by_name) == {"nightly", "baseline", "reanalyze"}
+    assert by_name["nightly"].entrypoint == "flows/nightly.py:nightly"
+    (schedule,) = by_name["nightly"].schedules
+    assert schedule.cron == "30 2 * * *" and schedule.timezone == "UTC"
+    for deployment in model.deployments:
+        assert deployment.parameters["config_path"] == "fleet.toml"
+        path, name = deployment.entrypoint.split(":")
+        flow = load_flow_from_entrypoint(str(ROOT / path) + ":" + name)
+        assert isinstance(flow, Flow) and flow.name.startswith("fleet-health-")
+        assert "config_path" in flow.parameters.properties
+
+
+def test_serve_builds_the_deployments_from_the_configuration(tmp_path):
+    from flows.serve import build_deployments
+
+    (tmp_path / "fleet.toml").write_text('''
+[schedule]
+cron = "15 1 * * *"
+timezone = "Europe/Berlin"
+[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+assets = ["T-*"]
+columns = { omega = "shaft_speed" }
+''')
+    config = load_config(tmp_path / "fleet.toml")
+    nightly, baseline, reanalyze = build_deployments(config)
+    assert nightly.name == "nightly" and nightly.entrypoint.endswith("flows/nightly.py:nightly")
+    (schedule,) = nightly.schedules
+    assert schedule.schedule.cron == "15 1 * * *"
+    assert schedule.schedule.timezone == "Europe/Berlin"
+    assert nightly.parameters == {"config_path": str(config.path)}
+    assert not baseline.schedules and not reanalyze.schedules
+    assert reanalyze.entrypoint.endswith("flows/reanalyze.py:reanalyze")
+
+
+def test_notification_message():
+    from flows.hooks import compose_message
+
+    quiet = {"alerts": [], "assets": [{"asset_id": "T-1", "status": "ok"}]}
+    assert compose_message("nightly", quiet, "Completed", None) is None
+    summary = {"alerts": [{"asset_id": "T-2", "window_start": "2026-01-05T00:00:00+00:00",
+                           "channel": "omega", "tier": "noise", "ratio": 7.5,
+                           "severity": "critical"}],
+               "assets": [{"asset_id": "T-3", "status": "failed",
+                           "error": {"message": "asset 'T-3', file f, row 9: NaN"}}]}
+    subject, body = compose_message("nightly", summary, "Failed", "1 of 3 assets failed")
+    assert "1 alert(s), 1 failure(s)" in subject
+    assert "T-2 2026-01-05 omega/noise: zeta/epsilon 7.50 (critical)" in body
+    assert "T-3: asset 'T-3', file f, row 9: NaN" in body
+    subject, body = compose_message("nightly", None, "Crashed", "killed")
+    assert "crashed" in subject and "killed" in body
+
+
+def test_notify_hook_sends_to_the_configured_block(tmp_path, monkeypatch):
+    from prefect.blocks.core import Block
+
+    from flows.hooks import notify_hook
+
+    (tmp_path / "fleet.toml").write_text('''
+[notifications]
+block = "slack-webhook/fleet"
+[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+assets = ["T-*"]
+columns = { omega = "shaft_speed" }
+''')
+    sent = []
+
+    class FakeBlock:
+        def notify(self, body, subject=None):
+            sent.append((subject, body))
+
+    monkeypatch.setattr(Block, "load", classmethod(lambda cls, slug, **kw: FakeBlock()))
+    summary = {"alerts": [], "assets": [{"asset_id": "T-3", "status": "failed",
+                                         "error": {"message": "bad"}}]}
+    state = SimpleNamespace(name="Failed", message="1 failed",
+                            result=lambda raise_on_failure=False: summary)
+    run = SimpleNamespace(parameters={"config_path": str(tmp_path / "fleet.toml")})
+    notify_hook(SimpleNamespace(name="fleet-health-nightly"), run, state)
+    assert len(sent) == 1 and "T-3: bad" in sent[0][1]
+    # a broken notification never raises
+    monkeypatch.setattr(Block, "load", classmethod(lambda cls, slug, **kw: 1 / 0))
+    notify_hook(SimpleNamespace(name="fleet-health-nightly"), run, state)
