@@ -104,12 +104,18 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
         asset = ref.asset_id
         try:
             watermark = registry.watermark(asset)
+            before = None if watermark is None else watermark.isoformat()
+            if watermark is not None and not pending_windows(
+                    list_dates(config.telemetry_root, asset), watermark, as_of, window):
+                # nothing new: no need to load the baseline
+                results[asset] = AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
+                                             watermark_before=before, watermark_after=before)
+                continue
             loaded = registry.baseline(asset)
         except Exception as error:  # noqa: BLE001 - one asset never stops the batch
             _guard(error, ref, "loading its baseline")
             results[asset] = _failed(ref, error)
             continue
-        before = None if watermark is None else watermark.isoformat()
         if loaded is None:
             results[asset] = AssetResult(asset, ref.vehicle_class, NO_BASELINE,
                                          watermark_before=before, watermark_after=before,
