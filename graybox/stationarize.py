@@ -170,11 +170,16 @@ def find_period(x: np.ndarray, max_period: int | None = None, min_cycles: int = 
     best = int(round(n / (k + offset)))
     if not 2 <= best <= limit:
         return 0
-    # a season repeats: the correlation must persist over min_cycles periods, which a
-    # stochastic resonance (a damped oscillation, e.g. an AR(2) with complex roots) does not
+    # A season repeats: the correlation must persist over min_cycles periods, which a
+    # stochastic resonance (a damped oscillation, e.g. an AR(2) with complex roots) does not.
+    # Components slower than the period are removed first (a moving average over two
+    # periods, which averages the season itself out): they would correlate every lag.
+    window = 2 * best
+    kernel = np.ones(window)
+    slow = np.convolve(detrended, kernel, "same") / np.convolve(np.ones(n), kernel, "same")
     lags = best * np.arange(1, min_cycles + 1)
     lags = lags[lags < n]
-    rho = autocorrelation(detrended, int(lags[-1]))
+    rho = autocorrelation(detrended - slow, int(lags[-1]))
     return best if np.min(rho[lags]) >= min_correlation else 0
 
 
