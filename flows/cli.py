@@ -188,6 +188,10 @@ def _run(args: argparse.Namespace) -> int:
 def add_baseline_group(subparsers) -> argparse.ArgumentParser:
     """The registry's ``baseline`` group plus ``baseline fit``."""
     parser = add_baseline_commands(subparsers)
+    parser.description = "Fit baselines from healthy ranges, review them and move the baseline."
+    for choice in subparsers._choices_actions:
+        if choice.dest == "baseline":
+            choice.help = "fit and review baselines: fit, list, history, promote, reject, rollback"
     commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     fit = commands.add_parser(
         "fit", help="fit calibrated baselines from a healthy range",

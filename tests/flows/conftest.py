@@ -17,7 +17,6 @@ os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="fleet-health-test-prefect-
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "WARNING")
 os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
-os.environ.setdefault("FLEET_HEALTH_CODE_VERSION", "test")
 
 import pathlib  # noqa: E402
 from types import SimpleNamespace  # noqa: E402
