@@ -119,12 +119,25 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
                                          window=[tw for _, _, tw in read.windows],
                                          window_start=first[0], window_end=last[1],
                                          plots=config.nightly.plots != "none")
-            note = f"v{record.version} is the candidate; review it, then promote it"
             version = None
             if promote:
                 info = registry.promote(asset, record.version, reason=reason)
                 note = f"v{info.version} promoted to baseline"
                 version = info.version
+            else:
+                model = registry.backend.registered_model(asset)
+                aliases = {k: int(v) for k, v in ((model.aliases or {}) if model else {}).items()}
+                if aliases.get("baseline") == record.version:
+                    note = f"v{record.version} (recorded before) is already the baseline"
+                    version = record.version
+                elif aliases.get("candidate") == record.version:
+                    note = (f"v{record.version} is the candidate; review it, then "
+                            f"`fleet-health baseline promote {asset} --version "
+                            f"{record.version} --reason ...`")
+                else:
+                    note = (f"v{record.version} (recorded before); promote it with "
+                            f"`fleet-health baseline promote {asset} --version "
+                            f"{record.version} --reason ...`")
         except Exception as error:  # noqa: BLE001
             if is_transient(error):
                 raise TransientError(f"asset {asset}: recording: {error}") from error

@@ -136,7 +136,8 @@ def _report_summary(args: argparse.Namespace, summary, title: str) -> int:
         elif summary.flow != "baseline":
             console.print("No alerts.")
         counts = ", ".join(f"{n} {status}" for status, n in summary.counts().items() if n)
-        console.print(f"{len(summary.assets)} assets: {counts or 'none'}.")
+        count = len(summary.assets)
+        console.print(f"{count} asset{'' if count == 1 else 's'}: {counts or 'none'}.")
         if summary.unmatched:
             console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                           f"class and were left alone: {', '.join(summary.unmatched[:20])}")

@@ -17,12 +17,15 @@ from flows.config import FleetConfig
 
 def build_deployments(config: FleetConfig, tracking_uri: str | None = None) -> list:
     """The three deployments for ``config`` (nightly scheduled on its cron)."""
+    from prefect.deployments.runner import EntrypointType
     from prefect.schedules import Cron
 
     from flows.baseline import baseline
     from flows.nightly import nightly
     from flows.reanalyze import reanalyze
 
+    # module entrypoints (flows.nightly.nightly) load wherever the package is installed
+    options = {"tags": ["fleet-health"], "entrypoint_type": EntrypointType.MODULE_PATH}
     common = {"config_path": str(config.path)}
     if tracking_uri:
         common["tracking_uri"] = tracking_uri
@@ -30,13 +33,13 @@ def build_deployments(config: FleetConfig, tracking_uri: str | None = None) -> l
         nightly.to_deployment(
             name="nightly", schedules=[Cron(config.schedule.cron,
                                             timezone=config.schedule.timezone)],
-            parameters=dict(common), tags=["fleet-health"],
+            parameters=dict(common), **options,
             description="Nightly fleet run: every asset's new telemetry against its baseline."),
         baseline.to_deployment(
-            name="baseline", parameters=dict(common), tags=["fleet-health"],
+            name="baseline", parameters=dict(common), **options,
             description="Fit calibrated baselines from a healthy range (start, end)."),
         reanalyze.to_deployment(
-            name="reanalyze", parameters=dict(common), tags=["fleet-health"],
+            name="reanalyze", parameters=dict(common), **options,
             description="Ad-hoc reanalysis of assets and a time range."),
     ]
 

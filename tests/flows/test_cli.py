@@ -146,7 +146,7 @@ def test_serve_dry_run_lists_the_deployments(workspace, capsys):
     status, out, _ = run(capsys, "--config", str(workspace.config), "serve", "--dry-run")
     assert status == 0
     assert "fleet-health-nightly/nightly" in out and "cron '30 2 * * *' (UTC)" in out
-    assert "flows/nightly.py:nightly" in out
+    assert "flows.nightly.nightly" in out
     assert "fleet-health-baseline/baseline" in out and "on demand" in out
 
 

@@ -44,13 +44,13 @@ columns = { omega = "shaft_speed" }
 ''')
     config = load_config(tmp_path / "fleet.toml")
     nightly, baseline, reanalyze = build_deployments(config)
-    assert nightly.name == "nightly" and nightly.entrypoint.endswith("flows/nightly.py:nightly")
+    assert nightly.name == "nightly" and nightly.entrypoint == "flows.nightly.nightly"
     (schedule,) = nightly.schedules
     assert schedule.schedule.cron == "15 1 * * *"
     assert schedule.schedule.timezone == "Europe/Berlin"
     assert nightly.parameters == {"config_path": str(config.path)}
     assert not baseline.schedules and not reanalyze.schedules
-    assert reanalyze.entrypoint.endswith("flows/reanalyze.py:reanalyze")
+    assert reanalyze.entrypoint == "flows.reanalyze.reanalyze"
 
 
 def test_notification_message():
