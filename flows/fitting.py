@@ -70,7 +70,7 @@ def grid_for(grid, signature):
 
 
 def fit_candidates(items: Sequence[tuple[Hashable, object]], chunk_size: int = 32) -> dict:
-    """Fit candidate requests in batches grouped by their baselines' settings.
+    """Fit candidate requests together (each with its own baseline's settings).
 
     Parameters
     ----------
@@ -82,19 +82,11 @@ def fit_candidates(items: Sequence[tuple[Hashable, object]], chunk_size: int = 3
     dict
         key -> Signature or GrayBoxError.
     """
-    from graybox.estimator import GrayBoxSettings, fit_signatures
+    from graybox.estimator import fit_signatures
 
-    groups: dict[str, list[tuple[Hashable, object]]] = {}
-    for key, request in items:
-        settings_key = json.dumps(request.baseline.settings, sort_keys=True, default=str)
-        groups.setdefault(settings_key, []).append((key, request))
-    out = {}
-    for members in groups.values():
-        settings = GrayBoxSettings.from_dict(members[0][1].baseline.settings)
-        results = fit_signatures([r for _, r in members], settings, chunk_size=chunk_size)
-        for (key, _), result in zip(members, results):
-            out[key] = result
-    return out
+    # each candidate is fitted with its own baseline's settings (graybox groups them)
+    results = fit_signatures([request for _, request in items], chunk_size=chunk_size)
+    return {key: result for (key, _), result in zip(items, results)}
 
 
 def fit_baseline_requests(items: Sequence[tuple[Hashable, object, object]],

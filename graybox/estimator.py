@@ -6,6 +6,7 @@ fit all their networks in batched computations (grouped by network shape).
 """
 from __future__ import annotations
 
+import json
 from dataclasses import asdict, dataclass, field, replace
 from typing import Sequence
 
@@ -19,7 +20,8 @@ from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.noise_tier import describe_noise
-from graybox.nonlinear_tier import FitSettings, NonlinearTier, fit_networks, lagged
+from graybox.nonlinear_tier import (FitSettings, NonlinearTier, fit_networks, initial_weights,
+                                    lagged)
 from graybox.residual import RESIDUAL_METHODS, infer_sample_interval, residual_frame
 from graybox.signature import (TIERS, ChannelSignature, ChannelStructure, Selection, Signature)
 from graybox.stationarize import choose_differencing
@@ -54,6 +56,12 @@ class GrayBoxSettings:
         Fewest residual samples per window after differencing and embedding.
     calibration_splits : int
         Pieces each healthy window is cut into for calibrating epsilon.
+    null_network : {"fixed_features", "trained"}
+        How a network is fitted where the baseline has no nonlinear structure to explain.
+        ``"fixed_features"``: the hidden layer stays at seeded random weights and only the
+        output weights are fitted (one minimum, so healthy zeta is stable). ``"trained"``:
+        every weight is fitted from the same seeded start (more sensitive to a nonlinearity
+        that appears, but a network fitted to noise can land in another shallow minimum).
     """
 
     residual: str = "one_step"
@@ -70,6 +78,7 @@ class GrayBoxSettings:
     nn_scale_factor: float = 4.0
     min_samples: int = 200
     calibration_splits: int = 8
+    null_network: str = "fixed_features"
 
     def __post_init__(self):
         if self.residual not in RESIDUAL_METHODS:
@@ -78,6 +87,9 @@ class GrayBoxSettings:
             raise ValueError(f"ar_criterion must be 'aic' or 'bic', got {self.ar_criterion!r}")
         if not 0 < self.holdout_fraction < 1:
             raise ValueError("holdout_fraction must be in (0, 1)")
+        if self.null_network not in ("fixed_features", "trained"):
+            raise ValueError(f"null_network must be 'fixed_features' or 'trained', "
+                             f"got {self.null_network!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -157,9 +169,6 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings) -> _Prepared:
     asset_id = request.asset_id or parts[0][2]
     baseline = request.baseline
     if baseline is not None:
-        if baseline.settings != settings.to_dict():
-            raise GrayBoxError("a candidate must be fitted with its baseline's settings "
-                               "(GrayBoxSettings.from_dict(baseline.settings))")
         if abs(baseline.sample_interval - interval) > 1e-9 * interval:
             raise GrayBoxError(f"baseline was sampled every {baseline.sample_interval} s, "
                                f"this telemetry every {interval} s")
@@ -248,16 +257,19 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
             members_now = [m for m in warm if m[2].structure.nonlinear_needed == needed]
             if not members_now:
                 continue
+            retrain = not needed and settings.null_network == "trained"
             problems, starts = [], []
             for item, _, channel in members_now:
-                # start from the reference's weights; without nonlinear structure its hidden
-                # layer is the seeded random features and only the output weights are fitted,
-                # a problem with one minimum, so the start only saves iterations
+                # a needed network starts from its reference's weights (the same basin); a null
+                # network with fixed features too (one minimum: the start only saves
+                # iterations); a trained null network starts where its baseline started
                 source = item.request.warm_start or item.request.baseline
                 problems.append(_design(channel.w_segments, channel.structure))
-                starts.append(source.channel(channel.name).nonlinear.weight_arrays())
+                starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
+                                              settings.network.init_scale) if retrain
+                              else source.channel(channel.name).nonlinear.weight_arrays())
             fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
-                                train_input_weights=needed)
+                                train_input_weights=needed or retrain)
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None,
                                                               fit.iterations)
@@ -300,7 +312,7 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
         fits = fit_networks(problems, hidden, None, settings.network,
                             random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
-                            train_input_weights=needed)
+                            train_input_weights=needed or settings.null_network == "trained")
         for i, fit in zip(chosen, fits):
             members[i][2].nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, gains[i],
                                                                 fit.iterations)
@@ -324,17 +336,20 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
                      item.window_start, item.window_end)
 
 
-def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings = GrayBoxSettings(),
+def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
                    chunk_size: int = 32) -> list[Signature | GrayBoxError]:
     """Fit many assets' signatures; all networks of a shape train in batched computations.
 
     Parameters
     ----------
     requests : sequence of FitRequest
-    settings : GrayBoxSettings
+    settings : GrayBoxSettings, optional
+        Settings of new baselines (default ``GrayBoxSettings()``). A candidate is always
+        fitted with its own baseline's settings, so one call can mix assets whose
+        baselines were fitted with different settings.
     chunk_size : int, default 32
-        Series per batched network computation (an execution detail: results do not depend
-        on it beyond float rounding).
+        Series per batched network computation (an execution detail: a series' result does
+        not depend on it).
 
     Returns
     -------
@@ -342,6 +357,23 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings = G
         Per request, its :class:`Signature`, or the :class:`GrayBoxError` that stopped it (one
         asset's bad data never stops the others).
     """
+    default = settings or GrayBoxSettings()
+    groups: dict[str, tuple[GrayBoxSettings, list[int]]] = {}
+    for position, request in enumerate(requests):
+        effective = (default if request.baseline is None
+                     else GrayBoxSettings.from_dict(request.baseline.settings))
+        key = json.dumps(effective.to_dict(), sort_keys=True)
+        groups.setdefault(key, (effective, []))[1].append(position)
+    results: list[Signature | GrayBoxError | None] = [None] * len(requests)
+    for effective, positions in groups.values():
+        for position, result in zip(positions, _fit_group([requests[p] for p in positions],
+                                                          effective, chunk_size)):
+            results[position] = result
+    return results
+
+
+def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
+               chunk_size: int) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     prepared, positions = [], []
     for position, request in enumerate(requests):
@@ -365,7 +397,7 @@ def _as_graybox_error(error: Exception, request: FitRequest) -> GrayBoxError:
     return GrayBoxError(f"asset {request.asset_id!r}: {type(error).__name__}: {error}")
 
 
-def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = GrayBoxSettings(),
+def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
                   false_alarm_rate: float = 0.01, chunk_size: int = 32
                   ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
@@ -382,6 +414,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings = Gr
     """
     if not 0 < false_alarm_rate < 1:
         raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
+    settings = settings or GrayBoxSettings()
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
     signatures = fit_signatures(fresh, settings, chunk_size)
     results: list = list(signatures)
@@ -511,9 +544,13 @@ class GrayBox:
         """
         windows = [windows] if isinstance(windows, pd.DataFrame) or hasattr(windows, "frame") else list(windows)
         settings = self.settings
-        if settings is None:
-            settings = (GrayBoxSettings() if self.baseline is None
-                        else GrayBoxSettings.from_dict(self.baseline.settings))
+        if self.baseline is not None:
+            if settings is not None and settings.to_dict() != self.baseline.settings:
+                raise GrayBoxError("a candidate must be fitted with its baseline's settings "
+                                   "(leave settings out, or GrayBoxSettings.from_dict("
+                                   "baseline.settings))")
+            settings = GrayBoxSettings.from_dict(self.baseline.settings)
+        settings = settings or GrayBoxSettings()
         request = FitRequest(self.model, windows, self.baseline, seed=self.random_state)
         self.calibration_ = None
         if self.baseline is None and self.calibrate:

@@ -24,7 +24,8 @@ class TelemetryError(GrayBoxError):
     kind : str
         A short machine-readable reason: ``"schema"``, ``"non_finite"``, ``"duplicate_timestamp"``,
         ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``, ``"too_few_samples"``,
-        ``"no_data"`` or ``"unreadable"``.
+        ``"no_data"``, ``"unreadable"`` (not valid Parquet) or ``"io_error"`` (the file system
+        failed to deliver the file: worth a retry).
     message : str
         What is wrong, in words.
     file : str or None

@@ -358,6 +358,14 @@ def _check_columns(columns) -> list[str]:
     return channels
 
 
+def _read_error(asset_id: str, file: str, error: Exception) -> TelemetryError:
+    """``"unreadable"`` for a file that is not valid Parquet; ``"io_error"`` when the file
+    system failed (permissions, a network share), which a retry may cure."""
+    if isinstance(error, OSError) and not isinstance(error, pa.ArrowException):
+        return TelemetryError(asset_id, "io_error", f"cannot read the file: {error}", file=file)
+    return TelemetryError(asset_id, "unreadable", f"cannot read Parquet: {error}", file=file)
+
+
 def _read_file(path: pathlib.Path, day: datetime.date, asset_id: str, channels: list[str],
                lo: int, hi: int):
     """Read one file; return (timestamps ns, values (n, c), original rows) of rows in [lo, hi)."""
@@ -366,8 +374,7 @@ def _read_file(path: pathlib.Path, day: datetime.date, asset_id: str, channels: 
         handle = pq.ParquetFile(path)
         schema = handle.schema_arrow
     except (pa.ArrowException, OSError) as error:
-        raise TelemetryError(asset_id, "unreadable", f"cannot read Parquet: {error}",
-                             file=file) from None
+        raise _read_error(asset_id, file, error) from None
     missing = [name for name in ["timestamp", *channels] if schema.get_field_index(name) < 0]
     if missing:
         raise TelemetryError(asset_id, "schema",
@@ -388,8 +395,7 @@ def _read_file(path: pathlib.Path, day: datetime.date, asset_id: str, channels: 
     try:
         table = handle.read(columns=["timestamp", *channels])
     except (pa.ArrowException, OSError) as error:
-        raise TelemetryError(asset_id, "unreadable", f"cannot read Parquet: {error}",
-                             file=file) from None
+        raise _read_error(asset_id, file, error) from None
     ts_col = table.column("timestamp")
     if ts_col.null_count:
         row = int(np.flatnonzero(ts_col.is_null().to_numpy(zero_copy_only=False))[0])

@@ -56,6 +56,9 @@ def test_candidate_uses_the_frozen_structure_and_settings(fleet, model, baseline
     with pytest.raises(GrayBoxError, match="baseline's settings"):
         GrayBox(model, baseline=baseline.signature_,
                 settings=GrayBoxSettings(hidden_units=4)).fit(fleet["A"][4])
+    mixed = fit_signatures([FitRequest(model, [fleet["A"][4]], baseline=baseline.signature_)],
+                           settings=GrayBoxSettings(hidden_units=4))[0]
+    assert mixed.settings == baseline.signature_.settings   # a candidate follows its baseline
 
 
 def test_batched_candidates_equal_candidates_fitted_alone(fleet, model, baseline):

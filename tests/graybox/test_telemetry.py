@@ -430,3 +430,30 @@ def test_grid_policy_rejects_bad_values():
                    {"stuck_samples": 1}, {"min_samples": 0}, {"min_samples": 2.5}):
         with pytest.raises(ValueError):
             GridPolicy(**kwargs)
+
+
+def test_a_file_the_file_system_cannot_deliver_is_an_io_error(tmp_path, monkeypatch):
+    """A failing file system (EIO on a network share) is "io_error", which a caller may retry;
+    a file that is not Parquet stays "unreadable"."""
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    from graybox.exceptions import TelemetryError
+    from graybox.telemetry import read_raw, write_telemetry
+
+    frame = pd.DataFrame({"timestamp": pd.date_range("2026-01-01", periods=3, freq="10s",
+                                                     tz="UTC"), "x": [1.0, 2.0, 3.0]})
+    path = write_telemetry(tmp_path, "A", frame)[0]
+
+    def failing_share(*args, **kwargs):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(pq, "ParquetFile", failing_share)
+    with pytest.raises(TelemetryError) as info:
+        read_raw(tmp_path, "A", ["x"])
+    assert info.value.kind == "io_error" and info.value.file == str(path)
+    monkeypatch.undo()
+    path.write_bytes(b"not parquet at all")
+    with pytest.raises(TelemetryError) as info:
+        read_raw(tmp_path, "A", ["x"])
+    assert info.value.kind == "unreadable"
