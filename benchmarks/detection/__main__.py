@@ -149,11 +149,12 @@ def main(argv=None) -> int:
     command = shlex.join(["python", "-m", "benchmarks.detection"]
                          + (list(argv) if argv is not None else sys.argv[1:]))
     print(f"[detection] {fault_summary(grid)}; {args.workers} workers", file=sys.stderr, flush=True)
+    commit = _commit()   # the code that runs (another commit may land while it runs)
     start = time.perf_counter()
     with LoadMonitor() as load:
         table, info = run_grid(grid, workers=args.workers, threads=args.threads)
     run = {"command": command, "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-           "commit": _commit(), "workers": min(args.workers, len(grid.seeds)), "threads": args.threads,
+           "commit": commit, "commit_at_end": _commit(), "workers": min(args.workers, len(grid.seeds)), "threads": args.threads,
            "cpus": os.cpu_count(), "load_note": load.note(min(args.workers, len(grid.seeds))),
            "versions": _versions(),
            "timings": info["timings"], "structures": info["structures"]}

@@ -11,8 +11,9 @@ from the same per-night *features* on 5-minute batches:
                 one-hour rolling mean and std (the first hour of every night is the warm-up).
 ``cusum_mean``  two-sided Page CUSUM (reference k = 0.5) on the standardized batch means
                 ``u_b = (mean_b(r) - M) / S``; the statistic is the night's largest CUSUM value.
-``cusum_var``   the same on the standardized batch mean squares of the standardized residual,
-                ``v_b = (mean_b(z^2) - Q) / R``, ``z = (r - mu0) / sigma0`` (a variance CUSUM).
+``cusum_var``   the same on the standardized log batch mean squares of the standardized
+                residual, ``v_b = (log mean_b(z^2) - Q) / R``, ``z = (r - mu0) / sigma0`` (a
+                variance CUSUM; the log makes the chi-square-like mean square near-Gaussian).
 ``glr``         generalized likelihood ratio for a shift, at an unknown batch, of the mean of
                 ``(u_b, v_b)`` (Gaussian, unit variance): ``max_tau |S_tau|^2 / (2 m_tau)`` over
                 change points with at least ``glr_min_batches`` batches after them.

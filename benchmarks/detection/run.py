@@ -133,6 +133,7 @@ def run_seed(grid: Grid, seed: int, classic: ClassicSettings = ClassicSettings()
 
     settings = graybox_settings or GrayBoxSettings()
     timings = {"seed": seed, "pid": os.getpid()}
+    cpu = time.process_time()
     t = time.perf_counter()
     vehicles = simulate_seed(grid, seed)
     timings["simulate_seconds"] = time.perf_counter() - t
@@ -159,6 +160,7 @@ def run_seed(grid: Grid, seed: int, classic: ClassicSettings = ClassicSettings()
                          **values, **gray_rows.get(key, {})})
     timings["total_seconds"] = sum(v for k, v in timings.items()
                                    if "_seconds" in k and not k.startswith("total"))
+    timings["cpu_time"] = time.process_time() - cpu
     return pd.DataFrame(rows), {"timings": timings, "structures": diagnostics}
 
 
