@@ -23,26 +23,13 @@ import pathlib
 import sys
 from typing import Callable
 
-from registry.cli import add_baseline_commands
+from registry.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _console, _error, add_baseline_commands
 
 DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 DEFAULT_CONFIG = "fleet.toml"
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 # -- plumbing --------------------------------------------------------------------------------
-
-def _console(stream=None):
-    from rich.console import Console
-
-    stream = stream or sys.stdout
-    width = None if stream.isatty() else 200
-    return Console(file=stream, width=width, highlight=False, soft_wrap=False)
-
-
-def _error(message: str) -> None:
-    print(f"fleet-health: error: {message}", file=sys.stderr)
-
 
 def _prefect_environment(args: argparse.Namespace) -> None:
     """Quiet Prefect's and MLflow's console logs unless -v (Prefect's logs still reach its
