@@ -29,7 +29,7 @@ from flows.fitting import fit_baseline_requests, read_windows
 from flows.fleet import AssetRef, UsageError, discover, range_windows, utc
 from flows.hooks import notify_hook
 from flows.nightly import batch_failed, retry_transient, run_batches
-from flows.report import publish_artifacts
+from flows.report import flow_result
 from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, TransientError,
                            WindowResult, describe_error, is_transient, now_iso)
 
@@ -225,16 +225,8 @@ def baseline(start: str, end: str, config_path: str = "fleet.toml",
     dict
         The run summary; the flow run ends Failed when an asset failed.
     """
-    from prefect.runtime import flow_run
-    from prefect.states import Failed
-
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     summary = run_baseline(config, config_path, start, end, tracking_uri, assets,
                            vehicle_class, promote, reason)
-    summary.flow_run_id = str(flow_run.id) if flow_run.id else None
-    publish_artifacts(summary, config)
-    data = summary.to_dict()
-    if summary.failed:
-        return Failed(message=f"{len(summary.failed)} of {len(summary.assets)} baselines "
-                              f"failed", data=data)
-    return data
+    return flow_result(summary, config,
+                       f"{len(summary.failed)} of {len(summary.assets)} baselines failed")

@@ -389,39 +389,19 @@ def _vehicle_class(check: "_Checker", name: str, table: Mapping) -> VehicleClass
             where = f"{key}.columns"
         raise check.error(where, message) from None
 
-    overrides = check.table(f"{key}.settings", table.get("settings", {}))
-    known = {f.name for f in dataclasses.fields(GrayBoxSettings)}
-    for sname in overrides:
-        if sname not in known:
-            raise check.error(f"{key}.settings.{sname}",
-                              f"unknown setting; known: {', '.join(sorted(known))}")
-    overrides = dict(overrides)
+    overrides = dict(check.table(f"{key}.settings", table.get("settings", {})))
+    check.fields(f"{key}.settings", overrides, GrayBoxSettings)
     if "network" in overrides:
         network = check.table(f"{key}.settings.network", overrides["network"])
-        net_known = {f.name for f in dataclasses.fields(FitSettings)}
-        for nname in network:
-            if nname not in net_known:
-                raise check.error(f"{key}.settings.network.{nname}",
-                                  f"unknown setting; known: {', '.join(sorted(net_known))}")
-        try:
-            overrides["network"] = FitSettings(**network)
-        except (TypeError, ValueError) as error:
-            raise check.error(f"{key}.settings.network", str(error)) from None
-    try:
-        settings = dataclasses.replace(GrayBoxSettings(), **overrides)
-    except (TypeError, ValueError) as error:
-        raise check.error(f"{key}.settings", str(error)) from None
+        check.fields(f"{key}.settings.network", network, FitSettings)
+        overrides["network"] = check.build(f"{key}.settings.network", FitSettings, network)
+    settings = check.build(f"{key}.settings",
+                           lambda **values: dataclasses.replace(GrayBoxSettings(), **values),
+                           overrides)
 
     grid_table = check.table(f"{key}.grid", table.get("grid", {}))
-    grid_known = {f.name for f in dataclasses.fields(GridPolicy)}
-    for gname in grid_table:
-        if gname not in grid_known:
-            raise check.error(f"{key}.grid.{gname}",
-                              f"unknown setting; known: {', '.join(sorted(grid_known))}")
-    try:
-        grid = GridPolicy(**grid_table)
-    except (TypeError, ValueError) as error:
-        raise check.error(f"{key}.grid", str(error)) from None
+    check.fields(f"{key}.grid", grid_table, GridPolicy)
+    grid = check.build(f"{key}.grid", GridPolicy, grid_table)
     return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
                         grid)
 
@@ -441,6 +421,20 @@ class _Checker:
             if name not in known:
                 where = f"{key}.{name}" if key else name
                 raise self.error(where, f"unknown key; expected one of {', '.join(known)}")
+
+    def fields(self, key: str, table: Mapping, record) -> None:
+        """Refuse a name that is not a field of the dataclass ``record``."""
+        known = sorted(f.name for f in dataclasses.fields(record))
+        for name in table:
+            if name not in known:
+                raise self.error(f"{key}.{name}", f"unknown setting; known: {', '.join(known)}")
+
+    def build(self, key: str, make, values: Mapping):
+        """``make(**values)``, its TypeError or ValueError reported at ``key``."""
+        try:
+            return make(**values)
+        except (TypeError, ValueError) as error:
+            raise self.error(key, str(error)) from None
 
     def table(self, key: str, value, required: bool = False) -> dict:
         if value is None:

@@ -44,7 +44,7 @@ from flows.fitting import (baseline_model, fit_candidates, grid_for, max_ratio,
                            read_windows)
 from flows.fleet import AssetRef, batches, discover, pending_windows, utc
 from flows.hooks import notify_hook
-from flows.report import publish_artifacts
+from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, WindowResult, describe_error,
                            is_transient, now_iso)
@@ -336,16 +336,8 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
         The run summary (:class:`flows.results.RunSummary` as a dict). The flow run ends
         Failed when an asset failed; the summary is its result either way.
     """
-    from prefect.runtime import flow_run
-    from prefect.states import Failed
-
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     summary = run_nightly(config, config_path, tracking_uri, as_of, assets, vehicle_class)
-    summary.flow_run_id = str(flow_run.id) if flow_run.id else None
-    publish_artifacts(summary, config)
-    data = summary.to_dict()
-    if summary.failed:
-        names = ", ".join(a.asset_id for a in summary.failed[:10])
-        return Failed(message=f"{len(summary.failed)} of {len(summary.assets)} assets failed: "
-                              f"{names}", data=data)
-    return data
+    names = ", ".join(a.asset_id for a in summary.failed[:10])
+    return flow_result(summary, config, f"{len(summary.failed)} of {len(summary.assets)} assets "
+                                        f"failed: {names}")

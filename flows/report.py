@@ -62,6 +62,18 @@ def alert_rows(alerts: list[dict]) -> list[dict]:
     return rows
 
 
+def flow_result(summary: RunSummary, config, failure: str):
+    """A flow's return value: publish its artifacts, then the summary as a dict, wrapped in a
+    Failed state with the message ``failure`` when an asset failed."""
+    from prefect.runtime import flow_run
+    from prefect.states import Failed
+
+    summary.flow_run_id = str(flow_run.id) if flow_run.id else None
+    publish_artifacts(summary, config)
+    data = summary.to_dict()
+    return Failed(message=failure, data=data) if summary.failed else data
+
+
 def publish_artifacts(summary: RunSummary, config=None) -> None:
     """The night's fleet table (and alert table) as Prefect table artifacts."""
     from prefect.artifacts import create_table_artifact
