@@ -16,7 +16,6 @@ baseline's window.
 """
 from __future__ import annotations
 
-import logging
 from typing import Sequence
 
 import pandas as pd
@@ -28,12 +27,11 @@ from flows.config import FleetConfig, load_config
 from flows.fitting import fit_baseline_requests, read_windows
 from flows.fleet import AssetRef, UsageError, discover, range_windows, utc
 from flows.hooks import notify_hook
-from flows.nightly import batch_failed, retry_transient, run_batches
+from flows.nightly import batch_failed, guard_asset_error, retry_transient, run_batches
 from flows.report import flow_result
 from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, TransientError,
                            WindowResult, describe_error, is_transient, now_iso)
 
-logger = logging.getLogger(__name__)
 MIN_WINDOWS = 3
 
 
@@ -66,7 +64,6 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     """
     from graybox.estimator import FitRequest
     from graybox.exceptions import GrayBoxError, InsufficientDataError
-    from registry.exceptions import RegistryError
 
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
@@ -139,10 +136,7 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
                             f"`fleet-health baseline promote {asset} --version "
                             f"{record.version} --reason ...`")
         except Exception as error:  # noqa: BLE001
-            if is_transient(error):
-                raise TransientError(f"asset {asset}: recording: {error}") from error
-            if not isinstance(error, (GrayBoxError, RegistryError)):
-                logger.exception("asset %s: unexpected error while recording", asset)
+            guard_asset_error(error, ref, "recording")
             results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
                                          error=describe_error(error))
             continue

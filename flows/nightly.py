@@ -59,7 +59,7 @@ def _failed(ref: AssetRef, error: BaseException, window_start=None, **fields) ->
                        error=describe_error(error, window_start), **fields)
 
 
-def _guard(error: BaseException, ref: AssetRef, what: str) -> None:
+def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
     """Re-raise transient errors (the batch is retried); log the unexpected."""
     if is_transient(error):
         raise TransientError(f"asset {ref.asset_id}: {what}: {type(error).__name__}: "
@@ -113,7 +113,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
                 continue
             loaded = registry.baseline(asset)
         except Exception as error:  # noqa: BLE001 - one asset never stops the batch
-            _guard(error, ref, "loading its baseline")
+            guard_asset_error(error, ref, "loading its baseline")
             results[asset] = _failed(ref, error)
             continue
         if loaded is None:
@@ -132,7 +132,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
             read = read_windows(config.telemetry_root, asset, model.required_columns,
                                 grid_for(vehicle_class.grid, loaded.signature), pending)
         except Exception as error:  # noqa: BLE001
-            _guard(error, ref, "reading its telemetry")
+            guard_asset_error(error, ref, "reading its telemetry")
             results[asset] = _failed(ref, error, watermark_before=before,
                                      watermark_after=before, baseline_version=version)
             continue
@@ -174,7 +174,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
                     baseline_version=loaded.version,
                     plots=_plots(config.nightly.plots, drift.alarmed))
             except Exception as error:  # noqa: BLE001
-                _guard(error, ref, f"recording the window from {start.isoformat()}")
+                guard_asset_error(error, ref, f"recording the window from {start.isoformat()}")
                 stop, stop_start = error, start
                 break
             alerts = alerts_from_drift(
@@ -210,7 +210,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
                 result.watermark_after = registry.commit_watermark(asset,
                                                                    committed[asset]).isoformat()
             except Exception as error:  # noqa: BLE001
-                _guard(error, ref, "advancing its watermark")
+                guard_asset_error(error, ref, "advancing its watermark")
                 result.status = FAILED
                 result.error = describe_error(error)
                 result.watermark_after = before
