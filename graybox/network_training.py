@@ -8,7 +8,7 @@ import numpy as np
 import torch
 
 from graybox.exceptions import InsufficientDataError
-from graybox.nonlinear_tier import FitSettings, NetworkFit
+from graybox.network_settings import FitSettings, NetworkFit
 
 
 @contextlib.contextmanager

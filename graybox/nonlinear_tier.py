@@ -16,7 +16,11 @@ from typing import Sequence
 
 import numpy as np
 
-from graybox.exceptions import InsufficientDataError
+# FitSettings and initial_weights are part of this module's public API (fit_networks' arguments)
+from graybox.network_settings import FitSettings, NetworkFit, initial_weights
+
+__all__ = ["NonlinearTier", "lagged", "fit_networks", "FitSettings", "NetworkFit",
+           "initial_weights"]
 
 
 @dataclass(frozen=True)
@@ -81,51 +85,6 @@ def lagged(x: np.ndarray, dim: int, tau: int) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros((0, dim)), np.zeros(0)
     columns = [x[span - k * tau: span - k * tau + n] for k in range(1, dim + 1)]
     return np.column_stack(columns), x[span:]
-
-
-@dataclass(frozen=True)
-class FitSettings:
-    """How the network is trained; the same settings must serve a baseline and its candidates.
-
-    Attributes
-    ----------
-    max_iter : int
-        L-BFGS iterations at most.
-    tolerance : float
-        Stop when the largest gradient entry is below this, or the loss falls by less than
-        ``tolerance`` (relative) over an iteration.
-    weight_decay : float
-        L2 penalty on all weights; keeps flat directions (e.g. ``w_j`` when ``W_1j = 0``) pinned.
-    history : int
-        L-BFGS memory.
-    init_scale : float
-        Standard deviation of random initial weights, divided by sqrt(fan-in). With inputs
-        scaled to a quarter of their standard deviation (the estimator's default), 4 gives
-        the hidden units unit-variance pre-activations: inside tanh's nonlinear range.
-    """
-
-    max_iter: int = 200
-    tolerance: float = 1e-9
-    weight_decay: float = 1e-4
-    history: int = 10
-    init_scale: float = 4.0
-
-
-@dataclass(frozen=True)
-class NetworkFit:
-    """Raw result of one series' fit."""
-
-    w: np.ndarray
-    W: np.ndarray
-    mse: float
-    iterations: int
-
-
-def initial_weights(hidden: int, dim: int, seed, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Random starting weights ``(w, W)``: normal, standard deviation ``scale / sqrt(fan-in)``."""
-    rng = np.random.default_rng(seed)
-    return (rng.normal(0.0, scale / np.sqrt(dim), (hidden, dim)),
-            rng.normal(0.0, scale / np.sqrt(hidden), hidden))
 
 
 def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
