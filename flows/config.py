@@ -60,6 +60,10 @@ _CRON_FIELD = re.compile(r"[0-9A-Za-z*/,?LW#-]+")
 _ID_OR_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]{1,64}")
 
 
+#: method settings that counted samples, and the settings in seconds that replaced them
+RENAMED_SETTINGS = {"max_ar_order": "ar_span", "max_delay": "delay_span"}
+
+
 class ConfigError(ValueError):
     """``fleet.toml`` is missing, unreadable or wrong; the message names the file and key."""
 
@@ -390,6 +394,11 @@ def _vehicle_class(check: "_Checker", name: str, table: Mapping) -> VehicleClass
         raise check.error(where, message) from None
 
     overrides = dict(check.table(f"{key}.settings", table.get("settings", {})))
+    for old, new in RENAMED_SETTINGS.items():
+        if old in overrides:
+            raise check.error(f"{key}.settings.{old}", f"replaced by {new}, in seconds so that it "
+                                                       f"holds at every sample rate (e.g. "
+                                                       f"{new} = 200.0)")
     check.fields(f"{key}.settings", overrides, GrayBoxSettings)
     if "network" in overrides:
         network = check.table(f"{key}.settings.network", overrides["network"])

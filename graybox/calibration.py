@@ -24,17 +24,32 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
 5. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
    gets epsilon scaled up by the ratio of sample counts.
+
+The number of pieces q adapts to the telemetry's rate: at most ``calibration_splits``, and
+no more than leave each piece enough residual samples for the frozen structure (differencing,
+AR order, network delays) plus ``min_samples``. A day of 10-s or 1-s telemetry gives the full
+8 pieces; a day of 1-minute telemetry (1,440 samples) gives fewer, longer ones, and step 2's
+rescaling accounts for their length.
+
+:func:`fit_baselines` runs the whole method: baselines, the leave-one-window-out refits and
+the pieces, all assets batched together (:func:`graybox.fleet_fit.fit_signatures`).
 """
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Sequence
 
 import numpy as np
+import pandas as pd
 from scipy import stats
 
-from graybox.exceptions import ArtifactError, InsufficientDataError
+from graybox.analysis_rate import decimation_factor
+from graybox.drift import tier_deltas
+from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
+from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.settings import GrayBoxSettings
+from graybox.signature import TIERS, Signature
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
@@ -155,3 +170,116 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[f
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
     epsilon = mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof))
     return epsilon, mean, dof
+
+
+def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
+                  false_alarm_rate: float = 0.01, chunk_size: int = 32
+                  ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
+    """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
+
+    Each request's windows are its K >= 3 healthy windows, each as long as a nightly window
+    (typically one day). Each window is left out in turn: the others refit the baseline, and
+    the window, cut into pieces (:func:`calibration_pieces`), is fitted as nightly candidates
+    of that refit. All assets' refits are batched like the baselines.
+
+    Returns
+    -------
+    list
+        Per request ``(signature, calibration)`` or the error that stopped it.
+    """
+    if not 0 < false_alarm_rate < 1:
+        raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
+    settings = settings or GrayBoxSettings()
+    fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
+    signatures = fit_signatures(fresh, settings, chunk_size)
+    results: list = list(signatures)
+    jobs = []  # (position, baseline signature, number of windows)
+    for position, (request, signature) in enumerate(zip(fresh, signatures)):
+        if isinstance(signature, GrayBoxError):
+            continue
+        if len(request.windows) < 3:
+            results[position] = InsufficientDataError(
+                f"asset {signature.asset_id!r}: calibration needs at least 3 healthy windows "
+                f"(one per night), got {len(request.windows)}")
+            continue
+        jobs.append((position, signature, len(request.windows)))
+    # every window is left out once: the others refit the baseline (frozen structure)...
+    rest_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
+                             baseline=sig)
+                     for p, sig, count in jobs for k in range(count)]
+    rests = fit_signatures(rest_requests, settings, chunk_size)
+    # ...and the left-out window's pieces are fitted as nightly candidates of that refit
+    piece_requests, owners = [], []
+    for (p, sig, count), first in zip(jobs, np.cumsum([0] + [c for _, _, c in jobs])):
+        for k in range(count):
+            rest = rests[first + k]
+            window = fresh[p].windows[k]
+            for piece in _split(window, calibration_pieces(sig, _length(window), settings)):
+                piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
+                                              warm_start=rest if isinstance(rest, Signature) else sig))
+                owners.append((p, first + k))
+    pieces = fit_signatures(piece_requests, settings, chunk_size)
+    collected: dict[int, list] = {p: [] for p, _, _ in jobs}
+    for (p, rest_index), piece in zip(owners, pieces):
+        collected[p].append((rests[rest_index], piece))
+    for p, sig, count in jobs:
+        pairs = collected[p]
+        failure = next((x for pair in pairs for x in pair if isinstance(x, GrayBoxError)), None)
+        if failure is not None:
+            results[p] = failure
+            continue
+        results[p] = (sig, _calibrate(sig, pairs, count, false_alarm_rate))
+    return results
+
+
+def calibration_pieces(baseline: Signature, n_samples: int, settings: GrayBoxSettings) -> int:
+    """Pieces a healthy window of ``n_samples`` telemetry samples is cut into.
+
+    At most ``settings.calibration_splits``; fewer where a piece would not leave every
+    channel's frozen structure (differencing, AR order, network delays) and
+    ``settings.min_samples`` residual samples at the analysis interval.
+    """
+    factor = decimation_factor(baseline.analysis_step, baseline.sample_interval)
+    need = 0
+    for channel in baseline.channels:
+        s = channel.structure
+        need = max(need, s.differencing.lost
+                   + max(settings.min_samples, s.ar_order + s.embedding_dim * s.tau
+                         + settings.min_samples // 2) + 2)
+    return int(np.clip(n_samples // (factor * need), 1, settings.calibration_splits))
+
+
+def _length(window) -> int:
+    return len(getattr(window, "frame", window))
+
+
+def _split(window, parts: int) -> list[pd.DataFrame]:
+    """Cut a window into ``parts`` contiguous pieces of (nearly) equal length."""
+    frame = getattr(window, "frame", window)
+    bounds = np.linspace(0, len(frame), parts + 1).round().astype(int)
+    return [frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], windows: int,
+               false_alarm_rate: float) -> Calibration:
+    """Epsilons from (rest, piece) pairs: a piece of a window against the baseline refitted
+    without that window, rescaled to a night against the full baseline."""
+    alpha = false_alarm_rate / (len(baseline.channels) * len(TIERS))
+    total = baseline.n_samples
+    reference = total / windows
+    thresholds = []
+    for channel in baseline.channel_names:
+        for tier in TIERS:
+            deltas = []
+            for rest, piece in pairs:
+                delta = tier_deltas(piece.channel(channel), rest.channel(channel), tier)[1]
+                # Var(theta_n) ~ V / n: the piece and its reference are independent, so the
+                # change has variance V (1/n_piece + 1/n_rest); a night against the baseline
+                # has V (1/n_night + 1/n_baseline)
+                scale = (1 / reference + 1 / total) / (1 / piece.n_samples + 1 / rest.n_samples)
+                deltas.append(delta * np.sqrt(scale))
+            epsilon, mean, dof = threshold_from_deltas(deltas, alpha)
+            thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
+                                            tuple(float(d @ d) for d in deltas)))
+    return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
+                       len(pairs))

@@ -96,7 +96,8 @@ def inverse_residual(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: flo
 
 
 def residual_frame(model: WhiteBoxModel, frame: pd.DataFrame, method: ResidualMethod = "one_step",
-                   sample_interval: float | None = None) -> pd.DataFrame:
+                   sample_interval: float | None = None, derivative_window: int = 7
+                   ) -> pd.DataFrame:
     """Residual of a uniform-grid telemetry frame, one column per model state.
 
     Parameters
@@ -108,6 +109,8 @@ def residual_frame(model: WhiteBoxModel, frame: pd.DataFrame, method: ResidualMe
         Eqs. 2-3 or Eq. 13.
     sample_interval : float, optional
         Seconds between samples; inferred from the index when omitted.
+    derivative_window : int, default 7
+        Savitzky-Golay window in samples of ``"inverse"`` (odd).
 
     Returns
     -------
@@ -125,7 +128,8 @@ def residual_frame(model: WhiteBoxModel, frame: pd.DataFrame, method: ResidualMe
     if method == "one_step":
         values, index = one_step_residual(model, x, u, sample_interval), frame.index[1:]
     else:
-        values, index = inverse_residual(model, x, u, sample_interval), frame.index
+        values = inverse_residual(model, x, u, sample_interval, window=derivative_window)
+        index = frame.index
     return pd.DataFrame(values, index=index, columns=list(model.states))
 
 

@@ -109,6 +109,10 @@ class Signature:
     window_start, window_end : str or None
         ISO timestamps of the telemetry window (end exclusive).
     format_version : int
+    analysis_interval : float or None
+        Seconds between the residual samples the tiers saw (a whole multiple of
+        ``sample_interval``, see :mod:`graybox.analysis_rate`); None for signatures stored
+        before it existed, which were analysed at ``sample_interval``.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -121,6 +125,12 @@ class Signature:
     window_start: str | None = None
     window_end: str | None = None
     format_version: int = FORMAT_VERSION
+    analysis_interval: float | None = None
+
+    @property
+    def analysis_step(self) -> float:
+        """Seconds between the residual samples the tiers saw."""
+        return self.sample_interval if self.analysis_interval is None else self.analysis_interval
 
     def channel(self, name: str) -> ChannelSignature:
         """The signature of one channel by name."""
@@ -136,7 +146,8 @@ class Signature:
     def frozen_structure(self) -> dict:
         """Everything a candidate must share with this signature to be compared with it."""
         return {"model": self.model, "residual_method": self.residual_method,
-                "sample_interval": self.sample_interval, "settings": self.settings,
+                "sample_interval": self.sample_interval, "analysis_interval": self.analysis_step,
+                "settings": self.settings,
                 "channels": {c.channel: asdict(c.structure) for c in self.channels}}
 
     def parameter_vector(self) -> tuple[list[str], np.ndarray]:

@@ -63,7 +63,7 @@ model = "graybox.models:GasTurbineShaft"
 parameters = { inertia = 10.0 }
 assets = ["T-*", "SPARE-1"]
 columns = { omega = "shaft_speed" }
-settings = { hidden_units = 4, max_ar_order = 10, network = { max_iter = 50 } }
+settings = { hidden_units = 4, ar_span = 100.0, network = { max_iter = 50 } }
 grid = { sample_interval = 10.0, max_fill = 5 }
 [classes.drive]
 model = "graybox.models:LangevinShaft"
@@ -74,6 +74,7 @@ assets = ["D-*"]
     assert list(config.classes) == ["turbine", "drive"]
     turbine = config.classes["turbine"]
     assert turbine.settings.hidden_units == 4 and turbine.settings.network.max_iter == 50
+    assert turbine.settings.ar_span == 100.0
     assert turbine.grid.sample_interval == 10.0 and turbine.grid.max_fill == 5
     assert turbine.explicit_assets() == ("SPARE-1",)
     assert turbine.load_model().parameters["inertia"] == 10.0
@@ -83,6 +84,10 @@ assets = ["D-*"]
 
 @pytest.mark.parametrize("text, where", [
     (MINIMAL.replace('model = ', 'modle = '), "fleet.toml: classes.turbine.modle: unknown key"),
+    (MINIMAL + 'settings = { max_ar_order = 10 }\n',
+     "fleet.toml: classes.turbine.settings.max_ar_order: replaced by ar_span"),
+    (MINIMAL + 'settings = { max_delay = 10 }\n',
+     "fleet.toml: classes.turbine.settings.max_delay: replaced by delay_span"),
     (MINIMAL.replace('"graybox.models:GasTurbineShaft"', '"graybox.models:NoSuchModel"'),
      "fleet.toml: classes.turbine.model: "),
     (MINIMAL.replace('"graybox.models:GasTurbineShaft"', '"not a spec"'),

@@ -1,0 +1,346 @@
+"""Batched fleet fitting: telemetry windows -> residual -> three tiers -> signature, for many
+assets at once.
+
+:func:`fit_signatures` prepares every request (residual at the telemetry's rate, decimated to
+the analysis interval, stationarized, AR tier), then fits all their networks in batched
+computations grouped by network shape, then describes the noise. A request's result never
+depends on the other requests of the call, and one asset's bad data never stops the others.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
+from graybox.embedding import choose_delay, choose_dimension
+from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.linear_tier import LinearTier, fit_ar
+from graybox.models.base import WhiteBoxModel
+from graybox.noise_tier import describe_noise
+from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
+from graybox.residual import infer_sample_interval, residual_frame
+from graybox.settings import GrayBoxSettings
+from graybox.signature import ChannelSignature, ChannelStructure, Selection, Signature
+from graybox.stationarize import choose_differencing
+
+
+@dataclass(frozen=True)
+class FitRequest:
+    """One asset's fit in a fleet batch.
+
+    Attributes
+    ----------
+    model : WhiteBoxModel
+    windows : sequence of TelemetryWindow or DataFrame
+        Uniform-grid telemetry; each window is a separate segment (its residual, differences
+        and delays never cross into another window).
+    baseline : Signature, optional
+        Frozen structure to fit with (a candidate). None fits a new baseline structure.
+    warm_start : Signature, optional
+        Network weights to start from; defaults to ``baseline``.
+    asset_id : str, optional
+    seed : int
+        Seeds the random initial weights of a new baseline.
+    """
+
+    model: WhiteBoxModel
+    windows: Sequence
+    baseline: Signature | None = None
+    warm_start: Signature | None = None
+    asset_id: str | None = None
+    seed: int = 0
+
+
+@dataclass
+class _Channel:
+    name: str
+    structure: ChannelStructure | None
+    linear: LinearTier
+    w_segments: list[np.ndarray]
+    n_samples: int
+    selection: Selection | None = None
+    nonlinear: NonlinearTier | None = None
+
+
+@dataclass
+class _Prepared:
+    request: FitRequest
+    sample_interval: float
+    analysis_interval: float
+    window_start: str | None
+    window_end: str | None
+    asset_id: str | None
+    channels: list[_Channel] = field(default_factory=list)
+
+
+def _window_parts(window) -> tuple[pd.DataFrame, float, str | None]:
+    frame = getattr(window, "frame", window)
+    if not isinstance(frame, pd.DataFrame):
+        raise TypeError(f"expected a TelemetryWindow or DataFrame, got {type(window).__name__}")
+    interval = getattr(window, "sample_interval", None) or infer_sample_interval(frame.index)
+    return frame, float(interval), getattr(window, "asset_id", None)
+
+
+def _prepare(request: FitRequest, settings: GrayBoxSettings) -> _Prepared:
+    if not request.windows:
+        raise InsufficientDataError("no telemetry windows to fit")
+    parts = [_window_parts(w) for w in request.windows]
+    intervals = {round(p[1], 9) for p in parts}
+    if len(intervals) != 1:
+        raise GrayBoxError(f"windows have different sample intervals: {sorted(intervals)}")
+    interval = parts[0][1]
+    asset_id = request.asset_id or parts[0][2]
+    baseline = request.baseline
+    if baseline is not None:
+        if abs(baseline.sample_interval - interval) > 1e-9 * interval:
+            raise GrayBoxError(f"baseline was sampled every {baseline.sample_interval} s, "
+                               f"this telemetry every {interval} s")
+    frames = [frame for frame, _, _ in parts]
+    analysis = analysis_interval(request, settings, frames, interval)
+    factor = decimation_factor(analysis, interval)
+    window = settings.derivative_window(interval)
+    residuals = [residual_frame(request.model, frame, settings.residual, interval, window)
+                 for frame in frames]
+    starts = [frame.index[0] for frame in frames]
+    ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
+    prepared = _Prepared(request, interval, analysis, min(starts).isoformat(),
+                         max(ends).isoformat(), asset_id)
+    for index, name in enumerate(request.model.states):
+        segments = [decimate(r[name].to_numpy(), factor) for r in residuals]
+        frozen = None if baseline is None else baseline.channel(name).structure
+        prepared.channels.append(_prepare_channel(name, segments, frozen, settings, analysis,
+                                                  seed=request.seed * 1000 + index))
+    return prepared
+
+
+def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
+                      frames: Sequence[pd.DataFrame], sample_interval: float) -> float:
+    """Seconds between the residual samples the tiers see (a candidate: its baseline's)."""
+    if request.baseline is not None:
+        return request.baseline.analysis_step
+    if settings.analysis_interval == "native":
+        return sample_interval
+    if settings.analysis_interval == "auto":
+        return choose_analysis_interval(request.model, frames, sample_interval)
+    return max(1, round(settings.analysis_interval / sample_interval)) * sample_interval
+
+
+def _prepare_channel(name: str, segments: list[np.ndarray], frozen: ChannelStructure | None,
+                     settings: GrayBoxSettings, interval: float, seed: int) -> _Channel:
+    selection = None
+    if frozen is None:
+        choice = choose_differencing(segments, settings.max_diff_order, settings.max_seasonal_order)
+        differencing = choice.differencing
+    else:
+        differencing = frozen.differencing
+    too_short = [i for i, s in enumerate(segments) if len(s) <= differencing.lost + settings.min_samples]
+    if too_short:
+        shortest = min(len(segments[i]) for i in too_short)
+        raise InsufficientDataError(
+            f"channel {name!r}: window(s) {too_short} have {shortest} residual samples at the "
+            f"{interval:g}-s analysis interval; the method needs more than {differencing.lost} "
+            f"for differencing plus min_samples = {settings.min_samples}: use longer windows "
+            f"([nightly] window) or lower min_samples in the class's settings")
+    y = [differencing.apply(s) for s in segments]
+    if frozen is None:
+        pooled = np.concatenate(y)
+        center, scale = float(pooled.mean()), float(pooled.std())
+        if scale <= 0:
+            raise InsufficientDataError(f"channel {name!r}: the residual is constant")
+    else:
+        center, scale = frozen.center, frozen.scale
+    z = [(s - center) / scale for s in y]
+    if frozen is None:
+        linear = fit_ar(z, max_order=settings.max_ar_order(interval),
+                        criterion=settings.ar_criterion)
+        selection = Selection(choice.acf_area, choice.raw_acf_area, choice.adf_statistic,
+                              choice.candidate_period, settings.ar_criterion)
+    else:
+        linear = fit_ar(z, order=frozen.ar_order)
+    w = [linear.innovations(s) for s in z]
+    n_samples = int(sum(len(s) for s in z))
+    if frozen is None:
+        pooled_w = np.concatenate(w)
+        longest = max(w, key=len)
+        tau = choose_delay(longest, settings.max_delay(interval))
+        dim = choose_dimension(longest, tau, settings.max_embedding_dim)
+        nn_scale = settings.nn_scale_factor * float(pooled_w.std())
+        structure = ChannelStructure(
+            period=differencing.period, seasonal_order=differencing.seasonal_order,
+            diff_order=differencing.order, ar_order=linear.order, center=center, scale=scale,
+            tau=tau, embedding_dim=dim, hidden_units=settings.hidden_units, nn_scale=nn_scale,
+            nonlinear_needed=False,  # decided after the held-out fit
+            init_seed=seed)
+    else:
+        structure = frozen
+    span = structure.embedding_dim * structure.tau
+    if min(len(s) for s in w) <= span + settings.min_samples // 2:
+        raise InsufficientDataError(
+            f"channel {name!r}: {min(len(s) for s in w)} samples are too few for the network's "
+            f"{structure.embedding_dim} delays of {structure.tau} plus min_samples / 2 = "
+            f"{settings.min_samples // 2}: use longer windows or lower min_samples")
+    return _Channel(name, structure, linear, w, n_samples, selection)
+
+
+def _design(segments: list[np.ndarray], structure: ChannelStructure):
+    parts = [lagged(s / structure.nn_scale, structure.embedding_dim, structure.tau) for s in segments]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_size: int) -> None:
+    """Fit every channel's network, batched by shape; sets ``channel.nonlinear`` (and, for new
+    baselines, the ``nonlinear_needed`` decision)."""
+    groups: dict[tuple[int, int], list[tuple[_Prepared, int, _Channel]]] = {}
+    for item in prepared:
+        for index, channel in enumerate(item.channels):
+            key = (channel.structure.embedding_dim, channel.structure.hidden_units)
+            groups.setdefault(key, []).append((item, index, channel))
+    for (dim, hidden), members in groups.items():
+        fresh = [(item, i, c) for item, i, c in members if item.request.baseline is None]
+        warm = [(item, i, c) for item, i, c in members if item.request.baseline is not None]
+        for needed in (True, False):
+            members_now = [m for m in warm if m[2].structure.nonlinear_needed == needed]
+            if not members_now:
+                continue
+            retrain = not needed and settings.null_network == "trained"
+            problems, starts = [], []
+            for item, _, channel in members_now:
+                # a needed network starts from its reference's weights (the same basin); a null
+                # network with fixed features too (one minimum: the start only saves
+                # iterations); a trained null network starts where its baseline started
+                source = item.request.warm_start or item.request.baseline
+                problems.append(_design(channel.w_segments, channel.structure))
+                starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
+                                              settings.network.init_scale) if retrain
+                              else source.channel(channel.name).nonlinear.weight_arrays())
+            fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
+                                train_input_weights=needed or retrain)
+            for (item, _, channel), fit in zip(members_now, fits):
+                channel.nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None,
+                                                              fit.iterations)
+        if fresh:
+            _fit_fresh(fresh, hidden, settings, chunk_size)
+
+
+def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int) -> None:
+    """New baselines: fit on the head of every window, measure the gain on the held-out tails,
+    decide whether the tier is needed, then fit on everything."""
+    train, test = [], []
+    for _, _, channel in members:
+        heads, tails = [], []
+        for s in channel.w_segments:
+            cut = int(round(len(s) * (1 - settings.holdout_fraction)))
+            heads.append(s[:cut])
+            tails.append(s[cut:])
+        train.append(_design(heads, channel.structure))
+        test.append(_design(tails, channel.structure))
+    seeds = [channel.structure.init_seed for _, _, channel in members]
+    head_fits = fit_networks(train, hidden, None, settings.network, random_state=seeds,
+                             chunk_size=chunk_size)
+    gains = []
+    for (_, _, channel), head, (X_test, y_test) in zip(members, head_fits, test):
+        prediction = np.tanh(np.tanh(X_test @ head.w.T) @ head.W)
+        zero_error = float(np.mean(y_test ** 2))
+        gains.append(1.0 - float(np.mean((y_test - prediction) ** 2)) / zero_error
+                     if zero_error > 0 else 0.0)
+        channel.structure = replace(channel.structure,
+                                    nonlinear_needed=bool(gains[-1] > settings.min_heldout_gain))
+    # The full fit starts from the seeded random weights, as the candidates of a baseline
+    # without nonlinear structure do: zeta compares weights fitted by the same procedure.
+    # Without structure, a fully trained network only fits noise, landing in one of many
+    # shallow minima; its hidden layer then stays at the random weights (fixed features) and
+    # only the output weights are fitted, a problem with a single minimum.
+    for needed in (True, False):
+        chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
+        if not chosen:
+            continue
+        problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
+        fits = fit_networks(problems, hidden, None, settings.network,
+                            random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
+                            train_input_weights=needed or settings.null_network == "trained")
+        for i, fit in zip(chosen, fits):
+            members[i][2].nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, gains[i],
+                                                                fit.iterations)
+
+
+def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
+    channels = []
+    for channel in item.channels:
+        structure = channel.structure
+        span = structure.embedding_dim * structure.tau
+        if structure.nonlinear_needed:
+            predictions = channel.nonlinear.predict([s / structure.nn_scale for s in channel.w_segments],
+                                                    structure.tau)
+            noise = [s[span:] - structure.nn_scale * p for s, p in zip(channel.w_segments, predictions)]
+        else:
+            noise = [s[span:] for s in channel.w_segments]
+        channels.append(ChannelSignature(channel.name, structure, channel.linear, channel.nonlinear,
+                                         describe_noise(noise), channel.n_samples, channel.selection))
+    return Signature(tuple(channels), item.request.model.to_dict(), settings.residual,
+                     item.sample_interval, channels[0].n_samples, settings.to_dict(), item.asset_id,
+                     item.window_start, item.window_end, analysis_interval=item.analysis_interval)
+
+
+def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
+                   chunk_size: int = 32) -> list[Signature | GrayBoxError]:
+    """Fit many assets' signatures; all networks of a shape train in batched computations.
+
+    Parameters
+    ----------
+    requests : sequence of FitRequest
+    settings : GrayBoxSettings, optional
+        Settings of new baselines (default ``GrayBoxSettings()``). A candidate is always
+        fitted with its own baseline's settings, so one call can mix assets whose
+        baselines were fitted with different settings.
+    chunk_size : int, default 32
+        Series per batched network computation (an execution detail: a series' result does
+        not depend on it).
+
+    Returns
+    -------
+    list
+        Per request, its :class:`Signature`, or the :class:`GrayBoxError` that stopped it (one
+        asset's bad data never stops the others).
+    """
+    default = settings or GrayBoxSettings()
+    groups: dict[GrayBoxSettings, list[int]] = {}
+    for position, request in enumerate(requests):
+        effective = (default if request.baseline is None
+                     else GrayBoxSettings.from_dict(request.baseline.settings))
+        groups.setdefault(effective, []).append(position)
+    results: list[Signature | GrayBoxError | None] = [None] * len(requests)
+    for effective, positions in groups.items():
+        for position, result in zip(positions, _fit_group([requests[p] for p in positions],
+                                                          effective, chunk_size)):
+            results[position] = result
+    return results
+
+
+def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
+               chunk_size: int) -> list[Signature | GrayBoxError]:
+    results: list[Signature | GrayBoxError | None] = [None] * len(requests)
+    prepared, positions = [], []
+    for position, request in enumerate(requests):
+        try:
+            prepared.append(_prepare(request, settings))
+            positions.append(position)
+        except (GrayBoxError, np.linalg.LinAlgError) as error:
+            results[position] = _as_graybox_error(error, request)
+    _fit_networks(prepared, settings, chunk_size)
+    for position, item in zip(positions, prepared):
+        try:
+            results[position] = _finish(item, settings)
+        except (GrayBoxError, np.linalg.LinAlgError) as error:
+            results[position] = _as_graybox_error(error, item.request)
+    return results
+
+
+def _as_graybox_error(error: Exception, request: FitRequest) -> GrayBoxError:
+    if isinstance(error, GrayBoxError):
+        return error
+    return GrayBoxError(f"asset {request.asset_id!r}: {type(error).__name__}: {error}")
+
+

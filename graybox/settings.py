@@ -1,0 +1,148 @@
+"""Every choice of the gray-box method that is not learned from data.
+
+Choices that concern time are given in seconds, never in samples, so that a fault is seen the
+same way at 1 s, 10 s and 60 s telemetry: they are turned into sample counts at the
+*analysis interval* (see :mod:`graybox.analysis_rate`) by :meth:`GrayBoxSettings.samples`.
+Counts that remain are statistical (how many samples an estimate needs), not durations.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from graybox.network_settings import FitSettings
+from graybox.residual import RESIDUAL_METHODS
+#: keys of settings stored before the method was rate-invariant; such baselines were fitted
+#: at their native sample interval with these counts, which their frozen structures keep
+LEGACY_KEYS = ("max_ar_order", "max_delay")
+
+
+@dataclass(frozen=True)
+class GrayBoxSettings:
+    """Every choice of the method that is not learned from data.
+
+    Attributes
+    ----------
+    residual : {"one_step", "inverse"}
+        Eqs. 2-3 or Eq. 13.
+    analysis_interval : float or {"auto", "native"}
+        Seconds between the residual samples the tiers see. ``"auto"`` chooses it from the
+        white box's dynamics at the data's operating points (see
+        :func:`graybox.analysis_rate.choose_analysis_interval`); ``"native"`` keeps the
+        telemetry's sample interval. A candidate always uses its baseline's interval.
+    ar_span : float
+        Seconds of history the AR order may cover: the order is chosen by ``ar_criterion``
+        up to ``ar_span / analysis interval`` (20 lags at 10 s).
+    ar_criterion : {"bic", "aic"}
+    max_diff_order, max_seasonal_order : int
+        Upper bounds of ``m1`` and ``m2``.
+    hidden_units : int
+        ``J`` of the Eq. 25 network.
+    delay_span : float
+        Seconds: the embedding delay ``tau`` is searched up to this (20 samples at 10 s).
+    max_embedding_dim : int
+        Upper bound of ``m`` (a number of coordinates, not a duration).
+    holdout_fraction : float
+        Tail of each baseline window held out to decide whether the network is needed.
+    min_heldout_gain : float
+        Relative held-out error reduction the network must achieve to count as needed.
+    network : FitSettings
+        Optimizer settings (identical for baselines, calibration refits and candidates).
+    nn_scale_factor : float
+        The network sees the AR residual divided by this many of its baseline standard
+        deviations, which keeps targets well inside tanh's (-1, 1).
+    min_samples : int
+        Fewest residual samples (at the analysis interval) per window after differencing and
+        embedding: a statistical floor for the estimates, so a count and not a duration.
+    calibration_splits : int
+        Most pieces each healthy window is cut into for calibrating epsilon; fewer when the
+        pieces would hold less than the structure plus ``min_samples`` (slow telemetry).
+    derivative_span : float
+        Seconds covered by the Savitzky-Golay window of the inverse residual (Eq. 13): 7
+        samples at 10 s, never fewer than 5.
+    null_network : {"fixed_features", "trained"}
+        How a network is fitted where the baseline has no nonlinear structure to explain.
+        ``"fixed_features"``: the hidden layer stays at seeded random weights and only the
+        output weights are fitted (one minimum, so healthy zeta is stable). ``"trained"``:
+        every weight is fitted from the same seeded start (more sensitive to a nonlinearity
+        that appears, but a network fitted to noise can land in another shallow minimum).
+    """
+
+    residual: str = "one_step"
+    analysis_interval: float | str = "auto"
+    ar_span: float = 200.0
+    ar_criterion: str = "bic"
+    max_diff_order: int = 2
+    max_seasonal_order: int = 1
+    hidden_units: int = 8
+    delay_span: float = 200.0
+    max_embedding_dim: int = 6
+    holdout_fraction: float = 0.2
+    min_heldout_gain: float = 0.01
+    network: FitSettings = FitSettings()
+    nn_scale_factor: float = 4.0
+    min_samples: int = 200
+    calibration_splits: int = 8
+    derivative_span: float = 60.0
+    null_network: str = "fixed_features"
+
+    def __post_init__(self):
+        if self.residual not in RESIDUAL_METHODS:
+            raise ValueError(f"residual must be one of {RESIDUAL_METHODS}, got {self.residual!r}")
+        if self.ar_criterion not in ("aic", "bic"):
+            raise ValueError(f"ar_criterion must be 'aic' or 'bic', got {self.ar_criterion!r}")
+        if not 0 < self.holdout_fraction < 1:
+            raise ValueError("holdout_fraction must be in (0, 1)")
+        if self.null_network not in ("fixed_features", "trained"):
+            raise ValueError(f"null_network must be 'fixed_features' or 'trained', "
+                             f"got {self.null_network!r}")
+        interval = self.analysis_interval
+        if isinstance(interval, str):
+            if interval not in ("auto", "native"):
+                raise ValueError(f"analysis_interval must be a number of seconds, 'auto' or "
+                                 f"'native', got {interval!r}")
+        elif isinstance(interval, bool) or not (math.isfinite(interval) and interval > 0):
+            raise ValueError(f"analysis_interval must be > 0 seconds, got {interval!r}")
+        for name in ("ar_span", "delay_span", "derivative_span"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
+        if self.calibration_splits < 1:
+            raise ValueError(f"calibration_splits must be >= 1, got {self.calibration_splits}")
+
+    def samples(self, seconds: float, interval: float, low: int = 1) -> int:
+        """``seconds`` as a whole number of samples of ``interval`` seconds, at least ``low``."""
+        return max(low, int(round(seconds / interval)))
+
+    def max_ar_order(self, interval: float) -> int:
+        """The AR order cap at an analysis interval of ``interval`` seconds."""
+        return self.samples(self.ar_span, interval)
+
+    def max_delay(self, interval: float) -> int:
+        """The largest embedding delay tried at ``interval`` seconds."""
+        return self.samples(self.delay_span, interval)
+
+    def derivative_window(self, interval: float, polyorder: int = 3) -> int:
+        """The odd Savitzky-Golay window covering about ``derivative_span`` at ``interval``."""
+        half = int(self.derivative_span / (2 * interval))
+        return max(2 * half + 1, polyorder + 2 + (polyorder + 1) % 2)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "GrayBoxSettings":
+        """Rebuild from :meth:`to_dict`.
+
+        Settings stored before the method was rate-invariant (with ``max_ar_order`` and
+        ``max_delay`` counts) were fitted at the telemetry's own interval: they load with
+        ``analysis_interval="native"``; their counts live on in the frozen structure.
+        """
+        data = dict(data)
+        if any(key in data for key in LEGACY_KEYS):
+            for key in LEGACY_KEYS:
+                data.pop(key, None)
+            data.setdefault("analysis_interval", "native")
+        if "network" in data and isinstance(data["network"], dict):
+            data["network"] = FitSettings(**data["network"])
+        return cls(**data)
