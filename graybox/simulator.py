@@ -8,14 +8,30 @@ The true plant of every vehicle is :class:`~graybox.models.gas_turbine.GasTurbin
 
 The sign is chosen so that the residual of the white box (Eqs. 2-3, 13) is ``+Gamma``-like.
 
+The simulated physical process does not depend on the sampling interval ``dt``:
+
+- ``Gamma`` lives on a fixed physical clock of :data:`MOMENT_STEP` (10 s): it is constant
+  over each moment step ``[i 10 s, (i + 1) 10 s)`` and is an AR(2) "torsional" process over
+  those steps with poles at radius 0.9 and angle ``2 pi / 8``, innovations
+  ``u_i = e_i + kappa He3(e_{i-1})`` (``kappa = 0`` when healthy).
 - Fuel rate ``mu(t) = mu0 (1 + A sin(2 pi t / 1 day + phase) + w(t))``, ``w`` a slow
-  Ornstein-Uhlenbeck wander; the fuel sensor adds a tiny white noise.
-- ``Gamma`` is held over each sample (zero-order hold) and is an AR(2) "torsional" process
-  with poles at radius 0.9 and angle ``2 pi / 8``, innovations
-  ``u_k = e_k + kappa He3(e_{k-1})`` (``kappa = 0`` when healthy).
-- RK4 with ``substeps`` steps per sample, ``mu`` linear inside a sample, started at the
-  equilibrium speed.
-- Measured shaft speed = ``omega`` + sensor noise + bias.
+  Ornstein-Uhlenbeck wander drawn at the moment-step instants (exact in law) and linear
+  between them; the fuel sensor adds a tiny white noise.
+- The plant is integrated with RK4, ``substeps`` steps per integration step, ``mu`` linear
+  inside a step, started at the equilibrium speed. The integration step is ``dt`` when
+  ``dt`` divides 10 s (1, 2, 5 s, ...), each sample seeing the ``Gamma`` of the moment step
+  it lies in, and 10 s when ``dt`` is a multiple of 10 s (30, 60 s, ...), every
+  ``dt / 10``-th state being a sample. Other intervals are refused.
+- Measured shaft speed = ``omega`` + sensor noise + bias, the noise white per sample.
+- The plant's fault levels (friction, flutter) are held over each moment step like
+  ``Gamma``; the sensor's (noise, heavy tails, bias) are taken at each sample.
+
+So the random streams of the moment clock (the wander, the shocks ``e_i`` and therefore
+``Gamma`` and the flutter) and the fuel phase are shared by every ``dt``: the true shaft
+speed of one vehicle at 1 s, 10 s and 60 s agrees at the common instants up to integration
+error. The per-sample streams (sensor noise, its heavy tails, fuel-sensor noise, jitter,
+drops) are drawn per sample and differ between rates. At 10 s the output is the one of the
+earlier per-sample design, bit for bit.
 
 Faults (:class:`Fault`) act from their onset on; every random stream of a vehicle is drawn
 from its own seed independently of its faults, so a faulty vehicle and a healthy vehicle
@@ -46,13 +62,15 @@ from graybox.exceptions import GrayBoxError
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.telemetry import validate_asset_id, write_telemetry
 
-__all__ = ["FAULT_KINDS", "Fault", "VehicleSpec", "FleetSpec", "simulate_fleet",
-           "simulate_fleet_with_truth", "write_fleet", "demo_fleet", "simulate_langevin",
-           "white_box_parameters", "moment_ar_coefficients"]
+__all__ = ["FAULT_KINDS", "MOMENT_STEP", "Fault", "VehicleSpec", "FleetSpec",
+           "simulate_fleet", "simulate_fleet_with_truth", "write_fleet", "demo_fleet",
+           "simulate_langevin", "white_box_parameters", "moment_ar_coefficients",
+           "moment_steps_ratio"]
 
 FAULT_KINDS = ("friction", "nonlinear", "noise", "bias", "heavy_tails")
 
 SECONDS_PER_DAY = 86_400.0
+MOMENT_STEP = 10.0              # s, the physical clock of the random moment and the fuel wander
 FUEL_MEAN = 1.0                 # mu0, kg/s
 LOAD_AMPLITUDE = 0.25           # relative amplitude of the daily load cycle
 WANDER_TIME = 7_200.0           # s, time constant of the OU wander of the fuel rate
@@ -61,11 +79,11 @@ FUEL_SENSOR_NOISE = 1e-4        # kg/s
 MOMENT_POLE_RADIUS = 0.9
 MOMENT_POLE_ANGLE = 2 * math.pi / 8
 WARMUP_SECONDS = 1_500.0        # warm-up of each time chunk (25 decay times at gamma = 0.06)
-CHUNK_SAMPLES = 512             # samples per time chunk (the warm-up is extra)
+CHUNK_SAMPLES = 512             # integration steps per time chunk (the warm-up is extra)
 SPLICE_TOLERANCE = 1e-9         # rad/s, largest accepted mismatch where chunks meet
 TRUTH_FILE = "fleet_truth.json"
 
-_BURN_IN = 1_000                # AR(2) samples discarded so Gamma starts stationary
+_BURN_IN = 1_000                # AR(2) moment steps discarded so Gamma starts stationary
 _N_STREAMS = 8                  # independent random streams per vehicle, in this order:
 _PHASE, _WANDER, _SHOCK, _SENSOR, _TAILS, _FUEL, _JITTER, _DROP = range(_N_STREAMS)
 _LOSS_PARAMETERS = ("turbine_slope", "compressor_linear", "compressor_quadratic")
@@ -103,6 +121,41 @@ def _integer(value, what: str, low: int) -> int:
     return int(value)
 
 
+def moment_steps_ratio(sample_interval: float) -> tuple[int, int]:
+    """How a sampling interval meets the moment clock of :data:`MOMENT_STEP` seconds.
+
+    Parameters
+    ----------
+    sample_interval : float
+        Seconds between samples: ``MOMENT_STEP / p`` or ``MOMENT_STEP * q`` for integers
+        ``p, q >= 1`` (1, 2, 2.5, 5, 10, 20, 30, 60 s, ...).
+
+    Returns
+    -------
+    per_step : int
+        Samples per moment step (``p``; 1 from 10 s up).
+    stride : int
+        Moment steps per sample (``q``; 1 up to 10 s).
+
+    Raises
+    ------
+    ValueError
+        For any other interval.
+    """
+    dt = _finite(sample_interval, "sample_interval")
+    if 0 < dt <= MOMENT_STEP:
+        per_step = round(MOMENT_STEP / dt)
+        if abs(per_step * dt - MOMENT_STEP) <= 1e-9 * MOMENT_STEP:
+            return per_step, 1
+    elif dt > MOMENT_STEP:
+        stride = round(dt / MOMENT_STEP)
+        if abs(stride * MOMENT_STEP - dt) <= 1e-9 * dt:
+            return 1, stride
+    raise ValueError(
+        f"sample_interval must divide the {MOMENT_STEP:g}-s moment step (10 / an integer: 1, 2, "
+        f"2.5, 5, 10 s, ...) or be a multiple of it (20, 30, 60 s, ...), got {sample_interval!r}")
+
+
 def _unknown_keys(d: Mapping, known, what: str) -> None:
     extra = set(d) - set(known)
     if extra:
@@ -133,7 +186,8 @@ class Fault:
         ``heavy_tails`` ``> 0``.
     ramp_days : float, default 0.0
         ``0``: full magnitude at onset; otherwise the magnitude grows linearly from 0 at onset
-        to full after ``ramp_days``.
+        to full after ``ramp_days``. The plant's faults (``friction``, ``nonlinear``) take
+        the level at the start of each 10-s moment step, the sensor's at each sample.
 
     Raises
     ------
@@ -276,9 +330,10 @@ class FleetSpec:
     start : str, default "2026-01-01"
         Start instant, anything :class:`pandas.Timestamp` parses; naive means UTC.
     sample_interval : float, default 10.0
-        Seconds between samples.
+        Seconds between samples: one that divides the 10-s moment step (1, 2, 5, 10 s, ...)
+        or a multiple of it (30, 60 s, ...), see :func:`moment_steps_ratio`.
     substeps : int, default 4
-        RK4 steps per sample.
+        RK4 steps per integration step: per sample up to 10 s, per 10-s moment step above.
     jitter : float, default 0.0
         Std in seconds of the timestamp jitter (uneven sampling), clipped to
         ``+-0.4 sample_interval``; the measured values are those at the jittered instants.
@@ -313,6 +368,10 @@ class FleetSpec:
         interval = _finite(self.sample_interval, "FleetSpec.sample_interval")
         if interval <= 0:
             raise ValueError(f"FleetSpec.sample_interval must be > 0, got {interval}")
+        try:
+            moment_steps_ratio(interval)
+        except ValueError as error:
+            raise ValueError(f"FleetSpec.{error}") from None
         object.__setattr__(self, "sample_interval", interval)
         jitter = _finite(self.jitter, "FleetSpec.jitter")
         drop = _finite(self.drop_fraction, "FleetSpec.drop_fraction")
@@ -409,15 +468,50 @@ def _fault_level(faults: tuple[Fault, ...], kind: str, days: np.ndarray) -> np.n
     return total
 
 
+@dataclass(frozen=True)
+class _Clock:
+    """The three time grids of a simulation.
+
+    Output samples ``k dt``, ``k < n``; integration instants ``j h``, ``j < n_int``, with
+    ``h = min(dt, MOMENT_STEP)`` (sample ``k`` is instant ``k stride``); moment steps
+    ``i MOMENT_STEP``, ``i < n_moment`` (integration step ``j`` lies in step ``j // per_step``).
+    ``n_moment`` is the number of 10-s samples of the fleet's days, whatever ``dt``.
+    """
+
+    n: int
+    dt: float
+    h: float
+    per_step: int
+    stride: int
+    n_int: int
+    n_moment: int
+
+    @classmethod
+    def of(cls, spec: FleetSpec) -> "_Clock":
+        n, dt = spec.n_samples, spec.sample_interval
+        per_step, stride = moment_steps_ratio(dt)
+        n_moment = int(math.ceil(spec.days * SECONDS_PER_DAY / MOMENT_STEP - 1e-9))
+        return cls(n=n, dt=dt, h=min(dt, MOMENT_STEP), per_step=per_step, stride=stride,
+                   n_int=(n - 1) * stride + 1, n_moment=n_moment)
+
+    def step_of_sample(self) -> np.ndarray:
+        """The moment step each output sample starts in."""
+        return np.arange(self.n) * self.stride // self.per_step
+
+
 @dataclass
 class _Draws:
-    """Everything random about one vehicle, on the uniform grid of ``n`` samples."""
+    """Everything random about one vehicle, on the grids of its :class:`_Clock`."""
 
-    fuel: np.ndarray          # mu at the grid instants
-    moment: np.ndarray        # Gamma_k, held over [t_k, t_k+1)
-    innovation: np.ndarray    # u_k
-    shock: np.ndarray         # e_k
-    friction: np.ndarray      # friction magnitude held over [t_k, t_k+1)
+    # on the integration grid
+    fuel: np.ndarray          # mu at the integration instants
+    moment: np.ndarray        # Gamma, held over [t_j, t_j+1)
+    friction: np.ndarray      # friction magnitude (of the moment step), held over [t_j, t_j+1)
+    # on the moment clock
+    moment_steps: np.ndarray  # Gamma_i
+    innovation: np.ndarray    # u_i
+    shock: np.ndarray         # e_i
+    # on the output grid
     sensor: np.ndarray        # shaft-speed sensor noise (noise and heavy-tail faults included)
     bias: np.ndarray          # shaft-speed bias (rad/s)
     fuel_sensor: np.ndarray   # fuel-rate sensor noise
@@ -425,29 +519,54 @@ class _Draws:
     keep: np.ndarray          # samples not dropped
 
 
-def _draw(vehicle: VehicleSpec, spec: FleetSpec) -> _Draws:
-    n, dt = spec.n_samples, spec.sample_interval
-    seeds = np.random.SeedSequence(vehicle.seed).spawn(_N_STREAMS)
-    rngs = [np.random.default_rng(s) for s in seeds]
-    t = np.arange(n) * dt
-    days = t / SECONDS_PER_DAY
-    faults = vehicle.faults
-
+def _fuel_rate(rngs, clock: _Clock) -> np.ndarray:
+    """``mu`` at the integration instants: the daily cycle, plus the wander drawn at the
+    moment-step instants and linear between them."""
     phase = rngs[_PHASE].uniform(0.0, 2 * math.pi)
-    rho = math.exp(-dt / WANDER_TIME)
-    xi = rngs[_WANDER].standard_normal(n + 1)
-    wander = lfilter([WANDER_STD * math.sqrt(1 - rho ** 2)], [1.0, -rho], xi[1:],
-                     zi=[rho * WANDER_STD * xi[0]])[0]  # starts in the stationary law
-    fuel = FUEL_MEAN * (1 + LOAD_AMPLITUDE * np.sin(2 * math.pi * t / SECONDS_PER_DAY + phase)
+    rho = math.exp(-MOMENT_STEP / WANDER_TIME)
+    # one knot past the last moment step, for instants inside that step; the normals are
+    # drawn in sequence, so the other knots do not depend on it
+    xi = rngs[_WANDER].standard_normal(clock.n_moment + 2)
+    knots = lfilter([WANDER_STD * math.sqrt(1 - rho ** 2)], [1.0, -rho], xi[1:],
+                    zi=[rho * WANDER_STD * xi[0]])[0]  # starts in the stationary law
+    if clock.per_step == 1:
+        wander = knots[:clock.n_int]
+    else:
+        step, within = np.divmod(np.arange(clock.n_int), clock.per_step)
+        wander = knots[step] + (knots[step + 1] - knots[step]) * (within / clock.per_step)
+    t = np.arange(clock.n_int) * clock.h
+    return FUEL_MEAN * (1 + LOAD_AMPLITUDE * np.sin(2 * math.pi * t / SECONDS_PER_DAY + phase)
                         + wander)
 
-    shock = rngs[_SHOCK].standard_normal(n + _BURN_IN)
-    kappa = np.concatenate([np.zeros(_BURN_IN), _fault_level(faults, "nonlinear", days)])
+
+def _moment(rngs, vehicle: VehicleSpec, clock: _Clock):
+    """``(Gamma_i, u_i, e_i)`` over the moment steps."""
+    days = np.arange(clock.n_moment) * MOMENT_STEP / SECONDS_PER_DAY
+    shock = rngs[_SHOCK].standard_normal(clock.n_moment + _BURN_IN)
+    kappa = np.concatenate([np.zeros(_BURN_IN), _fault_level(vehicle.faults, "nonlinear", days)])
     innovation = shock.copy()
     flutter = np.flatnonzero(kappa[1:]) + 1
     innovation[flutter] += kappa[flutter] * _hermite3(shock[flutter - 1])
     a1, a2 = moment_ar_coefficients()
     moment = lfilter([_moment_innovation_scale(vehicle.moment_std)], [1.0, -a1, -a2], innovation)
+    return moment[_BURN_IN:], innovation[_BURN_IN:], shock[_BURN_IN:]
+
+
+def _draw(vehicle: VehicleSpec, spec: FleetSpec) -> _Draws:
+    clock = _Clock.of(spec)
+    n, dt = clock.n, clock.dt
+    seeds = np.random.SeedSequence(vehicle.seed).spawn(_N_STREAMS)
+    rngs = [np.random.default_rng(s) for s in seeds]
+    days = np.arange(n) * dt / SECONDS_PER_DAY
+    faults = vehicle.faults
+
+    fuel = _fuel_rate(rngs, clock)
+    moment_steps, innovation, shock = _moment(rngs, vehicle, clock)
+    # held over the moment steps like Gamma, so that a ramp is the same plant at every rate
+    friction_steps = _fault_level(faults, "friction",
+                                  np.arange(clock.n_moment) * MOMENT_STEP / SECONDS_PER_DAY)
+    moment, friction = (np.repeat(x, clock.per_step)[:clock.n_int]
+                        for x in (moment_steps, friction_steps))
 
     z = rngs[_SENSOR].standard_normal(n)
     tails = _fault_level(faults, "heavy_tails", days)
@@ -473,10 +592,10 @@ def _draw(vehicle: VehicleSpec, spec: FleetSpec) -> _Draws:
             if dropped[k - 1] and dropped[k - 2]:
                 dropped[k] = False
         keep = ~dropped
-    return _Draws(fuel=fuel, moment=moment[_BURN_IN:], innovation=innovation[_BURN_IN:],
-                  shock=shock[_BURN_IN:], friction=_fault_level(faults, "friction", days),
-                  sensor=sensor, bias=_fault_level(faults, "bias", days),
-                  fuel_sensor=fuel_sensor, jitter=jitter, keep=keep)
+    return _Draws(fuel=fuel, moment=moment, friction=friction, moment_steps=moment_steps,
+                  innovation=innovation, shock=shock, sensor=sensor,
+                  bias=_fault_level(faults, "bias", days), fuel_sensor=fuel_sensor,
+                  jitter=jitter, keep=keep)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -526,7 +645,7 @@ class _Plant:
 
 def _rk4_sample(plant: _Plant, omega, fuel0, fuel1, moment, friction, dt, substeps,
                 with_friction):
-    """Advance ``omega`` over one sample: RK4, ``substeps`` steps, fuel linear in the sample."""
+    """Advance ``omega`` over one integration step: RK4, ``substeps`` steps, fuel linear."""
     fractions = np.arange(2 * substeps + 1) / (2 * substeps)
     shape = (-1,) + (1,) * np.ndim(omega)
     fuel = fuel0 + (fuel1 - fuel0) * fractions.reshape(shape)
@@ -558,7 +677,8 @@ def _chunk_layout(n: int, dt: float, serial: bool) -> tuple[int, int, int, int]:
 
 
 def _integrate(plant: _Plant, omega0, fuel, moment, friction, dt, substeps, serial=False):
-    """Shaft speed at the grid instants, shape ``(n, n_vehicles)``, and the splice mismatch."""
+    """Shaft speed at the integration instants, shape ``(n, n_vehicles)``, and the splice
+    mismatch."""
     n, n_vehicles = fuel.shape
     n_chunks, chunk, warmup, steps = _chunk_layout(n, dt, serial)
     padded = (n_chunks - 1) * chunk + steps + 1
@@ -622,13 +742,16 @@ def _integrate_fleet(plant: _Plant, omega0, fuel, moment, friction, dt, substeps
 # ---------------------------------------------------------------------------------------------
 # the fleet
 # ---------------------------------------------------------------------------------------------
-def _measure(plant: _Plant, omega, draws: _Draws, dt: float):
-    """Shaft speed and fuel rate at the (jittered) sampling instants, before sensor noise."""
-    n = len(omega)
+def _measure(plant: _Plant, omega, draws: _Draws, clock: _Clock):
+    """Shaft speed and fuel rate at the (jittered) sampling instants, before sensor noise.
+
+    ``omega`` is on the integration grid; so is the interpolation inside a step.
+    """
     if not draws.jitter.any():
-        return omega, draws.fuel
-    tau = np.arange(n, dtype=float) + draws.jitter / dt  # in samples
-    q = np.clip(np.floor(tau).astype(int), 0, n - 2)
+        return omega[::clock.stride], draws.fuel[::clock.stride]
+    h = clock.h
+    tau = np.arange(clock.n, dtype=float) * clock.stride + draws.jitter / h  # in steps
+    q = np.clip(np.floor(tau).astype(int), 0, clock.n_int - 2)
     theta = tau - q
     fuel0, fuel1 = draws.fuel[q], draws.fuel[q + 1]
     moment, friction = draws.moment[q], draws.friction[q]
@@ -636,8 +759,8 @@ def _measure(plant: _Plant, omega, draws: _Draws, dt: float):
     w0, w1 = omega[q], omega[q + 1]
     a0, b0 = plant.coefficients(fuel0, moment, friction, with_friction)
     a1, b1 = plant.coefficients(fuel1, moment, friction, with_friction)
-    f0, f1 = plant.drift(w0, a0, b0) * dt, plant.drift(w1, a1, b1) * dt
-    # cubic Hermite inside the sample, with the drift of that sample at both ends
+    f0, f1 = plant.drift(w0, a0, b0) * h, plant.drift(w1, a1, b1) * h
+    # cubic Hermite inside the step, with the drift of that step at both ends
     t2, t3 = theta ** 2, theta ** 3
     speed = ((2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + theta) * f0
              + (-2 * t3 + 3 * t2) * w1 + (t3 - t2) * f1)
@@ -658,17 +781,25 @@ def simulate_fleet_with_truth(spec: FleetSpec) -> tuple[dict[str, pd.DataFrame],
         As :func:`simulate_fleet`.
     truth : dict of str to DataFrame
         Per asset, on the uniform grid (no jitter, no drops): ``timestamp``, ``omega`` (true
-        shaft speed), ``fuel_rate`` (true ``mu``), ``moment`` (``Gamma_k``, held over the
-        sample that starts at ``timestamp``), ``innovation`` (``u_k``), ``shock`` (``e_k``),
-        ``sensor_noise`` (shaft-speed sensor noise, bias excluded) and ``bias``.
+        shaft speed), ``fuel_rate`` (true ``mu``), ``moment`` (``Gamma_i`` of the 10-s moment
+        step that ``timestamp`` lies in, held over that step), ``innovation`` (``u_i``) and
+        ``shock`` (``e_i``) of that step, ``sensor_noise`` (shaft-speed sensor noise, bias
+        excluded) and ``bias``. At 10 s a sample is a moment step.
+
+    Notes
+    -----
+    The moment clock's streams (``Gamma``, flutter, fuel wander) and the fuel phase are
+    shared by every sampling interval, so ``omega``, ``fuel_rate`` and ``moment`` of one
+    vehicle agree across rates at the common instants (``omega`` up to integration error);
+    ``sensor_noise``, the fuel-sensor noise, jitter and drops are drawn per sample.
     """
     return _simulate(spec, with_truth=True)
 
 
 def _simulate(spec: FleetSpec, with_truth: bool):
-    n, dt = spec.n_samples, spec.sample_interval
     if not spec.vehicles:
         return {}, {}
+    clock = _Clock.of(spec)
     draws = [_draw(v, spec) for v in spec.vehicles]
     models = [v.plant() for v in spec.vehicles]
     plant = _Plant(models)
@@ -678,13 +809,14 @@ def _simulate(spec: FleetSpec, with_truth: bool):
 
     omega0 = np.array([float(m.equilibrium_speed(d.fuel[0])) for m, d in zip(models, draws)])
     omega = _integrate_fleet(plant, omega0, stack("fuel"), stack("moment"), stack("friction"),
-                             dt, spec.substeps)
+                             clock.h, spec.substeps)
     start = spec.start_timestamp
-    grid_ns = np.round(np.arange(n) * dt * 1e9).astype(np.int64)
+    grid_ns = np.round(np.arange(clock.n) * clock.dt * 1e9).astype(np.int64)
     grid = start + pd.to_timedelta(grid_ns, unit="ns")
+    step = clock.step_of_sample()
     telemetry, truth = {}, {}
     for i, (vehicle, d) in enumerate(zip(spec.vehicles, draws)):
-        speed, fuel = _measure(plant.subset(i), omega[:, i], d, dt)
+        speed, fuel = _measure(plant.subset(i), omega[:, i], d, clock)
         stamps = grid if not d.jitter.any() else start + pd.to_timedelta(
             grid_ns + np.round(d.jitter * 1e9).astype(np.int64), unit="ns")
         keep = slice(None) if d.keep.all() else d.keep
@@ -693,8 +825,9 @@ def _simulate(spec: FleetSpec, with_truth: bool):
             "fuel_rate": (fuel + d.fuel_sensor)[keep]})
         if with_truth:
             truth[vehicle.asset_id] = pd.DataFrame({
-                "timestamp": grid, "omega": omega[:, i], "fuel_rate": d.fuel,
-                "moment": d.moment, "innovation": d.innovation, "shock": d.shock,
+                "timestamp": grid, "omega": omega[::clock.stride, i],
+                "fuel_rate": d.fuel[::clock.stride], "moment": d.moment_steps[step],
+                "innovation": d.innovation[step], "shock": d.shock[step],
                 "sensor_noise": d.sensor, "bias": d.bias})
     return telemetry, truth
 
