@@ -2,8 +2,9 @@
 import numpy as np
 import pytest
 
-from graybox.simulator import (MOMENT_STEP, Fault, FleetSpec, VehicleSpec, _chunk_layout,
-                               _integrate, _Plant, _draw, moment_steps_ratio,
+from graybox.simulation.draws import draw
+from graybox.simulation.plant import Plant, chunk_layout, integrate
+from graybox.simulator import (MOMENT_STEP, Fault, FleetSpec, VehicleSpec, moment_steps_ratio,
                                simulate_fleet_with_truth)
 
 VEHICLES = (
@@ -132,7 +133,7 @@ def test_jitter_and_drops_at_other_rates(dt, by_rate):
 
 def test_one_second_chunks_keep_the_loop_short():
     # 6 days at 1 s: the time loop runs warm-up + chunk steps, not 518,400
-    n_chunks, chunk, warmup, steps = _chunk_layout(6 * 86_400, 1.0, serial=False)
+    n_chunks, chunk, warmup, steps = chunk_layout(6 * 86_400, 1.0, serial=False)
     assert warmup == 1_500 and steps == warmup + chunk <= 5_000
     assert (n_chunks - 1) * chunk + steps >= 6 * 86_400 - 1
 
@@ -141,13 +142,13 @@ def test_one_second_chunks_match_serial_integration():
     vehicles = (VehicleSpec("A", seed=3),
                 VehicleSpec("B", seed=4, faults=(Fault("friction", 0.0, 1.0),)))
     spec = FleetSpec(vehicles, days=1, sample_interval=1.0)
-    draws = [_draw(v, spec) for v in vehicles]
+    draws = [draw(v, spec) for v in vehicles]
     n = 15_000  # a few chunks, and a serial run that stays short
     fuel, moment, friction = (np.stack([getattr(d, name)[:n] for d in draws], axis=1)
                               for name in ("fuel", "moment", "friction"))
     models = [v.plant() for v in vehicles]
     omega0 = np.array([m.equilibrium_speed(f) for m, f in zip(models, fuel[0])])
-    chunked, mismatch = _integrate(_Plant(models), omega0, fuel, moment, friction, 1.0, 4)
-    serial, _ = _integrate(_Plant(models), omega0, fuel, moment, friction, 1.0, 4, serial=True)
+    chunked, mismatch = integrate(Plant(models), omega0, fuel, moment, friction, 1.0, 4)
+    serial, _ = integrate(Plant(models), omega0, fuel, moment, friction, 1.0, 4, serial=True)
     assert (mismatch < 1e-9).all()
     np.testing.assert_allclose(chunked, serial, rtol=0, atol=1e-9)
