@@ -72,14 +72,18 @@ def grid_rows(rows: Rows, asset_id: str, dt_ns: int) -> TelemetryWindow:
         first_point = -(-rel // dt_ns)  # ceil: the first grid point at or after each row
         per_point = np.bincount(first_point, minlength=n_grid + 1)[:n_grid]
         left = np.cumsum(per_point) - 1
-        right = np.minimum(left + (rel[left] != grid), n - 1)
-        nearest = np.minimum(rel[right] - grid, grid - rel[left])
-        filled = nearest > dt_ns / 2
-        # relative ns fit exactly in float64 for ~100 days, so interpolation loses nothing
-        rel_f, grid_f = rel.astype(np.float64), grid.astype(np.float64)
+        at_left = rel.take(left)
+        right = np.minimum(left + (at_left != grid), n - 1)
+        at_right = rel.take(right)
+        filled = 2 * np.minimum(at_right - grid, grid - at_left) > dt_ns  # none within dt/2
+        # linear interpolation between rows left and right (np.interp would search again)
+        width = at_right - at_left
+        width[width == 0] = 1  # a grid point on a row: weight 0
+        weight = (grid - at_left) / width
         out = np.empty((len(rows.channels), n_grid), dtype=np.float64)
-        for j in range(len(rows.channels)):
-            out[j] = np.interp(grid_f, rel_f, rows.values[j])
+        for j, v in enumerate(rows.values):
+            before = v.take(left)
+            out[j] = before + weight * (v.take(right) - before)
 
     if rows.file_index is None:
         files, span = (), None
