@@ -120,6 +120,7 @@ def list_dates(root, asset_id: str) -> list[datetime.date]:
 
 
 def partitions(root, asset_id: str) -> list[tuple[datetime.date, pathlib.Path]]:
+    """Sorted (date, directory) of an asset's ``date=`` partitions (see :func:`list_dates`)."""
     validate_asset_id(asset_id)
     asset_dir = pathlib.Path(root) / f"{ASSET_PREFIX}{asset_id}"
     if not asset_dir.is_dir():
@@ -142,6 +143,7 @@ def partitions(root, asset_id: str) -> list[tuple[datetime.date, pathlib.Path]]:
 
 
 def parquet_files(directory: pathlib.Path) -> list[pathlib.Path]:
+    """A partition's Parquet files by name, hidden and temporary files left out."""
     return sorted((p for p in directory.iterdir()
                    if p.name.endswith(".parquet") and not p.name.startswith(".") and p.is_file()),
                   key=lambda p: p.name)
@@ -150,18 +152,20 @@ def parquet_files(directory: pathlib.Path) -> list[pathlib.Path]:
 def utc_ns(value, what: str) -> int:
     """A bound as int64 ns since the epoch, UTC (naive taken as UTC)."""
     try:
-        stamp = pd.Timestamp(value)
+        when = pd.Timestamp(value)
     except (TypeError, ValueError) as error:
         raise ValueError(f"{what} {value!r} is not a timestamp: {error}") from None
-    if stamp is pd.NaT:
+    if when is pd.NaT:
         raise ValueError(f"{what} must not be NaT")
-    stamp = stamp.tz_localize("UTC") if stamp.tz is None else stamp.tz_convert("UTC")
-    return int(stamp.as_unit("ns").value)
+    when = when.tz_localize("UTC") if when.tz is None else when.tz_convert("UTC")
+    return int(when.as_unit("ns").value)
 
 
 def day_ns(day: datetime.date) -> int:
+    """The start of a UTC date in ns since the epoch."""
     return (day - datetime.date(1970, 1, 1)).days * NS_PER_DAY
 
 
 def stamp(ns: int) -> str:
+    """ns since the epoch as an ISO 8601 UTC timestamp (for messages)."""
     return pd.Timestamp(int(ns), unit="ns", tz="UTC").isoformat()
