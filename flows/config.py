@@ -34,7 +34,8 @@ Layout (DESIGN section 4; every table but ``[classes.*]`` is optional)::
     assets = ["T-*"]                       # ids or glob patterns
     columns = { omega = "shaft_speed" }    # model variable -> telemetry column
     settings = { hidden_units = 8 }        # overrides of graybox GrayBoxSettings
-    grid = { max_fill = 3 }                # overrides of graybox GridPolicy
+    grid = { max_gap = "4min", stuck_after = "10min", min_duration = "1h" }
+                                           # overrides of graybox GridPolicy: durations
 
 Every error is a :class:`ConfigError` whose message starts with the file and the dotted key,
 e.g. ``fleet.toml: classes.turbine.model: ...``.
@@ -43,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+import json
 import math
 import os
 import pathlib
@@ -352,7 +354,6 @@ def _vehicle_class(check: "_Checker", name: str, table: Mapping) -> VehicleClass
     from graybox.exceptions import ModelSpecError
     from graybox.models import load_model
     from graybox.nonlinear_tier import FitSettings
-    from graybox.telemetry import GridPolicy
 
     key = f"classes.{name}"
     if _CLASS_NAME.fullmatch(name) is None or name in (".", ".."):
@@ -408,11 +409,35 @@ def _vehicle_class(check: "_Checker", name: str, table: Mapping) -> VehicleClass
                            lambda **values: dataclasses.replace(GrayBoxSettings(), **values),
                            overrides)
 
-    grid_table = check.table(f"{key}.grid", table.get("grid", {}))
-    check.fields(f"{key}.grid", grid_table, GridPolicy)
-    grid = check.build(f"{key}.grid", GridPolicy, grid_table)
+    grid = _grid(check, f"{key}.grid", check.table(f"{key}.grid", table.get("grid", {})))
     return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
                         grid)
+
+
+# GridPolicy keys counted in samples before its limits became durations
+_OLD_GRID_KEYS = {
+    "max_fill": ("max_gap", 'max_gap = "40s"', "the longest time between two rows that is "
+                 "filled by interpolation (max_fill = 3 at 10 s samples is 40 s)"),
+    "stuck_samples": ("stuck_after", 'stuck_after = "10min"', "how long a sensor may hold one "
+                      "value (stuck_samples = 60 at 10 s samples is 10 minutes)"),
+    "min_samples": ("min_duration", 'min_duration = "1h"', "the least time a window must "
+                    "cover (min_samples = 500 at 10 s samples is about 83 minutes)"),
+}
+
+
+def _grid(check: "_Checker", key: str, table: Mapping):
+    """The ``grid`` table of a vehicle class as a GridPolicy; old sample-count keys refused."""
+    from graybox.telemetry import GridPolicy
+
+    for name, (new, example, meaning) in _OLD_GRID_KEYS.items():
+        if name in table:
+            raise check.error(f"{key}.{name}", f"counted samples and is replaced by the "
+                                               f"duration {new!r}, {meaning}; write e.g. "
+                                               f"grid = {{ {example} }}")
+    check.fields(key, table, GridPolicy)
+    for name, value in table.items():  # name the key of the first bad value
+        check.build(f"{key}.{name}", GridPolicy, {name: value})
+    return check.build(key, GridPolicy, table)
 
 
 class _Checker:
@@ -479,8 +504,13 @@ def render_config(*, telemetry_root: str = "telemetry", tracking_uri: str = "sql
                   columns: Mapping[str, str] | None = None,
                   false_alarm_rate: float = 0.01, batch_size: int = 64,
                   plots: str = "alarms", cron: str = "30 2 * * *",
-                  retry_delay_seconds: float = 30.0) -> str:
-    """A commented ``fleet.toml`` for one vehicle class (what ``demo`` writes)."""
+                  retry_delay_seconds: float = 30.0,
+                  grid: Mapping[str, Any] | None = None) -> str:
+    """A commented ``fleet.toml`` for one vehicle class (what ``demo`` writes).
+
+    ``grid`` holds overrides of :class:`graybox.telemetry.GridPolicy` (durations as seconds
+    or strings such as ``"5s"``); the class's ``grid`` line shows every limit in effect.
+    """
     columns = {"omega": "shaft_speed"} if columns is None else dict(columns)
     column_text = ", ".join(f'{k} = "{v}"' for k, v in columns.items())
     asset_text = ", ".join(f'"{a}"' for a in assets)
@@ -513,4 +543,31 @@ timezone = "UTC"
 model = "{model}"
 assets = [{asset_text}]
 columns = {{ {column_text} }}
+grid = {{ {_grid_text(grid)} }}
+# grid: max_gap = longest time between rows filled by interpolation, stuck_after = how long a
+# channel may hold one value, min_duration = least time a window must cover
 '''
+
+
+def _grid_text(overrides: Mapping[str, Any] | None) -> str:
+    """The inline-table body of a GridPolicy (defaults plus ``overrides``) as durations."""
+    from graybox.telemetry import GridPolicy
+    from graybox.telemetry.policy import format_duration
+
+    policy = GridPolicy(**dict(overrides or {}))
+    parts = []
+    if policy.sample_interval is not None:
+        parts.append(f'sample_interval = "{format_duration(policy.sample_interval)}"')
+    parts.append(f'max_gap = "{format_duration(policy.max_gap)}"')
+    if isinstance(policy.stuck_after, tuple):
+        limits = ", ".join(f'{_toml_key(name)} = "{format_duration(limit)}"'
+                           for name, limit in policy.stuck_after)
+        parts.append(f"stuck_after = {{ {limits} }}")
+    else:
+        parts.append(f'stuck_after = "{format_duration(policy.stuck_after)}"')
+    parts.append(f'min_duration = "{format_duration(policy.min_duration)}"')
+    return ", ".join(parts)
+
+
+def _toml_key(name: str) -> str:
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name)

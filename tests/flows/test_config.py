@@ -6,6 +6,7 @@ import pathlib
 import pytest
 
 from flows.config import ConfigError, load_config, render_config
+from graybox.telemetry import GridPolicy
 
 MINIMAL = '''
 [classes.turbine]
@@ -64,7 +65,7 @@ parameters = { inertia = 10.0 }
 assets = ["T-*", "SPARE-1"]
 columns = { omega = "shaft_speed" }
 settings = { hidden_units = 4, ar_span = 100.0, network = { max_iter = 50 } }
-grid = { sample_interval = 10.0, max_fill = 5 }
+grid = { sample_interval = 10.0, max_gap = "1min", stuck_after = { "*" = "20min", fuel_rate = 0 } }
 [classes.drive]
 model = "graybox.models:LangevinShaft"
 assets = ["D-*"]
@@ -75,7 +76,11 @@ assets = ["D-*"]
     turbine = config.classes["turbine"]
     assert turbine.settings.hidden_units == 4 and turbine.settings.network.max_iter == 50
     assert turbine.settings.ar_span == 100.0
-    assert turbine.grid.sample_interval == 10.0 and turbine.grid.max_fill == 5
+    assert turbine.grid.sample_interval == 10.0 and turbine.grid.max_gap == 60.0
+    assert turbine.grid.stuck_limit("shaft_speed") == 1200.0
+    assert turbine.grid.stuck_limit("fuel_rate") == 0.0
+    assert turbine.grid.min_duration == 3600.0
+    assert config.classes["drive"].grid == GridPolicy()
     assert turbine.explicit_assets() == ("SPARE-1",)
     assert turbine.load_model().parameters["inertia"] == 10.0
     assert config.nightly.window == "6h" and config.notifications.block == "slack-webhook/fleet"
@@ -108,7 +113,15 @@ assets = ["D-*"]
     (MINIMAL + 'settings = { residual = "magic" }\n', "fleet.toml: classes.turbine.settings: "),
     (MINIMAL + 'settings = { network = { iters = 3 } }\n',
      "fleet.toml: classes.turbine.settings.network.iters: unknown setting"),
-    (MINIMAL + 'grid = { max_fill = -1 }\n', "fleet.toml: classes.turbine.grid: "),
+    (MINIMAL + 'grid = { max_gap = -1 }\n', "fleet.toml: classes.turbine.grid.max_gap: "),
+    (MINIMAL + 'grid = { max_gap = "40" }\n',
+     "fleet.toml: classes.turbine.grid.max_gap: max_gap '40' has no unit"),
+    (MINIMAL + 'grid = { stuck_after = "ages" }\n',
+     "fleet.toml: classes.turbine.grid.stuck_after: "),
+    (MINIMAL + 'grid = { stuck_after = { omega = "x" } }\n',
+     "fleet.toml: classes.turbine.grid.stuck_after: "),
+    (MINIMAL + 'grid = { min_duration = "0s" }\n',
+     "fleet.toml: classes.turbine.grid.min_duration: "),
     (MINIMAL + 'grid = { fill = 1 }\n', "fleet.toml: classes.turbine.grid.fill: unknown setting"),
     ("[alerts]\nfalse_alarm_rate = 1.5\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
     ("[alerts]\nfalse_alarm_rate = true\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
@@ -135,6 +148,29 @@ def test_errors_name_the_key(tmp_path, text, where):
     assert where in message, message
 
 
+@pytest.mark.parametrize("old, new, example", [
+    ("max_fill = 3", "'max_gap'", 'grid = { max_gap = "40s" }'),
+    ("stuck_samples = 60", "'stuck_after'", 'grid = { stuck_after = "10min" }'),
+    ("min_samples = 500", "'min_duration'", 'grid = { min_duration = "1h" }'),
+])
+def test_old_sample_count_grid_keys_name_their_duration_replacement(tmp_path, old, new,
+                                                                     example):
+    with pytest.raises(ConfigError) as error:
+        load_config(write(tmp_path, MINIMAL + f'grid = {{ max_gap = "1min", {old} }}\n'))
+    message = str(error.value)
+    key = old.split()[0]
+    assert message.startswith(f"fleet.toml: classes.turbine.grid.{key}: "), message
+    assert new in message and example in message, message
+
+
+def test_grid_durations_as_strings_or_seconds(tmp_path):
+    config = load_config(write(tmp_path, MINIMAL + 'grid = { sample_interval = "1s", '
+                                                   'max_gap = 5, stuck_after = "2h", '
+                                                   'min_duration = "90min" }\n'))
+    assert config.classes["turbine"].grid == GridPolicy(
+        sample_interval=1.0, max_gap=5.0, stuck_after=7200.0, min_duration=5400.0)
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="no such configuration file"):
         load_config(tmp_path / "nope.toml")
@@ -155,6 +191,18 @@ def test_rendered_config_loads(tmp_path):
     config = load_config(write(tmp_path, render_config()))
     assert config.classes["turbine"].assets == ("T-*",)
     assert config.nightly.plots == "alarms"
+    assert config.classes["turbine"].grid == GridPolicy()
+    assert 'grid = { max_gap = "4min", stuck_after = "10min", min_duration = "1h" }' \
+        in render_config()
+
+
+def test_rendered_grid_overrides_load_back(tmp_path):
+    grid = {"sample_interval": 1.0, "max_gap": "5s",
+            "stuck_after": {"*": "15min", "pdisch": "30min", "fuel rate": 0}}
+    text = render_config(grid=grid)
+    assert 'max_gap = "5s"' in text and 'pdisch = "30min"' in text
+    config = load_config(write(tmp_path, text))
+    assert config.classes["turbine"].grid == GridPolicy(**grid)
 
 
 def test_tracking_uri_override(tmp_path, monkeypatch):

@@ -1,4 +1,4 @@
-"""Known-answer tests of the fleet simulator (graybox/simulator.py)."""
+"""Known-answer tests of the fleet simulator (graybox/simulation/, graybox/simulator.py)."""
 import json
 import math
 
@@ -9,10 +9,11 @@ import pytest
 from graybox.exceptions import InvalidAssetIdError, ModelSpecError
 from graybox.models import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
-from graybox.simulator import (FAULT_KINDS, Fault, FleetSpec, VehicleSpec, _integrate, _Plant,
-                               _draw, demo_fleet, moment_ar_coefficients, simulate_fleet,
-                               simulate_fleet_with_truth, simulate_langevin, white_box_parameters,
-                               write_fleet)
+from graybox.simulation.draws import draw
+from graybox.simulation.plant import Plant, integrate
+from graybox.simulator import (FAULT_KINDS, Fault, FleetSpec, VehicleSpec, demo_fleet,
+                               moment_ar_coefficients, simulate_fleet, simulate_fleet_with_truth,
+                               simulate_langevin, white_box_parameters, write_fleet)
 from graybox.telemetry import list_assets, list_dates, read_raw
 
 DT = 10.0
@@ -287,20 +288,20 @@ def test_fleet_equals_vehicles_simulated_alone():
 
 def _integration_inputs(vehicles, days=1):
     spec = FleetSpec(tuple(vehicles), days=days)
-    draws = [_draw(v, spec) for v in spec.vehicles]
+    draws = [draw(v, spec) for v in spec.vehicles]
     models = [v.plant() for v in spec.vehicles]
     stack = [np.stack([getattr(d, name) for d in draws], axis=1)
              for name in ("fuel", "moment", "friction")]
     omega0 = np.array([m.equilibrium_speed(d.fuel[0]) for m, d in zip(models, draws)])
-    return _Plant(models), omega0, stack
+    return Plant(models), omega0, stack
 
 
 def test_time_chunks_match_serial_integration():
     vehicles = [VehicleSpec("A", seed=3),
                 VehicleSpec("B", seed=4, faults=(Fault("friction", 0.3, 1.0),))]
     plant, omega0, (fuel, moment, friction) = _integration_inputs(vehicles)
-    chunked, mismatch = _integrate(plant, omega0, fuel, moment, friction, DT, 4)
-    serial, _ = _integrate(plant, omega0, fuel, moment, friction, DT, 4, serial=True)
+    chunked, mismatch = integrate(plant, omega0, fuel, moment, friction, DT, 4)
+    serial, _ = integrate(plant, omega0, fuel, moment, friction, DT, 4, serial=True)
     assert (mismatch < 1e-9).all()
     np.testing.assert_allclose(chunked, serial, rtol=0, atol=1e-9)
 
@@ -309,9 +310,9 @@ def test_weakly_damped_plant_falls_back_to_serial():
     # inertia 100x: gamma ~ 0.0006 1/s, the chunk warm-up cannot forget its start
     slow = VehicleSpec("S", seed=9, plant_parameters={"inertia": 5000.0})
     plant, omega0, (fuel, moment, friction) = _integration_inputs([slow])
-    _, mismatch = _integrate(plant, omega0, fuel, moment, friction, DT, 4)
+    _, mismatch = integrate(plant, omega0, fuel, moment, friction, DT, 4)
     assert mismatch[0] > 1e-6
-    serial, _ = _integrate(plant, omega0, fuel, moment, friction, DT, 4, serial=True)
+    serial, _ = integrate(plant, omega0, fuel, moment, friction, DT, 4, serial=True)
     _, truth = simulate_fleet_with_truth(FleetSpec((slow,), days=1))
     np.testing.assert_array_equal(truth["S"].omega.to_numpy(), serial[:, 0])
 

@@ -15,7 +15,8 @@ from graybox.telemetry import (ASSET_ID_PATTERN, GridPolicy, TelemetryWindow, li
                                list_dates, read_raw, read_window, to_grid, validate,
                                validate_asset_id, write_telemetry)
 
-POLICY = GridPolicy(min_samples=10, stuck_samples=20, max_fill=3)
+# at 10 s samples: 10 samples, 20 samples stuck, 3 missing samples filled
+POLICY = GridPolicy(min_duration="100s", stuck_after="200s", max_gap="40s")
 T0 = pd.Timestamp("2024-03-01", tz="UTC")
 
 
@@ -315,22 +316,22 @@ def test_stuck_channel(tmp_path):
                              policy=POLICY)
     assert error.file.endswith("part-0.parquet") and error.row == 50
     assert "'b'" in error.message and "stuck at 7.25 for 20" in error.message
-    # one sample shorter is fine, and stuck_samples=0 disables the check
+    # one sample shorter is fine, and stuck_after=0 disables the check
     frame.loc[69, "b"] = 8.0
     frame.loc[139, "a"] = 2.0
     write_telemetry(tmp_path, "T-1", frame)
     read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
     constant = make_frame(200).assign(b=3.0)
     write_telemetry(tmp_path, "T-1", constant)
-    read_window(tmp_path, "T-1", ["b"], policy=GridPolicy(min_samples=10, stuck_samples=0))
+    read_window(tmp_path, "T-1", ["b"], policy=GridPolicy(min_duration="100s", stuck_after=0))
 
 
-def test_gap_longer_than_max_fill(tmp_path):
+def test_gap_longer_than_max_gap(tmp_path):
     frame = make_frame(200).drop(index=range(100, 104))  # 4 missing samples
     write_telemetry(tmp_path, "T-1", frame)
     error = raises_telemetry("gap", read_window, tmp_path, "T-1", ["a"], policy=POLICY)
     assert error.file.endswith("part-0.parquet") and error.row == 100  # the row after the gap
-    assert "4 missing" in error.message and "max_fill=3" in error.message
+    assert "4 missing" in error.message and "max_gap=40s" in error.message
     assert "2024-03-01T00:16:30" in error.message and "2024-03-01T00:17:20" in error.message
 
 
@@ -361,7 +362,7 @@ def test_validate_without_tags_reports_position():
 # -- gridding and splitting -----------------------------------------------------------------
 
 def test_short_gap_filled_linearly_and_counted(tmp_path):
-    frame = make_frame(200).drop(index=range(100, 103))  # 3 missing samples = max_fill
+    frame = make_frame(200).drop(index=range(100, 103))  # 3 missing samples: rows 40 s = max_gap apart
     write_telemetry(tmp_path, "T-1", frame)
     window = read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
     assert window.n_samples == 200 and window.filled_samples == 3
@@ -380,7 +381,7 @@ def test_jittered_timestamps_land_on_grid():
     stamps = T0 + pd.to_timedelta(seconds, unit="s")
     seconds = (stamps - T0).total_seconds().to_numpy()  # as stored: rounded to the ns
     raw = pd.DataFrame({"timestamp": stamps, "y": 3.0 + 0.5 * seconds})
-    window = to_grid(raw, "T-1", GridPolicy(sample_interval=10.0, min_samples=10))
+    window = to_grid(raw, "T-1", GridPolicy(sample_interval=10.0, min_duration="100s"))
     assert window.filled_samples == 0
     assert window.sample_interval == 10.0
     grid_seconds = (window.frame.index - T0).total_seconds().to_numpy()
@@ -397,7 +398,7 @@ def test_inferred_interval_is_median_step():
 
 def test_policy_interval_resamples():
     raw = make_frame(100, step=5.0)
-    window = to_grid(raw, "T-1", GridPolicy(sample_interval=10.0, min_samples=10))
+    window = to_grid(raw, "T-1", GridPolicy(sample_interval=10.0, min_duration="100s"))
     assert window.n_samples == 50 and window.filled_samples == 0
     np.testing.assert_allclose(window.frame["b"], raw["b"].to_numpy()[::2])
 
@@ -407,7 +408,7 @@ def test_split_by_day(tmp_path):
     frame = make_frame(36 * 60, start=start, step=60.0)   # 18:00 day 1 -> 06:00 day 3
     frame = frame.drop(index=range(600, 602))             # short gap on day 2 (04:00)
     paths = write_telemetry(tmp_path, "T-1", frame)
-    window = read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
+    window = read_window(tmp_path, "T-1", ["a", "b"])     # the default fills 3 min at 60 s
     assert window.filled_samples == 2
     days = window.split("1D")
     assert [d.start for d in days] == [start, pd.Timestamp("2024-03-02", tz="UTC"),
@@ -426,8 +427,11 @@ def test_split_by_day(tmp_path):
 
 
 def test_grid_policy_rejects_bad_values():
-    for kwargs in ({"sample_interval": 0}, {"sample_interval": float("nan")}, {"max_fill": -1},
-                   {"stuck_samples": 1}, {"min_samples": 0}, {"min_samples": 2.5}):
+    for kwargs in ({"sample_interval": 0}, {"sample_interval": float("nan")},
+                   {"sample_interval": "10"}, {"max_gap": -1}, {"max_gap": "-5s"},
+                   {"max_gap": "soon"}, {"max_gap": True}, {"stuck_after": float("inf")},
+                   {"stuck_after": {"p": "x"}}, {"stuck_after": {"": "1min"}},
+                   {"min_duration": 0}, {"min_duration": [1]}):
         with pytest.raises(ValueError):
             GridPolicy(**kwargs)
 

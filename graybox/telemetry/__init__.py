@@ -1,0 +1,78 @@
+"""Telemetry store: reading, validating and gridding an asset's sensor data (DESIGN section 4).
+
+Layout (hive-partitioned Parquet)::
+
+    <root>/asset_id=<id>/date=<YYYY-MM-DD>/<any>.parquet
+
+Each file has a ``timestamp`` column and one numeric column per channel. Timestamps are UTC:
+tz-aware timestamps are converted to UTC and naive timestamps are *taken as* UTC. A file's
+rows must lie in its partition's UTC date. Files whose name starts with ``.`` or does not end
+in ``.parquet`` are ignored (temporary and hidden files).
+
+The path from store to model input is::
+
+    read_raw -> validate -> to_grid      (read_window does all three)
+
+``read_raw`` returns the rows as stored, each tagged with its file and 0-based row, so that
+``validate`` can name the file and row of the first bad sample (DESIGN section 5).
+``to_grid`` puts the validated rows on the uniform grid the tiers assume. The limits of
+:class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples.
+
+Modules: :mod:`~graybox.telemetry.layout` (asset ids, partitions), ``reading``,
+``policy`` (:class:`GridPolicy`), ``validation``, ``gridding``, ``window``
+(:class:`TelemetryWindow`), ``writing`` and ``rows`` (the arrays passed between them).
+"""
+from __future__ import annotations
+
+from typing import Collection, Sequence
+
+from graybox.telemetry.gridding import grid_rows, to_grid
+from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
+                                      validate_asset_id)
+from graybox.telemetry.policy import GridPolicy, duration_seconds
+from graybox.telemetry.reading import read_raw, read_rows
+from graybox.telemetry.validation import validate, validate_rows
+from graybox.telemetry.window import TelemetryWindow
+from graybox.telemetry.writing import write_telemetry
+
+__all__ = ["ASSET_ID_PATTERN", "validate_asset_id", "GridPolicy", "TelemetryWindow",
+           "list_assets", "list_dates", "read_raw", "validate", "to_grid", "read_window",
+           "write_telemetry", "duration_seconds"]
+
+
+def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=None,
+                policy: GridPolicy = GridPolicy(), inputs: Collection[str] = ()
+                ) -> TelemetryWindow:
+    """Read, validate and grid one asset's telemetry over ``[start, end)``.
+
+    Parameters
+    ----------
+    root : str or path-like
+        The telemetry root.
+    asset_id : str
+        The asset.
+    columns : sequence of str
+        Channel columns (``model.required_columns``).
+    start, end : timestamp-like, optional
+        Half-open range; naive values are UTC.
+    policy : GridPolicy, optional
+        Validation limits and grid step.
+    inputs : collection of str, optional
+        Columns exempt from the stuck check (``model.input_columns``: commands and setpoints
+        may hold a value for hours). By default every column is checked.
+
+    Returns
+    -------
+    TelemetryWindow
+
+    Raises
+    ------
+    InvalidAssetIdError
+        If ``asset_id`` is invalid (before any path is built).
+    TelemetryError
+        See :func:`read_raw`, :func:`validate` and :func:`to_grid`.
+    """
+    validate_asset_id(asset_id)
+    rows = read_rows(root, asset_id, columns, start=start, end=end)
+    dt_ns = validate_rows(rows, asset_id, policy, inputs)
+    return grid_rows(rows, asset_id, dt_ns)

@@ -1,0 +1,160 @@
+"""How raw telemetry is checked and gridded: :class:`GridPolicy`, whose limits are durations.
+
+Limits are physical time, not sample counts, so one policy means the same at 1 s, 10 s or
+60 s samples. Durations are given as seconds (a number) or as a string with a unit that
+:class:`pandas.Timedelta` reads (``"5s"``, ``"10min"``, ``"2h"``, ``"1h30min"``); they are
+stored as float seconds.
+"""
+from __future__ import annotations
+
+import datetime
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import pandas as pd
+
+from graybox.telemetry.layout import NS_PER_SECOND
+
+ALL_CHANNELS = "*"
+"""Key of a ``stuck_after`` mapping that sets the limit of every channel not listed."""
+
+_DEFAULT_STUCK_AFTER = 600.0
+
+
+def duration_seconds(value, what: str = "duration") -> float:
+    """A duration as float seconds.
+
+    Parameters
+    ----------
+    value : float, int, str, datetime.timedelta or pandas.Timedelta
+        A number is seconds; a string needs a unit (``"5s"``, ``"10min"``, ``"2h"``): a bare
+        number in a string is refused, as pandas would read it as nanoseconds.
+    what : str, default "duration"
+        The name used in the error message.
+
+    Returns
+    -------
+    float
+        Seconds, finite and >= 0.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not a duration or is negative or not finite.
+    """
+    example = "a duration such as '5s', '10min' or '2h', or a number of seconds"
+    if isinstance(value, bool):
+        raise ValueError(f"{what} must be {example}, got {value!r}")
+    if isinstance(value, (int, float)):
+        seconds = float(value)
+    elif isinstance(value, str):
+        if not any(c.isalpha() for c in value):
+            raise ValueError(f"{what} {value!r} has no unit: write {example}")
+        try:
+            delta = pd.Timedelta(value.strip())
+        except (ValueError, TypeError):
+            raise ValueError(f"{what} must be {example}, got {value!r}") from None
+        if delta is pd.NaT:
+            raise ValueError(f"{what} must be {example}, got {value!r}")
+        seconds = delta.value / NS_PER_SECOND
+    elif isinstance(value, datetime.timedelta):  # pandas.Timedelta is one
+        seconds = pd.Timedelta(value).value / NS_PER_SECOND
+    else:
+        raise ValueError(f"{what} must be {example}, got {value!r}")
+    if not math.isfinite(seconds) or seconds < 0:
+        raise ValueError(f"{what} must be finite and >= 0, got {value!r}")
+    return seconds
+
+
+def format_duration(seconds: float) -> str:
+    """A duration as the shortest exact string of one unit: ``"4min"``, ``"1h"``, ``"2.5s"``."""
+    for unit, size in (("h", 3600.0), ("min", 60.0)):
+        if seconds >= size and (seconds / size).is_integer():
+            return f"{int(seconds / size)}{unit}"
+    return f"{seconds:g}s"
+
+
+@dataclass(frozen=True)
+class GridPolicy:
+    """How raw telemetry is checked and put on a uniform grid; limits are durations.
+
+    Each duration is seconds (a number) or a string with a unit (``"5s"``, ``"10min"``,
+    ``"2h"``); every field is stored as float seconds (``stuck_after`` as seconds or a tuple
+    of ``(channel, seconds)`` pairs), so the policy is hashable.
+
+    "Sample interval" below is ``dt``, the grid step (``sample_interval``, or the median raw
+    step when that is ``None``). A time between rows is counted in whole sample intervals,
+    rounded to the nearest (so timestamp jitter below ``dt / 2`` never matters).
+
+    Parameters
+    ----------
+    sample_interval : duration or None, default None
+        Grid step. ``None`` infers it as the median step of the raw timestamps.
+    max_gap : duration, default "4min"
+        The longest time between two consecutive rows that is bridged by linear
+        interpolation; rows further apart are an error (kind ``"gap"``). A gap of ``k``
+        intervals has ``k - 1`` missing samples, so ``"4min"`` fills up to 3 missing samples
+        at 60 s, 23 at 10 s and 239 at 1 s, and a 10-minute gap is an error at every rate
+        (``"40s"`` is the old ``max_fill = 3`` at 10 s). Consecutive samples are always
+        accepted, even if ``max_gap`` is shorter than ``dt``.
+    stuck_after : duration or mapping of str to duration, default "10min"
+        A channel that holds one value (at least two identical consecutive samples) for this
+        long is an error (kind ``"stuck_channel"``). A value holds from its first sample to
+        the next sample with another value (to the end of the window's last interval if
+        none): 60 identical samples at 10 s hold 10 minutes. ``0`` disables the check. A
+        mapping gives limits per channel (telemetry column); its key ``"*"`` sets the limit
+        of channels not listed (default 10 minutes), e.g. ``{"pdisch": "30min"}``. Columns
+        passed as ``inputs`` to :func:`validate` are never checked.
+    min_duration : duration, default "1h"
+        A window covering less time (grid points times ``dt``) is an error (kind
+        ``"too_few_samples"``). A duration, not a count, so that it asks for the same
+        coverage at every rate (500 samples would be 8 minutes at 1 s and more than 8 hours
+        at 60 s); whether the samples are enough for the fits is the estimator's check
+        (``GrayBoxSettings.min_samples``).
+
+    Raises
+    ------
+    ValueError
+        If a field is not a duration, or ``sample_interval`` or ``min_duration`` is 0.
+    """
+
+    sample_interval: float | None = None
+    max_gap: float = 240.0
+    stuck_after: float | tuple[tuple[str, float], ...] = _DEFAULT_STUCK_AFTER
+    min_duration: float = 3600.0
+
+    def __post_init__(self):
+        if self.sample_interval is not None:
+            interval = duration_seconds(self.sample_interval, "sample_interval")
+            if interval <= 0:
+                raise ValueError(f"sample_interval must be a positive duration or None, "
+                                 f"got {self.sample_interval!r}")
+            object.__setattr__(self, "sample_interval", interval)
+        object.__setattr__(self, "max_gap", duration_seconds(self.max_gap, "max_gap"))
+        minimum = duration_seconds(self.min_duration, "min_duration")
+        if minimum <= 0:
+            raise ValueError(f"min_duration must be a positive duration, got {self.min_duration!r}")
+        object.__setattr__(self, "min_duration", minimum)
+        object.__setattr__(self, "stuck_after", _stuck_limits(self.stuck_after))
+
+    def stuck_limit(self, channel: str) -> float:
+        """The ``stuck_after`` limit of one channel in seconds (0: not checked)."""
+        if not isinstance(self.stuck_after, tuple):
+            return self.stuck_after
+        limits = dict(self.stuck_after)
+        return limits.get(channel, limits[ALL_CHANNELS])
+
+
+def _stuck_limits(value) -> float | tuple[tuple[str, float], ...]:
+    """A duration, or a mapping (or its stored tuple of pairs) as sorted pairs with ``"*"``."""
+    if isinstance(value, tuple) and all(isinstance(p, tuple) and len(p) == 2 for p in value):
+        value = dict(value)
+    if not isinstance(value, Mapping):
+        return duration_seconds(value, "stuck_after")
+    limits = {ALL_CHANNELS: _DEFAULT_STUCK_AFTER}
+    for channel, limit in value.items():
+        if not isinstance(channel, str) or not channel:
+            raise ValueError(f"stuck_after keys must be channel names or '*', got {channel!r}")
+        limits[channel] = duration_seconds(limit, f"stuck_after[{channel!r}]")
+    return tuple(sorted(limits.items()))

@@ -1,0 +1,192 @@
+"""Validation of raw telemetry rows: the first bad row, by file and row (DESIGN section 5)."""
+from __future__ import annotations
+
+from typing import Collection
+
+import numpy as np
+import pandas as pd
+
+from graybox.exceptions import TelemetryError
+from graybox.telemetry.layout import NS_PER_SECOND, stamp
+from graybox.telemetry.policy import GridPolicy, format_duration
+from graybox.telemetry.rows import Rows
+
+_NAT = np.iinfo(np.int64).min
+
+
+def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy(),
+             inputs: Collection[str] = ()) -> None:
+    """Check raw telemetry rows; raise at the first bad row.
+
+    Checks run in this order, each over the whole window, and the first failing check raises
+    at its first offending row, naming the file and the 0-based row in that file. ``dt`` is
+    the sample interval (``policy.sample_interval`` or the median raw step); times between
+    rows count in whole intervals, rounded to the nearest (see :class:`GridPolicy`).
+
+    1. ``"non_finite"``: NaN or Inf in a channel (or a missing timestamp);
+    2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
+       than the previous row's (which may be in the previous file);
+    3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
+       ``policy.stuck_after`` (two or more identical consecutive samples), reported at the
+       first row of the run;
+    4. ``"gap"``: two consecutive rows more than ``policy.max_gap`` apart, reported at the
+       row after the gap;
+    5. ``"too_few_samples"``: the rows cover less than ``policy.min_duration`` (first to last
+       row plus one interval), or there is one row and no ``sample_interval`` (no file or row).
+
+    Parameters
+    ----------
+    raw : pandas.DataFrame
+        As returned by :func:`read_raw`. Every column other than ``timestamp``, ``_file``
+        and ``_row`` is a channel. Without ``_file``/``_row``, errors give the position.
+    asset_id : str
+        The asset (for the error).
+    policy : GridPolicy, optional
+        The limits.
+    inputs : collection of str, optional
+        Channels exempt from the stuck check: the model's inputs (commands, setpoints), which
+        legitimately hold a value for a long time (``model.input_columns``). By default every
+        channel is checked.
+
+    Raises
+    ------
+    TelemetryError
+        On the first problem found.
+    """
+    validate_rows(Rows.from_frame(raw), asset_id, policy, inputs)
+
+
+def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
+                  ) -> int:
+    """:func:`validate` on :class:`Rows`; returns the sample interval in ns (for gridding)."""
+    _check_finite(rows, asset_id)
+    check_order(rows, asset_id)
+    if len(rows) < 2 and policy.sample_interval is None:
+        raise TelemetryError(asset_id, "too_few_samples",
+                             f"{len(rows)} sample(s) in the window: two are needed to infer the "
+                             f"sample interval")
+    dt_ns = interval_ns(rows.ts, policy)
+    _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
+    _check_gaps(rows, asset_id, policy, dt_ns)
+    check_duration(asset_id, grid_points(rows.ts, dt_ns), dt_ns, policy)
+    return dt_ns
+
+
+def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:
+    """The grid step in ns: the policy's, or the median of the raw steps (>= 2 rows)."""
+    if policy.sample_interval is not None:
+        return max(1, int(round(policy.sample_interval * NS_PER_SECOND)))
+    return max(1, int(round(float(np.median(np.diff(ts))))))
+
+
+def grid_points(ts: np.ndarray, dt_ns: int) -> int:
+    """Points of the grid ``ts[0] + k * dt`` up to the last timestamp."""
+    return int((ts[-1] - ts[0]) // dt_ns) + 1
+
+
+def check_duration(asset_id: str, n_points: int, dt_ns: int, policy: GridPolicy) -> None:
+    """``"too_few_samples"`` if ``n_points`` at ``dt`` cover less than ``min_duration``."""
+    covered = n_points * dt_ns
+    if covered < round(policy.min_duration * NS_PER_SECOND):
+        raise TelemetryError(
+            asset_id, "too_few_samples",
+            f"the window covers {format_duration(covered / NS_PER_SECOND)} ({n_points} samples "
+            f"at {dt_ns / NS_PER_SECOND:g} s), need at least "
+            f"min_duration={format_duration(policy.min_duration)}")
+
+
+def intervals(steps: np.ndarray, dt_ns: int) -> np.ndarray:
+    """Times in ns as whole intervals of ``dt_ns``, rounded to the nearest (half up)."""
+    return (steps + dt_ns // 2) // dt_ns
+
+
+def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int):
+    file, row = rows.where(i)
+    raise TelemetryError(asset_id, kind, message, file=file, row=row)
+
+
+def _check_finite(rows: Rows, asset_id: str) -> None:
+    ts, values = rows.ts, rows.values
+    finite = np.isfinite(values)
+    bad_values = not finite.all()
+    bad_ts = bool((ts == _NAT).any())
+    if not (bad_values or bad_ts):
+        return
+    first_ts = int(np.argmax(ts == _NAT)) if bad_ts else len(ts)
+    first_val = int(np.argmax(~finite.all(axis=0))) if bad_values else len(ts)
+    if first_ts <= first_val:
+        _fail(rows, asset_id, "non_finite", "timestamp is missing (NaT)", first_ts)
+    i = first_val
+    names = [f"{rows.channels[j]!r}={float(values[j, i])!r}"
+             for j in np.flatnonzero(~finite[:, i])]
+    _fail(rows, asset_id, "non_finite", f"non-finite value in column {', '.join(names)}", i)
+
+
+def check_order(rows: Rows, asset_id: str) -> None:
+    """``"duplicate_timestamp"``/``"backward_timestamp"`` at the first non-increasing row."""
+    ts = rows.ts
+    steps = np.diff(ts)
+    if len(steps) == 0 or steps.min() > 0:
+        return
+    i = int(np.argmax(steps <= 0)) + 1
+    kind = "duplicate_timestamp" if steps[i - 1] == 0 else "backward_timestamp"
+    word = "equals" if kind == "duplicate_timestamp" else "is earlier than"
+    prev_file, prev_row = rows.where(i - 1)
+    file, _ = rows.where(i)
+    previous = "the previous row's"
+    if prev_file is not None and prev_file != file:
+        previous = f"the previous row's (row {prev_row} of another file, {prev_file})"
+    _fail(rows, asset_id, kind,
+          f"timestamp {stamp(ts[i])} {word} {previous} timestamp {stamp(ts[i - 1])}", i)
+
+
+def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inputs: set) -> None:
+    ts, n = rows.ts, len(rows)
+    if n < 2:
+        return
+    best = None  # (first row, channel, samples, held ns, limit s)
+    for j, name in enumerate(rows.channels):
+        limit = policy.stuck_limit(name)
+        if name in inputs or limit == 0:
+            continue
+        v = rows.values[j]
+        same = v[1:] == v[:-1]
+        if not same.any():  # the usual sensor: no two equal neighbours
+            continue
+        # runs of True in ``same``: samples starts[r] .. ends[r] hold one value
+        edges = np.diff(same.view(np.int8), prepend=0, append=0)
+        starts = np.flatnonzero(edges == 1)
+        ends = np.flatnonzero(edges == -1)
+        # a value holds until the next sample (or the end of the last interval)
+        until = np.where(ends + 1 < n, ts[np.minimum(ends + 1, n - 1)], ts[-1] + dt_ns)
+        held = intervals(until - ts[starts], dt_ns) * dt_ns
+        long = np.flatnonzero(held >= round(limit * NS_PER_SECOND))
+        if long.size and (best is None or starts[long[0]] < best[0]):
+            r = long[0]
+            best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]), limit)
+    if best is not None:
+        i, j, count, held, limit = best
+        _fail(rows, asset_id, "stuck_channel",
+              f"channel {rows.channels[j]!r} stuck at {float(rows.values[j, i])!r} for {count} "
+              f"consecutive samples ({format_duration(held / NS_PER_SECOND)}; "
+              f"stuck_after={format_duration(limit)})", i)
+
+
+def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:
+    ts = rows.ts
+    if len(ts) < 2:
+        return
+    # the longest step allowed, in whole intervals; consecutive samples are always fine
+    allowed = max(1, int(round(policy.max_gap * NS_PER_SECOND)) // dt_ns)
+    steps = np.diff(ts)
+    # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
+    too_long = steps >= allowed * dt_ns + (dt_ns + 1) // 2
+    if not too_long.any():
+        return
+    i = int(np.argmax(too_long)) + 1
+    step = int(steps[i - 1])
+    k = int(intervals(np.int64(step), dt_ns))
+    _fail(rows, asset_id, "gap",
+          f"gap from {stamp(ts[i - 1])} to {stamp(ts[i])} "
+          f"({format_duration(step / NS_PER_SECOND)}: {k - 1} missing samples at "
+          f"{dt_ns / NS_PER_SECOND:g} s; max_gap={format_duration(policy.max_gap)})", i)

@@ -1,0 +1,119 @@
+"""A window of one asset's telemetry on a uniform time grid (what the gray-box fits take)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class TelemetryWindow:
+    """A window of one asset's telemetry on a uniform time grid.
+
+    Equality is identity (the frame is a DataFrame); compare ``frame`` explicitly. The repr
+    is a one-line summary.
+
+    Parameters
+    ----------
+    asset_id : str
+        The asset.
+    frame : pandas.DataFrame
+        One float64 column per channel, indexed by a ``DatetimeIndex`` named ``"timestamp"``
+        (tz UTC) on a uniform grid of step ``sample_interval``.
+    sample_interval : float
+        Grid step in seconds.
+    filled_samples : int
+        Grid points created by interpolation across short gaps (no raw sample within half a
+        step). Points interpolated between jittered raw samples are not counted.
+    files : tuple of str
+        The files whose rows make up the window, in read order.
+    """
+
+    asset_id: str
+    frame: pd.DataFrame
+    sample_interval: float
+    filled_samples: int
+    files: tuple[str, ...]
+    # per grid point: True where it was filled across a gap (lets split apportion the count)
+    _filled_mask: np.ndarray | None = field(repr=False, compare=False, default=None)
+    # per grid point: indexes into files of the raw samples bracketing it (lets split name
+    # the files each sub-window was made from)
+    _file_span: np.ndarray | None = field(repr=False, compare=False, default=None)
+
+    def __post_init__(self):
+        index = self.frame.index
+        if not isinstance(index, pd.DatetimeIndex) or str(index.tz) != "UTC":
+            raise ValueError("TelemetryWindow.frame needs a DatetimeIndex with tz UTC")
+        if len(index) == 0:
+            raise ValueError("TelemetryWindow.frame is empty")
+        n = len(index)
+        if self._filled_mask is None and self.filled_samples == 0:
+            object.__setattr__(self, "_filled_mask", np.zeros(n, dtype=bool))
+        if self._filled_mask is not None:
+            if len(self._filled_mask) != n or int(self._filled_mask.sum()) != self.filled_samples:
+                raise ValueError("_filled_mask does not match the frame or filled_samples")
+        if self._file_span is not None and self._file_span.shape != (n, 2):
+            raise ValueError("_file_span must have shape (n_samples, 2)")
+
+    def __repr__(self) -> str:
+        return (f"TelemetryWindow(asset_id={self.asset_id!r}, start={self.start.isoformat()!r}, "
+                f"end={self.end.isoformat()!r}, n_samples={self.n_samples}, "
+                f"channels={list(self.frame.columns)!r}, sample_interval={self.sample_interval:g}, "
+                f"filled_samples={self.filled_samples}, files={len(self.files)})")
+
+    @property
+    def start(self) -> pd.Timestamp:
+        """First grid timestamp (inclusive)."""
+        return self.frame.index[0]
+
+    @property
+    def end(self) -> pd.Timestamp:
+        """Last grid timestamp plus one sample interval (exclusive)."""
+        return self.frame.index[-1] + pd.Timedelta(seconds=self.sample_interval)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of grid points."""
+        return len(self.frame)
+
+    def split(self, period: str = "1D", min_samples: int = 1) -> list["TelemetryWindow"]:
+        """Cut the window into consecutive sub-windows aligned to ``period`` boundaries.
+
+        Parameters
+        ----------
+        period : str, default "1D"
+            A fixed-length pandas frequency (``"1D"``, ``"6h"``, ...). Boundaries are
+            multiples of the period since the Unix epoch, so ``"1D"`` cuts at UTC midnight.
+        min_samples : int, default 1
+            Sub-windows with fewer grid points are dropped.
+
+        Returns
+        -------
+        list of TelemetryWindow
+            In time order. Each keeps the grid step; ``filled_samples`` counts the filled
+            points inside it and ``files`` the files its samples were interpolated from.
+        """
+        if self._filled_mask is None:
+            raise ValueError("this window has filled_samples > 0 but no _filled_mask; "
+                             "cannot apportion filled samples")
+        keys = self.frame.index.floor(period).asi8
+        cuts = np.flatnonzero(keys[1:] != keys[:-1]) + 1
+        bounds = np.concatenate([[0], cuts, [len(keys)]])
+        windows = []
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            if b - a < min_samples:
+                continue
+            mask = self._filled_mask[a:b]
+            if self._file_span is None:
+                files, span = self.files, None
+            else:
+                span = self._file_span[a:b]
+                used = np.unique(span)
+                files = tuple(self.files[i] for i in used)
+                span = np.searchsorted(used, span)  # re-index into the sub-window's files
+            windows.append(TelemetryWindow(
+                asset_id=self.asset_id, frame=self.frame.iloc[a:b].copy(),
+                sample_interval=self.sample_interval, filled_samples=int(mask.sum()),
+                files=files, _filled_mask=mask.copy(), _file_span=span))
+        return windows
