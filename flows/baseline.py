@@ -111,11 +111,11 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
         read = reads[asset]
         first, last = read.windows[0], read.windows[-1]
         try:
-            record = registry.record_fit(asset, ref.vehicle_class, signature, role="baseline",
-                                         calibration=calibration,
-                                         window=[tw for _, _, tw in read.windows],
-                                         window_start=first[0], window_end=last[1],
-                                         plots=config.nightly.plots != "none")
+            from registry.submission import FitSubmission
+            record = registry.record_fit(FitSubmission(
+                asset, ref.vehicle_class, signature, role="baseline", calibration=calibration,
+                window=[tw for _, _, tw in read.windows], window_start=first[0],
+                window_end=last[1], plots=config.nightly.plots != "none"))
             version = None
             if promote:
                 info = registry.promote(asset, record.version, reason=reason)

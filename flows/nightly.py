@@ -168,11 +168,12 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
                 break
             try:
                 drift = compute_drift(signature, loaded.signature, loaded.calibration)
-                record = registry.record_fit(
+                from registry.submission import FitSubmission
+                record = registry.record_fit(FitSubmission(
                     asset, ref.vehicle_class, signature, role="candidate", drift=drift,
                     window=tw, window_start=start, window_end=end,
                     baseline_version=loaded.version,
-                    plots=_plots(config.nightly.plots, drift.alarmed))
+                    plots=_plots(config.nightly.plots, drift.alarmed)))
             except Exception as error:  # noqa: BLE001
                 guard_asset_error(error, ref, f"recording the window from {start.isoformat()}")
                 stop, stop_start = error, start

@@ -101,12 +101,13 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
                 continue
             try:
                 drift = compute_drift(signature, loaded.signature, loaded.calibration)
-                record = registry.record_fit(
+                from registry.submission import FitSubmission
+                record = registry.record_fit(FitSubmission(
                     asset, ref.vehicle_class, signature, role="candidate", drift=drift,
                     window=tw, window_start=s, window_end=e, baseline_version=loaded.version,
                     plots=config.nightly.plots == "all"
                     or (config.nightly.plots == "alarms" and drift.alarmed),
-                    reanalysis=True)
+                    reanalysis=True))
             except Exception as error:  # noqa: BLE001
                 if is_transient(error):
                     raise TransientError(f"asset {asset}: recording: {error}") from error

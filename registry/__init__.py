@@ -6,7 +6,12 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``store``       tracking URIs, SQLite WAL set-up, "database is locked" retries, asset locks
 ``backend``     the MLflow client bound to one store, shared look-ups
 ``artifacts``   the signature bundle: JSON + safetensors + manifest, verified on read
-``records``     recording fits (runs, logged models, versions); zeta history, alerts
+``submission``  what is submitted for recording (FitSubmission), its key and data hash
+``run_content`` a recorded fit's tags, params, metrics, drift.json and description
+``model_files`` the pyfunc model of a fit (logged model or the run's model/)
+``runs``        logging one fit as a complete run, in few round trips
+``recording``   recording fits idempotently (runs, versions, alias), one or a batch
+``history``     the zeta history and the recorded alerts
 ``baselines``   safe loading, promote, reject, rollback, list, history
 ``watermarks``  per-asset watermark on the registered model
 ``plots``       residual/ACF, tier fits, zeta trend (matplotlib, Agg)
@@ -19,11 +24,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-__all__ = ["Registry", "FitRecord", "VersionInfo", "AssetSummary", "LoadedVersion",
+__all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary", "LoadedVersion",
            "RegistryError", "NotFoundError", "PromotionError", "RetryPolicy"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
+    "FitSubmission": "registry.submission",
     "FitRecord": "registry.entities",
     "VersionInfo": "registry.entities",
     "AssetSummary": "registry.entities",
@@ -39,6 +45,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from registry.exceptions import NotFoundError, PromotionError, RegistryError
     from registry.registry import Registry
     from registry.store import RetryPolicy
+    from registry.submission import FitSubmission
 
 
 def __getattr__(name: str):

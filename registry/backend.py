@@ -57,6 +57,15 @@ class Backend:
     user : str, optional
         Recorded on promotions and rejections; defaults to :func:`default_user`.
     retry : RetryPolicy, optional
+
+    Notes
+    -----
+    A backend remembers, for its own lifetime, the id of each vehicle class's experiment and
+    which assets' registered models it has seen with their class and experiment (neither
+    changes in normal operation): recording a fit then needs no look-up of either. An
+    experiment or registered model deleted by hand while a backend is in use makes its
+    next recording for that class or asset fail once (it is forgotten, and found or
+    created again on the next attempt); a new backend starts afresh.
     """
 
     def __init__(self, tracking_uri: str | None = None, workdir=None, user: str | None = None,
@@ -67,6 +76,8 @@ class Backend:
         prepare_sqlite(self.store, retry)
         self.client = RetryingClient(MlflowClient(tracking_uri=self.store.tracking_uri,
                                                   registry_uri=self.store.tracking_uri), retry)
+        self._experiments: dict[str, str] = {}          # vehicle class -> experiment id
+        self._models: dict[str, tuple[str, str]] = {}   # asset -> (vehicle class, experiment id)
 
     @property
     def tracking_uri(self) -> str:
@@ -76,8 +87,11 @@ class Backend:
     def experiment_id(self, vehicle_class: str, create: bool = False) -> str | None:
         """Id of the vehicle class's experiment (created on request, else None if absent)."""
         name = naming.experiment_name(vehicle_class)
+        if vehicle_class in self._experiments:
+            return self._experiments[vehicle_class]
         experiment = self.client.get_experiment_by_name(name)
         if experiment is not None:
+            self._experiments[vehicle_class] = experiment.experiment_id
             return experiment.experiment_id
         if not create:
             return None
@@ -85,12 +99,19 @@ class Backend:
                 "mlflow.note.content": f"Gray-box fits of the {vehicle_class!r} vehicle class: one "
                                        f"run per asset and window (fleet-health)."}
         try:
-            return self.client.create_experiment(
+            created = self.client.create_experiment(
                 name, artifact_location=self.store.experiment_artifact_location(name), tags=tags)
         except MlflowException as error:
             if not is_already_exists(error):
                 raise
-            return self.client.get_experiment_by_name(name).experiment_id
+            created = self.client.get_experiment_by_name(name).experiment_id
+        self._experiments[vehicle_class] = created
+        return created
+
+    def forget(self, asset_id: str | None = None, vehicle_class: str | None = None) -> None:
+        """Drop what this backend remembers of an asset's model and of a class's experiment."""
+        self._models.pop(asset_id, None)
+        self._experiments.pop(vehicle_class, None)
 
     def experiment_ids(self) -> list[str]:
         """Ids of every fleet-health experiment (one per vehicle class)."""
@@ -105,11 +126,36 @@ class Backend:
     def registered_model(self, asset_id: str):
         """The asset's registered model, or None."""
         try:
-            return self.client.get_registered_model(naming.model_name(asset_id))
+            model = self.client.get_registered_model(naming.model_name(asset_id))
         except MlflowException as error:
             if is_not_found(error):
+                self._models.pop(asset_id, None)
                 return None
             raise
+        self._remember(asset_id, model)
+        return model
+
+    def _remember(self, asset_id: str, model) -> None:
+        tags = model.tags or {}
+        vehicle_class, experiment_id = (tags.get(naming.TAG_VEHICLE_CLASS),
+                                        tags.get(naming.TAG_EXPERIMENT_ID))
+        if vehicle_class and experiment_id:
+            self._models[asset_id] = (vehicle_class, experiment_id)
+
+    def registered_models(self, asset_ids: list[str]) -> dict[str, Any]:
+        """The registered models of several assets in one search (absent ones left out)."""
+        names = {naming.model_name(a): a for a in asset_ids}
+        if len(names) == 1:
+            (asset,) = names.values()
+            model = self.registered_model(asset)
+            return {} if model is None else {asset: model}
+        clause = "name IN (" + ", ".join(naming.quote(n) for n in sorted(names)) + ")"
+        found = {}
+        for model in self.paged(self.client.search_registered_models, clause, max_results=200):
+            if model.name in names:
+                found[names[model.name]] = model
+                self._remember(names[model.name], model)
+        return found
 
     def require_registered_model(self, asset_id: str):
         model = self.registered_model(asset_id)
@@ -118,10 +164,34 @@ class Backend:
                                 f"({self.tracking_uri})")
         return model
 
-    def ensure_registered_model(self, asset_id: str, vehicle_class: str, experiment_id: str):
-        """The asset's registered model, created (tagged with its class) if needed."""
+    def ensure_registered_models(self, classes: dict[str, str]) -> None:
+        """Make sure each asset (``{asset_id: vehicle_class}``) has its registered model, of
+        that class and pointing at that class's experiment; one search for those this
+        backend has not seen yet.
+
+        Raises
+        ------
+        RegistryError
+            If an asset is recorded with another vehicle class.
+        """
+        experiments = {c: self.experiment_id(c, create=True) for c in set(classes.values())}
+        unseen = [a for a, c in classes.items() if self._models.get(a) != (c, experiments[c])]
+        if not unseen:
+            return
+        models = self.registered_models(unseen)
+        for asset in unseen:
+            self.ensure_registered_model(asset, classes[asset], experiments[classes[asset]],
+                                         model=models.get(asset))
+
+    def ensure_registered_model(self, asset_id: str, vehicle_class: str, experiment_id: str,
+                                model=None):
+        """The asset's registered model, created (tagged with its class) if needed.
+
+        ``model``, the asset's registered model if the caller has just read it, saves the
+        look-up.
+        """
         name = naming.model_name(asset_id)
-        model = self.registered_model(asset_id)
+        model = model if model is not None else self.registered_model(asset_id)
         if model is None:
             tags = {naming.TAG_ASSET_ID: asset_id, naming.TAG_VEHICLE_CLASS: vehicle_class,
                     naming.TAG_EXPERIMENT_ID: experiment_id}
@@ -143,6 +213,7 @@ class Backend:
             self.client.set_registered_model_tag(name, naming.TAG_EXPERIMENT_ID, experiment_id)
             self.client.set_registered_model_tag(name, naming.TAG_VEHICLE_CLASS, vehicle_class)
             self.client.set_registered_model_tag(name, naming.TAG_ASSET_ID, asset_id)
+        self._models[asset_id] = (vehicle_class, experiment_id)
         return model
 
     def model_version(self, asset_id: str, version: int | str):

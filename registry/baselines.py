@@ -29,7 +29,7 @@ from registry.artifacts import read_bundle
 from registry.backend import Backend
 from registry.entities import AssetSummary, LoadedVersion, VersionInfo
 from registry.exceptions import NotFoundError, PromotionError
-from registry.records import BUNDLE_DIR, LOADER_MODULE
+from registry.model_files import BUNDLE_DIR, LOADER_MODULE
 
 # what MLflow writes beside the bundle; ``registered_model_meta`` is added by MLflow itself
 # (into a local artifact store, in place) when a ``models:/`` URI is loaded; none is executed

@@ -2,16 +2,16 @@
 from __future__ import annotations
 
 import os
+from typing import Sequence
 
 import pandas as pd
 
-from graybox.calibration import Calibration
-from graybox.drift import Drift
-from graybox.signature import Signature
-from registry import baselines, records, watermarks
+from registry import baselines, history, recording, watermarks
 from registry.backend import Backend
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
+from registry.model_files import PyfuncTemplate
 from registry.store import RetryPolicy
+from registry.submission import FitSubmission
 
 
 class Registry:
@@ -36,8 +36,9 @@ class Registry:
     --------
     >>> registry = Registry("sqlite:///mlflow.db")                          # doctest: +SKIP
     >>> fit = GrayBox(model).fit(healthy_days)                              # doctest: +SKIP
-    >>> record = registry.record_fit("T-01", "turbine", fit.signature_, role="baseline",
-    ...                              calibration=fit.calibration_, window=healthy_days)
+    >>> record = registry.record_fit(FitSubmission(
+    ...     "T-01", "turbine", fit.signature_, role="baseline",
+    ...     calibration=fit.calibration_, window=healthy_days))                 # doctest: +SKIP
     >>> registry.promote("T-01", record.version, reason="initial baseline")  # doctest: +SKIP
     >>> registry.baseline("T-01").signature == fit.signature_               # doctest: +SKIP
     True
@@ -46,6 +47,7 @@ class Registry:
     def __init__(self, tracking_uri: str | None = None, *, workdir: str | os.PathLike | None = None,
                  user: str | None = None, retry: RetryPolicy = RetryPolicy()):
         self._backend = Backend(tracking_uri, workdir=workdir, user=user, retry=retry)
+        self._template = PyfuncTemplate()
 
     def __repr__(self) -> str:
         return f"Registry({self.tracking_uri!r})"
@@ -61,58 +63,43 @@ class Registry:
         return self._backend
 
     # -- recording -----------------------------------------------------------------------------
-    def record_fit(self, asset_id: str, vehicle_class: str, signature: Signature, *, role: str,
-                   calibration: Calibration | None = None, drift: Drift | None = None,
-                   window=None, data_hash: str | None = None, window_start=None,
-                   window_end=None, baseline_version: int | None = None,
-                   plots: bool = True, reanalysis: bool = False) -> FitRecord:
-        """Record a fit as a run, a logged pyfunc model and a new version (alias ``candidate``).
+    def record_fit(self, submission: FitSubmission | str, *args, **kwargs) -> FitRecord:
+        """Record a fit as a run with its pyfunc model, and a new version (alias ``candidate``).
 
         Idempotent: the same ``(asset_id, window_start, window_end, role, data_hash)``
-        returns the first record (``created=False``) without a new run or version.
+        returns the first record (``created=False``) without a new run or version; a
+        recording interrupted half-way is finished or replaced.
 
         Parameters
         ----------
-        asset_id : str
-            Validated before any name is built.
-        vehicle_class : str
-            Selects the experiment ``fleet-health/<vehicle_class>``.
-        signature : Signature
-        role : {"baseline", "candidate"}
-            ``baseline``: fitted on a healthy range, normally with its ``calibration`` (only
-            calibrated versions can be promoted). ``candidate``: a nightly fit, normally with
-            its ``drift`` against the baseline.
-        calibration : Calibration, optional
-        drift : Drift, optional
-            Logs zeta, epsilon and ratio per tier and channel, the ``fleet_health.alarm`` tag,
-            ``drift.json`` and the zeta trend plot.
-        window : TelemetryWindow, DataFrame or sequence of them, optional
-            The telemetry fitted. Used for the data hash and the residual and tier-fit
-            plots (drawn on the last window); without it those plots are skipped.
-        data_hash : str, optional
-            Overrides the hash of ``window`` (e.g. a hash of the Parquet files). Without
-            either, the signature's own JSON identifies the fit.
-        window_start, window_end : timestamp-like, optional
-            Default to the signature's.
-        baseline_version : int, optional
-            The baseline a candidate's drift was computed against (default: the version
-            holding ``baseline`` now).
-        plots : bool, default True
-        reanalysis : bool, default False
-            An ad-hoc reanalysis (role ``candidate``, ``baseline_version`` required): only the
-            run is recorded, tagged ``fleet_health.reanalysis``, with no logged model, no
-            version and no alias move; :meth:`zeta_history` and :meth:`alerts` leave it out.
-            Idempotent on the window, data hash and ``baseline_version``.
+        submission : FitSubmission
+            What to record (see :class:`registry.submission.FitSubmission`). The arguments
+            of ``FitSubmission`` may be given here instead: ``record_fit(asset_id,
+            vehicle_class, signature, role=..., ...)``.
 
         Returns
         -------
         FitRecord
+            A reanalysis (``reanalysis=True``) has no version and no model id: only its run
+            is recorded, tagged ``fleet_health.reanalysis``, with no alias move;
+            :meth:`zeta_history` and :meth:`alerts` leave it out.
         """
-        return records.record_fit(self._backend, asset_id, vehicle_class, signature, role=role,
-                                  calibration=calibration, drift=drift, window=window,
-                                  data_hash_=data_hash, window_start=window_start,
-                                  window_end=window_end, baseline_version=baseline_version,
-                                  plots=plots, reanalysis=reanalysis)
+        if not isinstance(submission, FitSubmission):
+            submission = FitSubmission(submission, *args, **kwargs)
+        elif args or kwargs:
+            raise TypeError("record_fit takes a FitSubmission or its arguments, not both")
+        return recording.record_fit(self._backend, submission, self._template)
+
+    def record_fits(self, submissions: Sequence[FitSubmission]) -> list[FitRecord]:
+        """Record several fits (e.g. one night of a batch of assets), in order.
+
+        The same records as :meth:`record_fit` of each, with the look-ups shared: the
+        experiments and registered models of the batch are found once and an asset's
+        ``candidate`` alias moves once. Every submission is checked before anything is
+        written; if one fails its error is raised, the fits before it stay recorded and
+        recording the batch again finds them.
+        """
+        return recording.record_fits(self._backend, list(submissions), self._template)
 
     # -- nightly reads -------------------------------------------------------------------------
     def baseline(self, asset_id: str) -> LoadedVersion | None:
@@ -171,8 +158,8 @@ class Registry:
         zeta, epsilon, ratio, exceeded, run_id, baseline_version``, oldest first (only the
         ``last`` most recent windows when given). One row set per window: a window recorded
         again with other data keeps its latest record."""
-        return records.zeta_history(self._backend, asset_id, last)
+        return history.zeta_history(self._backend, asset_id, last)
 
     def alerts(self, since=None) -> list[dict]:
         """Recorded alarms (window end at or after ``since``), oldest first."""
-        return records.alerts(self._backend, since)
+        return history.alerts(self._backend, since)

@@ -84,8 +84,10 @@ class GridPolicy:
     of ``(channel, seconds)`` pairs), so the policy is hashable.
 
     "Sample interval" below is ``dt``, the grid step (``sample_interval``, or the median raw
-    step when that is ``None``). A time between rows is counted in whole sample intervals,
-    rounded to the nearest (so timestamp jitter below ``dt / 2`` never matters).
+    step when that is ``None``). Times between rows and the limits are counted in whole
+    sample intervals, rounded to the nearest, so timestamp jitter below ``dt / 2`` and an
+    inferred ``dt`` slightly off the true one never matter; a limit is exact when it is a
+    multiple of ``dt`` (``"4min"`` at 1, 10 or 60 s), else it acts as the nearest multiple.
 
     Parameters
     ----------

@@ -21,7 +21,8 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     Checks run in this order, each over the whole window, and the first failing check raises
     at its first offending row, naming the file and the 0-based row in that file. ``dt`` is
     the sample interval (``policy.sample_interval`` or the median raw step); times between
-    rows count in whole intervals, rounded to the nearest (see :class:`GridPolicy`).
+    rows and the limits count in whole intervals, rounded to the nearest (see
+    :class:`GridPolicy`).
 
     1. ``"non_finite"``: NaN or Inf in a channel (or a missing timestamp);
     2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
@@ -87,7 +88,7 @@ def grid_points(ts: np.ndarray, dt_ns: int) -> int:
 def check_duration(asset_id: str, n_points: int, dt_ns: int, policy: GridPolicy) -> None:
     """``"too_few_samples"`` if ``n_points`` at ``dt`` cover less than ``min_duration``."""
     covered = n_points * dt_ns
-    if covered < round(policy.min_duration * NS_PER_SECOND):
+    if n_points < limit_intervals(policy.min_duration, dt_ns):
         raise TelemetryError(
             asset_id, "too_few_samples",
             f"the window covers {format_duration(covered / NS_PER_SECOND)} ({n_points} samples "
@@ -98,6 +99,12 @@ def check_duration(asset_id: str, n_points: int, dt_ns: int, policy: GridPolicy)
 def intervals(steps: np.ndarray, dt_ns: int) -> np.ndarray:
     """Times in ns as whole intervals of ``dt_ns``, rounded to the nearest (half up)."""
     return (steps + dt_ns // 2) // dt_ns
+
+
+def limit_intervals(seconds: float, dt_ns: int) -> int:
+    """A limit as whole intervals, rounded to the nearest like the times it is compared with
+    (so an inferred ``dt`` a little off the true one does not move the limit)."""
+    return int(intervals(round(seconds * NS_PER_SECOND), dt_ns))
 
 
 def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int):
@@ -159,11 +166,12 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
         ends = np.flatnonzero(edges == -1)
         # a value holds until the next sample (or the end of the last interval)
         until = np.where(ends + 1 < n, ts[np.minimum(ends + 1, n - 1)], ts[-1] + dt_ns)
-        held = intervals(until - ts[starts], dt_ns) * dt_ns
-        long = np.flatnonzero(held >= round(limit * NS_PER_SECOND))
+        held = intervals(until - ts[starts], dt_ns)
+        long = np.flatnonzero(held >= limit_intervals(limit, dt_ns))
         if long.size and (best is None or starts[long[0]] < best[0]):
             r = long[0]
-            best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]), limit)
+            best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]) * dt_ns,
+                    limit)
     if best is not None:
         i, j, count, held, limit = best
         _fail(rows, asset_id, "stuck_channel",
@@ -177,7 +185,7 @@ def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> No
     if len(ts) < 2:
         return
     # the longest step allowed, in whole intervals; consecutive samples are always fine
-    allowed = max(1, int(round(policy.max_gap * NS_PER_SECOND)) // dt_ns)
+    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
     steps = np.diff(ts)
     # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
     too_long = steps >= allowed * dt_ns + (dt_ns + 1) // 2

@@ -235,3 +235,21 @@ def test_validate_takes_inputs_too():
     validate(frame, "A-1", inputs=["setpoint"])
     with pytest.raises(TelemetryError, match="'setpoint'"):
         validate(frame, "A-1")
+
+
+@pytest.mark.parametrize("seed", [3, 4])  # a median step just under / over 1 s
+def test_limits_hold_when_the_inferred_interval_is_a_little_off(tmp_path, seed):
+    """Jitter moves the median step off 1 s; limits count in rounded intervals, so a dropout
+    of rows 4 s apart is still within max_gap = "4s" and 5 s apart is not."""
+    frame = make_frame(1.0, hours=2)
+    rng = np.random.default_rng(seed)
+    jitter = rng.uniform(-0.2, 0.2, len(frame))
+    jitter[[0, -1]] = 0.0
+    frame["timestamp"] += pd.to_timedelta(jitter, unit="s")
+    first = 3600
+    four = frame.drop(index=range(first + 1, first + 4)).reset_index(drop=True)
+    window = read(tmp_path, four, policy=GridPolicy(max_gap="4s"))
+    assert window.sample_interval != 1.0 and abs(window.sample_interval - 1.0) < 0.01
+    five = frame.drop(index=range(first + 1, first + 5)).reset_index(drop=True)
+    error = telemetry_error("gap", tmp_path, five, policy=GridPolicy(max_gap="4s"))
+    assert error.row == first + 1

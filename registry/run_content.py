@@ -1,0 +1,166 @@
+"""What a recorded fit says about itself: tags, params, metrics, ``drift.json``, description.
+
+Pure functions of a :class:`registry.submission.ResolvedFit` (no MLflow call), so every
+record of a fit says the same whichever path wrote it.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import pathlib
+import re
+import subprocess
+from typing import Any
+
+from graybox.calibration import Calibration
+from graybox.drift import Drift
+from graybox.signature import Signature
+from registry import naming
+from registry.submission import ResolvedFit
+
+_KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """The code that produced a fit: ``FLEET_HEALTH_CODE_VERSION`` if set, else the package
+    version plus ``git describe --always --dirty`` of the checkout when there is one.
+
+    Computed once per process (a ``git`` subprocess costs more than a whole record).
+    """
+    override = os.environ.get("FLEET_HEALTH_CODE_VERSION")
+    if override:
+        return override
+    try:
+        from importlib.metadata import version
+
+        package = version("fleet-health")
+    except Exception:
+        package = "unknown"
+    root = pathlib.Path(__file__).resolve().parent.parent
+    try:
+        described = subprocess.run(["git", "-C", str(root), "describe", "--always", "--dirty",
+                                    "--abbrev=12"], capture_output=True, text=True, timeout=5)
+        if described.returncode == 0 and described.stdout.strip():
+            return f"{package}+git.{described.stdout.strip()}"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return package
+
+
+def _key(name: str) -> str:
+    return _KEY_UNSAFE.sub("_", name)[:250]
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, str]) -> None:
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _flatten(f"{prefix}.{key}" if prefix else str(key), item, out)
+    else:
+        out[_key(prefix)] = json.dumps(value) if isinstance(value, (list, tuple)) else str(value)
+
+
+def structure_params(signature: Signature) -> dict[str, str]:
+    """The frozen structure as flat MLflow params (``channels.omega.ar_order`` = ``6``...)."""
+    params: dict[str, str] = {}
+    _flatten("", signature.frozen_structure(), params)
+    params["n_channels"] = str(len(signature.channels))
+    return params
+
+
+def fit_metrics(signature: Signature, calibration: Calibration | None,
+                drift: Drift | None) -> dict[str, float]:
+    """Noise moments, fit errors, epsilon (and zeta, ratio, alarm for a drift) as metrics."""
+    metrics: dict[str, float] = {"n_samples": signature.n_samples}
+    for channel in signature.channels:
+        c = channel.channel
+        metrics[f"fit.{c}.ar_innovation_variance"] = channel.linear.innovation_variance
+        metrics[f"fit.{c}.nn_train_mse"] = channel.nonlinear.train_mse
+        metrics[f"fit.{c}.nn_iterations"] = channel.nonlinear.iterations
+        if channel.nonlinear.heldout_gain is not None:
+            metrics[f"fit.{c}.nn_heldout_gain"] = channel.nonlinear.heldout_gain
+        noise = channel.noise
+        for name in ("mean", "variance", "skewness", "excess_kurtosis", "ljung_box_statistic",
+                     "ljung_box_pvalue"):
+            metrics[f"noise.{c}.{name}"] = getattr(noise, name)
+    if calibration is not None:
+        metrics["calibration.false_alarm_rate"] = calibration.false_alarm_rate
+        metrics["calibration.n_windows"] = calibration.n_windows
+        for entry in calibration.thresholds:
+            metrics[f"epsilon.{entry.channel}.{entry.tier}"] = entry.epsilon
+            metrics[f"healthy_zeta.{entry.channel}.{entry.tier}"] = entry.mean_zeta
+    if drift is not None:
+        ratios = []
+        for entry in drift.entries:
+            metrics[f"zeta.{entry.channel}.{entry.tier}"] = entry.zeta
+            if entry.epsilon is not None:
+                metrics[f"epsilon.{entry.channel}.{entry.tier}"] = entry.epsilon
+                metrics[f"ratio.{entry.channel}.{entry.tier}"] = entry.ratio
+                ratios.append(entry.ratio)
+        if ratios:
+            metrics["max_ratio"] = max(ratios)
+        metrics["alarm"] = float(drift.alarmed)
+    return {_key(k): float(v) for k, v in metrics.items()
+            if v is not None and math.isfinite(float(v))}
+
+
+def drift_document(drift: Drift, baseline_version: int | None) -> dict:
+    """``drift.json``: every entry with zeta, epsilon, ratio, alarm and its top changes."""
+    data = drift.to_dict()
+    for entry, source in zip(data["entries"], drift.entries):
+        entry["ratio"] = None if source.ratio is None or not math.isfinite(source.ratio) else source.ratio
+        entry["exceeded"] = source.exceeded
+    data["alarmed"] = drift.alarmed
+    data["baseline_version"] = baseline_version
+    return data
+
+
+def run_tags(fit: ResolvedFit, baseline_version: int | None) -> dict[str, str]:
+    """The tags a run is created with (everything but the completion tags)."""
+    s = fit.submission
+    tags = {naming.TAG_ASSET_ID: s.asset_id, naming.TAG_VEHICLE_CLASS: s.vehicle_class,
+            naming.TAG_WINDOW_START: fit.start, naming.TAG_WINDOW_END: fit.end,
+            naming.TAG_ROLE: s.role, naming.TAG_DATA_HASH: fit.data_hash,
+            naming.TAG_CODE_VERSION: code_version(), naming.TAG_FIT_KEY: fit.key}
+    if s.drift is not None:
+        tags[naming.TAG_ALARM] = "true" if s.drift.alarmed else "false"
+    if baseline_version is not None:
+        tags[naming.TAG_BASELINE_VERSION] = str(baseline_version)
+    if s.reanalysis:
+        tags[naming.TAG_REANALYSIS] = "true"
+    return tags
+
+
+def version_tags(fit: ResolvedFit, run_id: str, model_id: str, manifest_sha: str,
+                 baseline_version: int | None) -> dict[str, str]:
+    """The tags of the fit's model version."""
+    s = fit.submission
+    tags = {naming.TAG_ASSET_ID: s.asset_id, naming.TAG_ROLE: s.role,
+            naming.TAG_WINDOW_START: fit.start, naming.TAG_WINDOW_END: fit.end,
+            naming.TAG_DATA_HASH: fit.data_hash, naming.TAG_FIT_KEY: fit.key,
+            naming.TAG_RUN_ID: run_id, naming.TAG_MODEL_ID: model_id,
+            naming.TAG_CALIBRATED: "true" if s.calibration is not None else "false",
+            naming.TAG_MANIFEST_SHA256: manifest_sha, naming.TAG_CODE_VERSION: code_version()}
+    if s.drift is not None:
+        tags[naming.TAG_ALARM] = "true" if s.drift.alarmed else "false"
+    if baseline_version is not None:
+        tags[naming.TAG_BASELINE_VERSION] = str(baseline_version)
+    return tags
+
+
+def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
+    """The version description shown in the MLflow UI."""
+    s = fit.submission
+    text = f"{s.role.capitalize()} fit of {s.asset_id} over {fit.start} .. {fit.end}."
+    if s.calibration is not None:
+        text += (f" Calibrated on {s.calibration.n_windows} healthy windows at a false-alarm "
+                 f"rate of {s.calibration.false_alarm_rate:g} per window.")
+    if s.drift is not None:
+        worst = max(s.drift.entries, key=lambda e: -1 if e.ratio is None else e.ratio)
+        text += f" Compared with baseline version {baseline_version}:"
+        text += " ALARM" if s.drift.alarmed else " no alarm"
+        if worst.ratio is not None:
+            text += f" (largest zeta/epsilon {worst.ratio:.2f}, {worst.channel} {worst.tier} tier)."
+    return text
