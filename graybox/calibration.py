@@ -50,6 +50,7 @@ from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataErro
 from graybox.fleet_fit import FitRequest, fit_signatures
 from graybox.settings import GrayBoxSettings
 from graybox.signature import TIERS, Signature
+from graybox.stage_clock import StageClock
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
@@ -173,7 +174,8 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[f
 
 
 def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
-                  false_alarm_rate: float = 0.01, chunk_size: int = 32
+                  false_alarm_rate: float = 0.01, chunk_size: int = 32,
+                  clock: StageClock | None = None
                   ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
 
@@ -181,6 +183,10 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     (typically one day). Each window is left out in turn: the others refit the baseline, and
     the window, cut into pieces (:func:`calibration_pieces`), is fitted as nightly candidates
     of that refit. All assets' refits are batched like the baselines.
+
+    clock : StageClock, optional
+        Accumulates the seconds of the fits' stages (see
+        :func:`graybox.fleet_fit.fit_signatures`).
 
     Returns
     -------
@@ -191,7 +197,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
     settings = settings or GrayBoxSettings()
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
-    signatures = fit_signatures(fresh, settings, chunk_size)
+    signatures = fit_signatures(fresh, settings, chunk_size, clock)
     results: list = list(signatures)
     jobs = []  # (position, baseline signature, number of windows)
     for position, (request, signature) in enumerate(zip(fresh, signatures)):
@@ -207,7 +213,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     rest_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
                              baseline=sig)
                      for p, sig, count in jobs for k in range(count)]
-    rests = fit_signatures(rest_requests, settings, chunk_size)
+    rests = fit_signatures(rest_requests, settings, chunk_size, clock)
     # ...and the left-out window's pieces are fitted as nightly candidates of that refit
     piece_requests, owners = [], []
     for (p, sig, count), first in zip(jobs, np.cumsum([0] + [c for _, _, c in jobs])):
@@ -218,7 +224,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
                 piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
                                               warm_start=rest if isinstance(rest, Signature) else sig))
                 owners.append((p, first + k))
-    pieces = fit_signatures(piece_requests, settings, chunk_size)
+    pieces = fit_signatures(piece_requests, settings, chunk_size, clock)
     collected: dict[int, list] = {p: [] for p, _, _ in jobs}
     for (p, rest_index), piece in zip(owners, pieces):
         collected[p].append((rests[rest_index], piece))

@@ -25,6 +25,7 @@ from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights,
 from graybox.residual import infer_sample_interval, residual_frame
 from graybox.settings import GrayBoxSettings
 from graybox.signature import ChannelSignature, ChannelStructure, Selection, Signature
+from graybox.stage_clock import StageClock, timed
 from graybox.stationarize import choose_differencing
 
 
@@ -85,7 +86,8 @@ def _window_parts(window) -> tuple[pd.DataFrame, float, str | None]:
     return frame, float(interval), getattr(window, "asset_id", None)
 
 
-def _prepare(request: FitRequest, settings: GrayBoxSettings) -> _Prepared:
+def _prepare(request: FitRequest, settings: GrayBoxSettings,
+             clock: StageClock | None = None) -> _Prepared:
     if not request.windows:
         raise InsufficientDataError("no telemetry windows to fit")
     parts = [_window_parts(w) for w in request.windows]
@@ -103,17 +105,21 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings) -> _Prepared:
     analysis = analysis_interval(request, settings, frames, interval)
     factor = decimation_factor(analysis, interval)
     window = settings.derivative_window(interval)
-    residuals = [residual_frame(request.model, frame, settings.residual, interval, window)
-                 for frame in frames]
+    with timed(clock, "residual"):
+        residuals = [residual_frame(request.model, frame, settings.residual, interval, window)
+                     for frame in frames]
+        decimated = {name: [decimate(r[name].to_numpy(), factor) for r in residuals]
+                     for name in request.model.states}
+    del residuals
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
     prepared = _Prepared(request, interval, analysis, min(starts).isoformat(),
                          max(ends).isoformat(), asset_id)
     for index, name in enumerate(request.model.states):
-        segments = [decimate(r[name].to_numpy(), factor) for r in residuals]
         frozen = None if baseline is None else baseline.channel(name).structure
-        prepared.channels.append(_prepare_channel(name, segments, frozen, settings, analysis,
-                                                  seed=request.seed * 1000 + index))
+        with timed(clock, "stationarize_ar"):
+            prepared.channels.append(_prepare_channel(name, decimated[name], frozen, settings,
+                                                      analysis, seed=request.seed * 1000 + index))
     return prepared
 
 
@@ -286,7 +292,8 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
 
 
 def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
-                   chunk_size: int = 32) -> list[Signature | GrayBoxError]:
+                   chunk_size: int = 32, clock: StageClock | None = None
+                   ) -> list[Signature | GrayBoxError]:
     """Fit many assets' signatures; all networks of a shape train in batched computations.
 
     Parameters
@@ -299,6 +306,9 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     chunk_size : int, default 32
         Series per batched network computation (an execution detail: a series' result does
         not depend on it).
+    clock : StageClock, optional
+        Accumulates the seconds of the stages ``residual``, ``stationarize_ar``, ``network``
+        and ``noise``.
 
     Returns
     -------
@@ -318,25 +328,27 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     with threadpool_limits(limits=1):
         for effective, positions in groups.items():
             for position, result in zip(positions, _fit_group([requests[p] for p in positions],
-                                                              effective, chunk_size)):
+                                                              effective, chunk_size, clock)):
                 results[position] = result
     return results
 
 
 def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
-               chunk_size: int) -> list[Signature | GrayBoxError]:
+               chunk_size: int, clock: StageClock | None) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     prepared, positions = [], []
     for position, request in enumerate(requests):
         try:
-            prepared.append(_prepare(request, settings))
+            prepared.append(_prepare(request, settings, clock))
             positions.append(position)
         except (GrayBoxError, np.linalg.LinAlgError) as error:
             results[position] = _as_graybox_error(error, request)
-    _fit_networks(prepared, settings, chunk_size)
+    with timed(clock, "network"):
+        _fit_networks(prepared, settings, chunk_size)
     for position, item in zip(positions, prepared):
         try:
-            results[position] = _finish(item, settings)
+            with timed(clock, "noise"):
+                results[position] = _finish(item, settings)
         except (GrayBoxError, np.linalg.LinAlgError) as error:
             results[position] = _as_graybox_error(error, item.request)
     return results
