@@ -2,7 +2,7 @@
 store with promoted baselines per session; a fresh copy of that store per test.
 
 The fleet: 5 gas-turbine vehicles over 6 days at 30 s (2,880 samples a day); T-002 gets a
-sensor-noise fault (x2) from the start of day 4 and T-004 blade flutter (nonlinear 0.5) from
+sensor-noise fault (x4) from the start of day 4 and T-004 blade flutter (nonlinear 0.5) from
 the start of day 5. Baselines are fitted on days 1-3; the nights to process are days 4-6.
 """
 from __future__ import annotations

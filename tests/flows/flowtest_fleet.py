@@ -7,8 +7,10 @@ START = pd.Timestamp("2026-01-01", tz="UTC")
 DAYS = 6
 BASELINE_DAYS = 3
 ASSETS = ("T-001", "T-002", "T-003", "T-004", "T-005")
-#: asset -> (fault kind, onset day, magnitude): noise x2 from day 4, flutter from day 5
-FAULTY = {"T-002": ("noise", 3.0, 1.0), "T-004": ("nonlinear", 4.0, 0.5)}
+#: asset -> (fault kind, onset day, magnitude): sensor noise x4 from day 4, flutter from day 5.
+#: (At 30-s samples the random moment integrated over a sample dominates the one-step
+#: residual, so a doubled sensor noise is below what it can show; x4 is clear.)
+FAULTY = {"T-002": ("noise", 3.0, 3.0), "T-004": ("nonlinear", 4.0, 0.5)}
 
 
 def day(i: int) -> pd.Timestamp:

@@ -10,7 +10,7 @@ from flows.cli import main
 def test_small_demo_end_to_end(tmp_path, harness, capsys):
     workdir = tmp_path / "demo"
     status = main(["demo", "--workdir", str(workdir), "--vehicles", "4", "--days", "6",
-                   "--baseline-days", "3", "--sample-interval", "30"])
+                   "--baseline-days", "3", "--sample-interval", "10"])
     out = capsys.readouterr().out
     assert status == 0, out
     # demo_fleet(4) injects friction into T-001 and flutter into T-004 (seed 0)
