@@ -19,6 +19,10 @@ import numpy as np
 # FitSettings and initial_weights are part of this module's public API (fit_networks' arguments)
 from graybox.network_settings import FitSettings, NetworkFit, initial_weights
 
+#: samples per batched network computation at most: about 230 MB of tensors (measured 400-450
+#: bytes per series-sample for J = 8, m = 6, with and without trained input weights)
+CHUNK_SAMPLES = 2 ** 19
+
 __all__ = ["NonlinearTier", "lagged", "fit_networks", "FitSettings", "NetworkFit",
            "initial_weights"]
 
@@ -91,7 +95,8 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                  initial: Sequence[tuple[np.ndarray, np.ndarray] | None] | None = None,
                  settings: FitSettings = FitSettings(),
                  random_state: int | Sequence[int] | None = 0,
-                 chunk_size: int = 32, train_input_weights: bool = True) -> list[NetworkFit]:
+                 chunk_size: int = 32, train_input_weights: bool = True,
+                 chunk_samples: int = CHUNK_SAMPLES) -> list[NetworkFit]:
     """Fit one Eq. 25 network per problem, in batches of independent series.
 
     Parameters
@@ -110,6 +115,9 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
         and data, never on the rest of its batch.
     chunk_size : int, default 32
         Series per batched computation (small chunks keep activations in cache).
+    chunk_samples : int, default CHUNK_SAMPLES
+        Most (padded) samples of all series of a batched computation: its memory is about
+        450 bytes per sample, so this bounds it whatever the series' lengths.
     train_input_weights : bool, default True
         When False the hidden layer ``w_jk`` keeps its starting values (fixed random
         features) and only ``W_1j`` is fitted: a well-posed problem with one minimum, used
@@ -151,8 +159,9 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
     results: list[NetworkFit | None] = [None] * len(problems)
     with single_thread():
         for length, members in sorted(buckets.items()):
-            for first in range(0, len(members), chunk_size):
-                chunk = members[first: first + chunk_size]
+            size = max(1, min(chunk_size, chunk_samples // length))
+            for first in range(0, len(members), size):
+                chunk = members[first: first + size]
                 fits = fit_chunk([problems[i] for i in chunk], [starts[i] for i in chunk],
                                  hidden, dim, settings, length, train_input_weights)
                 for index, fit in zip(chunk, fits):
