@@ -10,6 +10,8 @@ assets are fitted together (:func:`graybox.estimator.fit_baselines`), each recor
 ``baseline`` at once; otherwise review it in the MLflow UI and promote it with
 ``fleet-health baseline promote``.
 
+Assets are read and fitted in groups within ``[nightly] memory_budget`` (:mod:`flows.memory`).
+
 Recording is idempotent: fitting the same range again (same data) returns the same version.
 Watermarks are not moved: a new asset's first nightly run starts at the end of its
 baseline's window.
@@ -22,15 +24,20 @@ import pandas as pd
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
 
+from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.stage_clock import StageClock, timed
+
 from flows import progress
+from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
 from flows.config import FleetConfig, load_config
-from flows.fitting import fit_baseline_requests, read_windows
 from flows.fleet import AssetRef, UsageError, discover, range_windows, utc
 from flows.hooks import notify_hook
-from flows.nightly import batch_failed, guard_asset_error, retry_transient, run_batches
+from flows.memory import MemoryBudget
+from flows.pipeline import PendingAsset, fit_baselines, memory_groups, read
 from flows.report import flow_result
-from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, TransientError,
-                           WindowResult, describe_error, is_transient, now_iso)
+from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, WindowResult,
+                           describe_error, now_iso)
+from registry.submission import FitSubmission
 
 MIN_WINDOWS = 3
 
@@ -51,9 +58,80 @@ def baseline_windows(config: FleetConfig, start, end) -> list[tuple[pd.Timestamp
     return windows
 
 
+def select(config: FleetConfig, ref: AssetRef, windows, clock: StageClock | None = None
+           ) -> tuple[AssetResult, PendingAsset | None]:
+    """An asset's healthy windows, read; None when it cannot have a baseline (bad telemetry
+    never enters a baseline, and calibration needs at least :data:`MIN_WINDOWS` windows)."""
+    asset = ref.asset_id
+    vehicle_class = config.classes[ref.vehicle_class]
+    result = AssetResult(asset, ref.vehicle_class, OK)
+    try:
+        pending = PendingAsset(ref, result, vehicle_class.load_model())
+        read(config, pending, vehicle_class.grid, windows, stop_at_error=True, clock=clock)
+    except Exception as error:  # noqa: BLE001
+        guard_asset_error(error, ref, "reading its telemetry")
+        result.status, result.error = FAILED, describe_error(error)
+        return result, None
+    if pending.stop is not None:
+        pending.fail(pending.stop, pending.stop_start)
+        result.note = "bad telemetry never enters a baseline"
+        return result, None
+    if len(pending.windows) < MIN_WINDOWS:
+        pending.fail(InsufficientDataError(
+            f"asset {asset!r}: only {len(pending.windows)} window(s) with telemetry in the "
+            f"range; a baseline needs at least {MIN_WINDOWS}"))
+        return result, None
+    return result, pending
+
+
+def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, promote: bool,
+                    reason: str | None, clock: StageClock | None = None) -> None:
+    """Record a fitted baseline (and promote it with ``promote``); fills the asset's result."""
+    asset, result = pending.asset_id, pending.result
+    if isinstance(fit, GrayBoxError):
+        pending.fail(fit)
+        return
+    signature, calibration = fit
+    windows = pending.windows
+    try:
+        with timed(clock, "registry"):
+            record = registry.record_fit(FitSubmission(
+                asset, pending.ref.vehicle_class, signature, role="baseline",
+                calibration=calibration, window=[w.telemetry for w in windows],
+                window_start=windows[0].start, window_end=windows[-1].end,
+                plots=config.nightly.plots != "none"))
+            version, note = _promotion(registry, asset, record.version, promote, reason)
+    except Exception as error:  # noqa: BLE001
+        guard_asset_error(error, pending.ref, "recording")
+        pending.fail(error)
+        return
+    result.baseline_version = version
+    result.windows = [WindowResult(record.window_start, record.window_end, record.version,
+                                   record.run_id, False, None, record.created)]
+    used = ", ".join(f"{w.start:%Y-%m-%d}" for w in windows)
+    result.note = f"{note} (windows {used})"
+
+
+def _promotion(registry, asset: str, version: int, promote: bool,
+               reason: str | None) -> tuple[int | None, str]:
+    """Promote the new version, or say where it stands and how to promote it."""
+    if promote:
+        info = registry.promote(asset, version, reason=reason)
+        return info.version, f"v{info.version} promoted to baseline"
+    model = registry.backend.registered_model(asset)
+    aliases = {k: int(v) for k, v in ((model.aliases or {}) if model else {}).items()}
+    command = f"`fleet-health baseline promote {asset} --version {version} --reason ...`"
+    if aliases.get("baseline") == version:
+        return version, f"v{version} (recorded before) is already the baseline"
+    if aliases.get("candidate") == version:
+        return None, f"v{version} is the candidate; review it, then {command}"
+    return None, f"v{version} (recorded before); promote it with {command}"
+
+
 def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
                            promote: bool = False, reason: str | None = None,
-                           registry=None) -> list[AssetResult]:
+                           registry=None, clock: StageClock | None = None
+                           ) -> list[AssetResult]:
     """Fit, record and optionally promote baselines for one batch of assets.
 
     Raises
@@ -62,106 +140,38 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
         When the registry failed transiently (the batch can be retried: recorded fits are
         found again, not duplicated).
     """
-    from graybox.estimator import FitRequest
-    from graybox.exceptions import GrayBoxError, InsufficientDataError
-
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
     results: dict[str, AssetResult] = {}
-    items, reads = [], {}
-    for ref in refs:
-        asset = ref.asset_id
-        vehicle_class = config.classes[ref.vehicle_class]
-        try:
-            model = vehicle_class.load_model()
-            read = read_windows(config.telemetry_root, asset, model.required_columns,
-                                vehicle_class.grid, windows)
-        except Exception as error:  # noqa: BLE001
-            if is_transient(error):
-                raise TransientError(f"asset {asset}: reading: {error}") from error
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(error))
-            continue
-        if read.error is not None:
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(read.error, read.error_start),
-                                         note="bad telemetry never enters a baseline")
-            continue
-        if len(read.windows) < MIN_WINDOWS:
-            error = InsufficientDataError(
-                f"asset {asset!r}: only {len(read.windows)} window(s) with telemetry in the "
-                f"range; a baseline needs at least {MIN_WINDOWS}")
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(error))
-            continue
-        reads[asset] = read
-        items.append((asset, FitRequest(model, [tw for _, _, tw in read.windows],
-                                        asset_id=asset), vehicle_class.settings))
-    fits = fit_baseline_requests(items, config.alerts.false_alarm_rate) if items else {}
-    for ref in refs:
-        asset = ref.asset_id
-        if asset in results:
-            continue
-        fit = fits[asset]
-        if isinstance(fit, GrayBoxError):
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(fit))
-            continue
-        signature, calibration = fit
-        read = reads[asset]
-        first, last = read.windows[0], read.windows[-1]
-        try:
-            from registry.submission import FitSubmission
-            record = registry.record_fit(FitSubmission(
-                asset, ref.vehicle_class, signature, role="baseline", calibration=calibration,
-                window=[tw for _, _, tw in read.windows], window_start=first[0],
-                window_end=last[1], plots=config.nightly.plots != "none"))
-            version = None
-            if promote:
-                info = registry.promote(asset, record.version, reason=reason)
-                note = f"v{info.version} promoted to baseline"
-                version = info.version
-            else:
-                model = registry.backend.registered_model(asset)
-                aliases = {k: int(v) for k, v in ((model.aliases or {}) if model else {}).items()}
-                if aliases.get("baseline") == record.version:
-                    note = f"v{record.version} (recorded before) is already the baseline"
-                    version = record.version
-                elif aliases.get("candidate") == record.version:
-                    note = (f"v{record.version} is the candidate; review it, then "
-                            f"`fleet-health baseline promote {asset} --version "
-                            f"{record.version} --reason ...`")
-                else:
-                    note = (f"v{record.version} (recorded before); promote it with "
-                            f"`fleet-health baseline promote {asset} --version "
-                            f"{record.version} --reason ...`")
-        except Exception as error:  # noqa: BLE001
-            guard_asset_error(error, ref, "recording")
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(error))
-            continue
-        windows_used = ", ".join(f"{s:%Y-%m-%d}" for s, _, _ in read.windows)
-        results[asset] = AssetResult(
-            asset, ref.vehicle_class, OK, baseline_version=version,
-            windows=[WindowResult(record.window_start, record.window_end, record.version,
-                                  record.run_id, False, None, record.created)],
-            note=f"{note} (windows {windows_used})")
-    out = [results[ref.asset_id] for ref in refs]
-    for result in out:
-        progress.advance(1, f"{result.asset_id} {result.status}")
-    return out
+
+    def load(ref: AssetRef) -> PendingAsset | None:
+        results[ref.asset_id], pending = select(config, ref, windows, clock)
+        if pending is None:
+            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}")
+        return pending
+
+    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=True)
+    for group in memory_groups(refs, load, budget):
+        fits = fit_baselines(group, lambda p: config.classes[p.ref.vehicle_class].settings,
+                             config.alerts.false_alarm_rate, clock)
+        for pending in group:
+            record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
+                            clock)
+            progress.advance(1, f"{pending.asset_id} {pending.result.status}")
+    return [results[ref.asset_id] for ref in refs]
 
 
 @task(name="baseline-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
       retry_condition_fn=retry_transient,
       task_run_name="baseline {label}")
 def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                   end: str, promote: bool, reason: str | None, label: str) -> list[dict]:
+                   end: str, promote: bool, reason: str | None, label: str) -> dict:
     """One batch of baseline fits (a Prefect task: retried on transient errors)."""
     config = load_config(config_path).with_tracking_uri(tracking_uri)
+    clock = StageClock()
     results = process_baseline_batch(config, [AssetRef(**r) for r in refs], start, end,
-                                     promote, reason)
-    return [r.to_dict() for r in results]
+                                     promote, reason, clock=clock)
+    return BatchOutput(results, clock.to_dict()).to_dict()
 
 
 def run_baseline(config: FleetConfig, config_path: str, start, end,
@@ -180,15 +190,17 @@ def run_baseline(config: FleetConfig, config_path: str, start, end,
     summary.unmatched = list(fleet.unmatched)
     progress.start(f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
                    len(fleet.assets))
+    clock = StageClock()
     summary.assets = run_batches(baseline_batch, config, fleet.assets,
                                  (config_path, tracking_uri, utc(start).isoformat(),
-                                  utc(end).isoformat(), promote, reason), batch_failed)
+                                  utc(end).isoformat(), promote, reason), clock)
     summary.assets += [AssetResult(r.asset_id, r.vehicle_class,
                                    FAILED if assets else NO_TELEMETRY,
                                    error=describe_error(RuntimeError("no telemetry in the store"))
                                    if assets else None,
                                    note=None if assets else "no telemetry in the store")
                        for r in fleet.without_telemetry]
+    summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()
     return summary
 

@@ -20,6 +20,7 @@ Layout (DESIGN section 4; every table but ``[classes.*]`` is optional)::
     plots = "alarms"                       # candidates' plots: "alarms", "all" or "none"
     retries = 2                            # retries of a batch after a transient error
     retry_delay_seconds = 30
+    memory_budget = "4GB"                  # peak memory of a batch: assets fitted in groups
 
     [schedule]
     cron = "30 2 * * *"                    # the nightly deployment's schedule
@@ -55,12 +56,17 @@ from typing import Any, Mapping
 
 import pandas as pd
 
+from flows.memory import parse_bytes
+
 DEFAULT_CONFIG = "fleet.toml"
 PLOT_POLICIES = ("alarms", "all", "none")
 _CLASS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _CRON_FIELD = re.compile(r"[0-9A-Za-z*/,?LW#-]+")
 _ID_OR_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]{1,64}")
 
+
+#: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
+DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
 
 #: method settings that counted samples, and the settings in seconds that replaced them
 RENAMED_SETTINGS = {"max_ar_order": "ar_span", "max_delay": "delay_span"}
@@ -130,6 +136,7 @@ class NightlySettings:
     plots: str = "alarms"
     retries: int = 2
     retry_delay_seconds: float = 30.0
+    memory_budget: int = DEFAULT_MEMORY_BUDGET
 
     @property
     def window_delta(self) -> pd.Timedelta:
@@ -307,7 +314,7 @@ def _alerts(check: "_Checker", table: Mapping, base: pathlib.Path) -> AlertSetti
 
 def _nightly(check: "_Checker", table: Mapping) -> NightlySettings:
     check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
-                                  "retry_delay_seconds"))
+                                  "retry_delay_seconds", "memory_budget"))
     batch = check.integer("nightly.batch_size", table.get("batch_size", 64), low=1)
     window = check.string("nightly.window", table.get("window", "1D"))
     try:
@@ -327,7 +334,11 @@ def _nightly(check: "_Checker", table: Mapping) -> NightlySettings:
     delay = check.number("nightly.retry_delay_seconds", table.get("retry_delay_seconds", 30.0))
     if delay < 0:
         raise check.error("nightly.retry_delay_seconds", f"must be >= 0, got {delay!r}")
-    return NightlySettings(batch, window, plots, retries, delay)
+    try:
+        budget = parse_bytes(table.get("memory_budget", DEFAULT_MEMORY_BUDGET))
+    except ValueError as error:
+        raise check.error("nightly.memory_budget", str(error)) from None
+    return NightlySettings(batch, window, plots, retries, delay, budget)
 
 
 def _schedule(check: "_Checker", table: Mapping) -> ScheduleSettings:

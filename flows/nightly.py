@@ -3,10 +3,10 @@
 For every asset with whole windows past its watermark (see :mod:`flows.fleet`): read and
 validate each window, refit the tiers with the baseline's frozen structure (all of a batch's
 networks in one batched computation), record the candidate in the registry with its drift,
-write the alerts, then advance the watermark. Per batch of assets the order is
+write the alerts, then advance the watermark. Per group of assets the order is
 
 1. record every candidate run and version (idempotent on asset, window, role, data hash),
-2. append the batch's alerts to the JSON-lines file (idempotent on asset, window, channel,
+2. append the group's alerts to the JSON-lines file (idempotent on asset, window, channel,
    tier),
 3. advance each asset's watermark to the end of its last committed window,
 
@@ -25,58 +25,86 @@ reported failed and the other batches go on.
 The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batch_size``
 assets (not per asset: thousands of task runs overwhelm a Prefect server), a table
 artifact of the night, and notification hooks. Its final state is Failed when an asset
-failed (the return value still holds the whole summary).
+failed (the return value still holds the whole summary). Inside a batch, assets are read
+and fitted in groups within ``[nightly] memory_budget`` (:mod:`flows.memory`); the order
+above holds per group.
 """
 from __future__ import annotations
 
-import logging
-from dataclasses import asdict
 from typing import Sequence
 
 import pandas as pd
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
 
+from graybox.stage_clock import StageClock, timed
+from graybox.telemetry import list_dates
+
 from flows import progress
-from flows.alerts import AlertLog, alerts_from_drift
+from flows.alerts import AlertLog
+from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
 from flows.config import FleetConfig, load_config
-from flows.fitting import (baseline_model, fit_candidates, grid_for, max_ratio,
-                           read_windows)
-from flows.fleet import AssetRef, batches, discover, pending_windows, utc
+from flows.fleet import AssetRef, discover, pending_windows, utc
 from flows.hooks import notify_hook
+from flows.memory import MemoryBudget
+from flows.pipeline import (PendingAsset, candidate_grid, fit_candidates, memory_groups, read,
+                            record_candidates, reference_model)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, UP_TO_DATE, AssetResult,
-                           RunSummary, TransientError, WindowResult, describe_error,
-                           is_transient, now_iso)
-
-logger = logging.getLogger(__name__)
+                           RunSummary, TransientError, describe_error, is_transient, now_iso)
 
 
-# -- the plain functions ----------------------------------------------------------------------
+def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
+           clock: StageClock | None = None) -> tuple[AssetResult, PendingAsset | None]:
+    """An asset's result so far and, when it has whole windows past its watermark, those
+    windows read against its baseline (None when there is nothing to fit)."""
+    asset = ref.asset_id
+    window = config.nightly.window_delta
+    before = None
+    try:
+        with timed(clock, "registry"):
+            watermark = registry.watermark(asset)
+        before = None if watermark is None else watermark.isoformat()
+        if watermark is not None and not pending_windows(
+                list_dates(config.telemetry_root, asset), watermark, as_of, window):
+            # nothing new: no need to load the baseline
+            return AssetResult(asset, ref.vehicle_class, UP_TO_DATE, watermark_before=before,
+                               watermark_after=before), None
+        with timed(clock, "registry"):
+            loaded = registry.baseline(asset)
+    except Exception as error:  # noqa: BLE001 - one asset never stops the batch
+        guard_asset_error(error, ref, "loading its baseline")
+        return AssetResult(asset, ref.vehicle_class, FAILED, watermark_before=before,
+                           watermark_after=before, error=describe_error(error)), None
+    if loaded is None:
+        return AssetResult(asset, ref.vehicle_class, NO_BASELINE, watermark_before=before,
+                           watermark_after=before,
+                           note="no baseline: fit and promote one "
+                                "(fleet-health baseline fit ... --promote)"), None
+    result = AssetResult(asset, ref.vehicle_class, OK, watermark_before=before,
+                         watermark_after=before, baseline_version=loaded.version)
+    start_after = watermark if watermark is not None else utc(loaded.info.window_end)
+    try:
+        bounds = pending_windows(list_dates(config.telemetry_root, asset), start_after, as_of,
+                                 window)
+        pending = PendingAsset(ref, result, reference_model(loaded), loaded)
+        read(config, pending, candidate_grid(config.classes[ref.vehicle_class].grid, loaded),
+             bounds, stop_at_error=True, clock=clock)
+    except Exception as error:  # noqa: BLE001
+        guard_asset_error(error, ref, "reading its telemetry")
+        result.status, result.error = FAILED, describe_error(error)
+        return result, None
+    if not pending.windows:
+        if pending.stop is not None:
+            pending.fail(pending.stop, pending.stop_start)
+        else:
+            result.status = UP_TO_DATE
+        return result, None
+    return result, pending
 
-def _failed(ref: AssetRef, error: BaseException, window_start=None, **fields) -> AssetResult:
-    return AssetResult(ref.asset_id, ref.vehicle_class, FAILED,
-                       error=describe_error(error, window_start), **fields)
 
-
-def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
-    """Re-raise transient errors (the batch is retried); log the unexpected."""
-    if is_transient(error):
-        raise TransientError(f"asset {ref.asset_id}: {what}: {type(error).__name__}: "
-                             f"{error}") from error
-    from graybox.exceptions import GrayBoxError
-    from registry.exceptions import RegistryError
-
-    if not isinstance(error, (GrayBoxError, RegistryError)):
-        logger.exception("asset %s: unexpected error while %s", ref.asset_id, what)
-
-
-def _plots(policy: str, alarmed: bool) -> bool:
-    return policy == "all" or (policy == "alarms" and alarmed)
-
-
-def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
-                  registry=None) -> list[AssetResult]:
+def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
+                  clock: StageClock | None = None) -> list[AssetResult]:
     """Process one batch of assets up to ``as_of`` (see the module docstring).
 
     Returns
@@ -90,139 +118,48 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of,
         When the registry or file system failed transiently (retry the batch: everything
         committed so far is kept and not repeated).
     """
-    from graybox.drift import compute_drift
-    from graybox.estimator import FitRequest
-    from graybox.exceptions import GrayBoxError
-    from graybox.telemetry import list_dates
-
     registry = registry or config.registry()
     as_of = utc(as_of)
-    window = config.nightly.window_delta
     results: dict[str, AssetResult] = {}
-    work = []        # (ref, loaded baseline, ReadResult, watermark)
-    for ref in refs:
-        asset = ref.asset_id
-        try:
-            watermark = registry.watermark(asset)
-            before = None if watermark is None else watermark.isoformat()
-            if watermark is not None and not pending_windows(
-                    list_dates(config.telemetry_root, asset), watermark, as_of, window):
-                # nothing new: no need to load the baseline
-                results[asset] = AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
-                                             watermark_before=before, watermark_after=before)
-                continue
-            loaded = registry.baseline(asset)
-        except Exception as error:  # noqa: BLE001 - one asset never stops the batch
-            guard_asset_error(error, ref, "loading its baseline")
-            results[asset] = _failed(ref, error)
-            continue
-        if loaded is None:
-            results[asset] = AssetResult(asset, ref.vehicle_class, NO_BASELINE,
-                                         watermark_before=before, watermark_after=before,
-                                         note="no baseline: fit and promote one "
-                                              "(fleet-health baseline fit ... --promote)")
-            continue
-        version = loaded.version
-        start_after = watermark if watermark is not None else utc(loaded.info.window_end)
-        try:
-            dates = list_dates(config.telemetry_root, asset)
-            pending = pending_windows(dates, start_after, as_of, window)
-            vehicle_class = config.classes[ref.vehicle_class]
-            model = baseline_model(loaded.signature)
-            read = read_windows(config.telemetry_root, asset, model.required_columns,
-                                grid_for(vehicle_class.grid, loaded.signature), pending)
-        except Exception as error:  # noqa: BLE001
-            guard_asset_error(error, ref, "reading its telemetry")
-            results[asset] = _failed(ref, error, watermark_before=before,
-                                     watermark_after=before, baseline_version=version)
-            continue
-        if not read.windows and read.error is None:
-            results[asset] = AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
-                                         watermark_before=before, watermark_after=before,
-                                         baseline_version=version)
-            continue
-        work.append((ref, loaded, model, read, before))
-
-    # one batched fit for every pending window of every asset of the batch
-    requests = [((ref.asset_id, i), FitRequest(model, [tw], baseline=loaded.signature,
-                                               asset_id=ref.asset_id))
-                for ref, loaded, model, read, _ in work
-                for i, (_, _, tw) in enumerate(read.windows)]
-    fits = fit_candidates(requests) if requests else {}
-
-    # 1. record every candidate
     log = AlertLog(config.alerts.jsonl)
-    committed: dict[str, pd.Timestamp] = {}
-    batch_alerts = []
-    for ref, loaded, model, read, before in work:
-        asset = ref.asset_id
-        result = AssetResult(asset, ref.vehicle_class, OK, watermark_before=before,
-                             baseline_version=loaded.version)
-        results[asset] = result
-        stop = read.error
-        stop_start = read.error_start
-        for i, (start, end, tw) in enumerate(read.windows):
-            signature = fits[(asset, i)]
-            if isinstance(signature, GrayBoxError):
-                stop, stop_start = signature, start
-                break
-            try:
-                drift = compute_drift(signature, loaded.signature, loaded.calibration)
-                from registry.submission import FitSubmission
-                record = registry.record_fit(FitSubmission(
-                    asset, ref.vehicle_class, signature, role="candidate", drift=drift,
-                    window=tw, window_start=start, window_end=end,
-                    baseline_version=loaded.version,
-                    plots=_plots(config.nightly.plots, drift.alarmed)))
-            except Exception as error:  # noqa: BLE001
-                guard_asset_error(error, ref, f"recording the window from {start.isoformat()}")
-                stop, stop_start = error, start
-                break
-            alerts = alerts_from_drift(
-                drift, asset_id=asset, vehicle_class=ref.vehicle_class,
-                window_start=record.window_start, window_end=record.window_end,
-                version=record.version, baseline_version=loaded.version, run_id=record.run_id,
-                major_ratio=config.alerts.major_ratio,
-                critical_ratio=config.alerts.critical_ratio)
-            batch_alerts += alerts
-            result.alerts += [a.to_dict() for a in alerts]
-            result.windows.append(WindowResult(record.window_start, record.window_end,
-                                               record.version, record.run_id, drift.alarmed,
-                                               max_ratio(drift), record.created))
-            committed[asset] = end
-        if stop is not None:
-            result.status = FAILED
-            result.error = describe_error(stop, stop_start)
 
-    # 2. the alerts file, once for the batch
-    try:
-        log.append(batch_alerts)
-    except Exception as error:  # noqa: BLE001
-        if is_transient(error):
-            raise TransientError(f"alerts file {log.path}: {error}") from error
-        raise
+    def load(ref: AssetRef) -> PendingAsset | None:
+        results[ref.asset_id], pending = select(config, registry, ref, as_of, clock)
+        if pending is None:
+            progress.advance(1, _progress_text(results[ref.asset_id]))
+        return pending
 
-    # 3. watermarks, only now that runs, versions and alerts are committed
-    for ref, _, _, _, before in work:
-        asset = ref.asset_id
-        result = results[asset]
-        if asset in committed:
-            try:
-                result.watermark_after = registry.commit_watermark(asset,
-                                                                   committed[asset]).isoformat()
-            except Exception as error:  # noqa: BLE001
-                guard_asset_error(error, ref, "advancing its watermark")
-                result.status = FAILED
-                result.error = describe_error(error)
-                result.watermark_after = before
-        else:
-            result.watermark_after = before
-        if result.status == OK and not result.windows:
-            result.status = UP_TO_DATE
-    out = [results[ref.asset_id] for ref in refs]
-    for result in out:
-        progress.advance(1, _progress_text(result))
-    return out
+    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
+    for group in memory_groups(refs, load, budget):
+        fit_candidates(group, clock)
+        # 1. every candidate recorded, 2. the group's alerts in the file, 3. watermarks
+        alerts = [alert for pending in group for alert in record_candidates(
+            config, registry, pending, reanalysis=False, stop_at_error=True, clock=clock)]
+        try:
+            with timed(clock, "alerts"):
+                log.append(alerts)
+        except Exception as error:  # noqa: BLE001
+            if is_transient(error):
+                raise TransientError(f"alerts file {log.path}: {error}") from error
+            raise
+        for pending in group:
+            _commit_watermark(registry, pending, clock)
+            progress.advance(1, _progress_text(pending.result))
+    return [results[ref.asset_id] for ref in refs]
+
+
+def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
+    result = pending.result
+    if pending.committed_end is not None:
+        try:
+            with timed(clock, "registry"):
+                result.watermark_after = registry.commit_watermark(
+                    pending.asset_id, pending.committed_end).isoformat()
+        except Exception as error:  # noqa: BLE001
+            guard_asset_error(error, pending.ref, "advancing its watermark")
+            pending.fail(error)
+    if result.status == OK and not result.windows:
+        result.status = UP_TO_DATE
 
 
 def _progress_text(result: AssetResult) -> str:
@@ -232,63 +169,18 @@ def _progress_text(result: AssetResult) -> str:
     return f"{result.asset_id} {result.status}" + (f", {alarms} alarmed" if alarms else "")
 
 
-def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
-                 attempts: int) -> list[AssetResult]:
-    """Results for a batch whose task failed after its retries."""
-    text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
-    message = (f"the batch failed after {attempts} attempt(s): {text}; windows committed "
-               f"before the error are kept, the rest are retried by the next run")
-    out = []
-    for ref in refs:
-        result = AssetResult(ref.asset_id, ref.vehicle_class, FAILED)
-        result.error = describe_error(RuntimeError(message))
-        out.append(result)
-        progress.advance(1, f"{ref.asset_id} FAILED")
-    return out
-
-
 # -- Prefect ---------------------------------------------------------------------------------
-
-def retry_transient(task_, task_run, state) -> bool:
-    """``retry_condition_fn``: retry a batch only after a transient error."""
-    try:
-        state.result()
-    except BaseException as error:  # noqa: BLE001
-        return is_transient(error)
-    return False
-
 
 @task(name="nightly-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
       retry_condition_fn=retry_transient,
       task_run_name="nightly {label}")
 def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,
-                  label: str) -> list[dict]:
+                  label: str) -> dict:
     """One batch of assets (a Prefect task: retried on transient errors)."""
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    results = process_batch(config, [AssetRef(**r) for r in refs], as_of)
-    return [r.to_dict() for r in results]
-
-
-def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tuple,
-                on_failure) -> list[AssetResult]:
-    """Call a batch task for each batch (sequentially: each batch already uses all cores);
-    a batch that still fails after its retries is reported through ``on_failure``."""
-    out: list[AssetResult] = []
-    configured = task_fn.with_options(retries=config.nightly.retries,
-                                      retry_delay_seconds=config.nightly.retry_delay_seconds)
-    for batch in batches(list(refs), config.nightly.batch_size):
-        payload = [asdict(r) for r in batch]
-        label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
-                 if len(batch) > 1 else batch[0].asset_id)
-        state = configured(*args[:2], payload, *args[2:], label=label, return_state=True)
-        if state.is_completed():
-            out += [AssetResult.from_dict(d) for d in state.result()]
-        else:
-            error = state.result(raise_on_failure=False)
-            reason = error if isinstance(error, BaseException) else (state.message or
-                                                                     state.name)
-            out += on_failure(batch, reason, config.nightly.retries + 1)
-    return out
+    clock = StageClock()
+    results = process_batch(config, [AssetRef(**r) for r in refs], as_of, clock=clock)
+    return BatchOutput(results, clock.to_dict()).to_dict()
 
 
 def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
@@ -301,12 +193,13 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
     progress.start(f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", len(fleet.assets))
+    clock = StageClock()
     summary.assets = run_batches(nightly_batch, config, fleet.assets,
-                                 (config_path, tracking_uri, as_of_ts.isoformat()),
-                                 batch_failed)
+                                 (config_path, tracking_uri, as_of_ts.isoformat()), clock)
     summary.assets += [AssetResult(r.asset_id, r.vehicle_class, NO_TELEMETRY,
                                    note="no telemetry in the store")
                        for r in fleet.without_telemetry]
+    summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()
     return summary
 

@@ -14,24 +14,24 @@ go on; the asset then counts as failed (exit status 1).
 """
 from __future__ import annotations
 
-import logging
 from typing import Sequence
 
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
 
+from graybox.stage_clock import StageClock, timed
+
 from flows import progress
-from flows.alerts import alerts_from_drift
+from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
 from flows.config import FleetConfig, load_config
-from flows.fitting import baseline_model, fit_candidates, grid_for, max_ratio
 from flows.fleet import AssetRef, discover, range_windows, utc
 from flows.hooks import notify_hook
-from flows.nightly import batch_failed, retry_transient, run_batches
+from flows.memory import MemoryBudget
+from flows.pipeline import (PendingAsset, candidate_grid, fit_candidates, memory_groups, read,
+                            record_candidates, reference_model)
 from flows.report import flow_result
-from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, TransientError,
-                           WindowResult, describe_error, is_transient, now_iso)
-
-logger = logging.getLogger(__name__)
+from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, describe_error,
+                           now_iso)
 
 
 def _reference(version):
@@ -42,104 +42,67 @@ def _reference(version):
     return int(text) if text.isdigit() else text
 
 
-def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
-                             version=None, registry=None) -> list[AssetResult]:
-    """Reanalyse one batch of assets over ``[start, end)`` against ``version``."""
-    from graybox.drift import compute_drift
-    from graybox.estimator import FitRequest
-    from graybox.exceptions import GrayBoxError, TelemetryError
-    from graybox.telemetry import read_window
+def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
+           clock: StageClock | None = None) -> tuple[AssetResult, PendingAsset | None]:
+    """An asset's windows of the range, read against the reference version (bad windows are
+    reported and skipped; the others go on)."""
+    asset = ref.asset_id
+    try:
+        with timed(clock, "registry"):
+            loaded = registry.load_version(asset, _reference(version))
+    except Exception as error:  # noqa: BLE001
+        guard_asset_error(error, ref, f"loading version {version}")
+        return AssetResult(asset, ref.vehicle_class, FAILED, error=describe_error(error)), None
+    result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
+    if loaded.calibration is None:
+        result.note = (f"v{loaded.version} has no calibration: zeta is reported without "
+                       f"epsilon (no alarms)")
+    try:
+        pending = PendingAsset(ref, result, reference_model(loaded), loaded)
+        read(config, pending, candidate_grid(config.classes[ref.vehicle_class].grid, loaded),
+             windows, stop_at_error=False, clock=clock)
+    except Exception as error:  # noqa: BLE001
+        guard_asset_error(error, ref, "reading its telemetry")
+        result.status, result.error = FAILED, describe_error(error)
+        return result, None
+    return result, (pending if pending.windows else None)
 
+
+def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
+                             version=None, registry=None, clock: StageClock | None = None
+                             ) -> list[AssetResult]:
+    """Reanalyse one batch of assets over ``[start, end)`` against ``version``."""
     registry = registry or config.registry()
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
     results: dict[str, AssetResult] = {}
-    work = []
-    for ref in refs:
-        asset = ref.asset_id
-        try:
-            loaded = registry.load_version(asset, _reference(version))
-        except Exception as error:  # noqa: BLE001
-            if is_transient(error):
-                raise TransientError(f"asset {asset}: loading version {version}: {error}") \
-                    from error
-            results[asset] = AssetResult(asset, ref.vehicle_class, FAILED,
-                                         error=describe_error(error))
-            continue
-        result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
-        if loaded.calibration is None:
-            result.note = (f"v{loaded.version} has no calibration: zeta is reported without "
-                           f"epsilon (no alarms)")
-        model = baseline_model(loaded.signature)
-        grid = grid_for(config.classes[ref.vehicle_class].grid, loaded.signature)
-        read = []
-        for s, e in windows:
-            try:
-                read.append((s, e, read_window(config.telemetry_root, asset,
-                                               model.required_columns, start=s, end=e,
-                                               policy=grid)))
-            except TelemetryError as error:
-                if error.kind == "no_data":
-                    continue
-                if result.error is None:
-                    result.status = FAILED
-                    result.error = describe_error(error, s)
-        results[asset] = result
-        work.append((ref, loaded, model, read))
-    requests = [((ref.asset_id, i), FitRequest(model, [tw], baseline=loaded.signature,
-                                               asset_id=ref.asset_id))
-                for ref, loaded, model, read in work for i, (_, _, tw) in enumerate(read)]
-    fits = fit_candidates(requests) if requests else {}
-    for ref, loaded, model, read in work:
-        asset = ref.asset_id
-        result = results[asset]
-        for i, (s, e, tw) in enumerate(read):
-            signature = fits[(asset, i)]
-            if isinstance(signature, GrayBoxError):
-                if result.error is None:
-                    result.status = FAILED
-                    result.error = describe_error(signature, s)
-                continue
-            try:
-                drift = compute_drift(signature, loaded.signature, loaded.calibration)
-                from registry.submission import FitSubmission
-                record = registry.record_fit(FitSubmission(
-                    asset, ref.vehicle_class, signature, role="candidate", drift=drift,
-                    window=tw, window_start=s, window_end=e, baseline_version=loaded.version,
-                    plots=config.nightly.plots == "all"
-                    or (config.nightly.plots == "alarms" and drift.alarmed),
-                    reanalysis=True))
-            except Exception as error:  # noqa: BLE001
-                if is_transient(error):
-                    raise TransientError(f"asset {asset}: recording: {error}") from error
-                if result.error is None:
-                    result.status = FAILED
-                    result.error = describe_error(error, s)
-                continue
-            alerts = alerts_from_drift(
-                drift, asset_id=asset, vehicle_class=ref.vehicle_class,
-                window_start=record.window_start, window_end=record.window_end, version=None,
-                baseline_version=loaded.version, run_id=record.run_id,
-                major_ratio=config.alerts.major_ratio,
-                critical_ratio=config.alerts.critical_ratio, source="reanalysis")
-            result.alerts += [a.to_dict() for a in alerts]
-            result.windows.append(WindowResult(record.window_start, record.window_end, None,
-                                               record.run_id, drift.alarmed, max_ratio(drift),
-                                               record.created))
-    out = [results[ref.asset_id] for ref in refs]
-    for result in out:
-        progress.advance(1, f"{result.asset_id} {result.status}")
-    return out
+
+    def load(ref: AssetRef) -> PendingAsset | None:
+        results[ref.asset_id], pending = select(config, registry, ref, windows, version, clock)
+        if pending is None:
+            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}")
+        return pending
+
+    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
+    for group in memory_groups(refs, load, budget):
+        fit_candidates(group, clock)
+        for pending in group:
+            record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
+                              clock=clock)
+            progress.advance(1, f"{pending.asset_id} {pending.result.status}")
+    return [results[ref.asset_id] for ref in refs]
 
 
 @task(name="reanalysis-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
       retry_condition_fn=retry_transient,
       task_run_name="reanalyze {label}")
 def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                     end: str, version: str | None, label: str) -> list[dict]:
+                     end: str, version: str | None, label: str) -> dict:
+    """One batch of reanalyses (a Prefect task: retried on transient errors)."""
     config = load_config(config_path).with_tracking_uri(tracking_uri)
+    clock = StageClock()
     results = process_reanalysis_batch(config, [AssetRef(**r) for r in refs], start, end,
-                                       version)
-    return [r.to_dict() for r in results]
+                                       version, clock=clock)
+    return BatchOutput(results, clock.to_dict()).to_dict()
 
 
 def run_reanalysis(config: FleetConfig, config_path: str, start, end,
@@ -155,13 +118,15 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
     summary.unmatched = list(fleet.unmatched)
     progress.start(f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
                    len(fleet.assets))
+    clock = StageClock()
     summary.assets = run_batches(reanalysis_batch, config, fleet.assets,
                                  (config_path, tracking_uri, utc(start).isoformat(),
                                   utc(end).isoformat(),
-                                  None if version is None else str(version)), batch_failed)
+                                  None if version is None else str(version)), clock)
     summary.assets += [AssetResult(r.asset_id, r.vehicle_class, NO_TELEMETRY,
                                    note="no telemetry in the store")
                        for r in fleet.without_telemetry]
+    summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()
     return summary
 

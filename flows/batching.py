@@ -1,0 +1,103 @@
+"""Batch plumbing the three flows share: one Prefect task per batch of assets, its retries,
+and what a batch that still fails reports.
+
+A batch task returns :class:`BatchOutput` as a dict: the assets' results and the seconds its
+stages took (see :class:`graybox.stage_clock.StageClock`). Transient errors (registry locked
+or unreachable, I/O) stop the batch and Prefect retries it (``[nightly] retries``); after the
+last retry its assets are reported failed and the other batches go on.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict, dataclass, field
+from typing import Callable, Sequence
+
+from graybox.exceptions import GrayBoxError
+from graybox.stage_clock import StageClock
+
+from flows import progress
+from flows.config import FleetConfig
+from flows.fleet import AssetRef, batches
+from flows.results import AssetResult, FAILED, TransientError, describe_error, is_transient
+from registry.exceptions import RegistryError
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class BatchOutput:
+    """What a batch task returns: per asset its result, and its stages' seconds."""
+
+    assets: list[AssetResult]
+    stages: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"assets": [a.to_dict() for a in self.assets], "stages": self.stages}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "BatchOutput":
+        return cls([AssetResult.from_dict(a) for a in data["assets"]], dict(data["stages"]))
+
+
+def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
+    """Re-raise transient errors (the batch is retried); log the unexpected ones.
+
+    An expected error (bad data, a failed fit, a registry refusal) is the asset's own and is
+    reported in its result by the caller.
+    """
+    if is_transient(error):
+        raise TransientError(f"asset {ref.asset_id}: {what}: {type(error).__name__}: "
+                             f"{error}") from error
+    if not isinstance(error, (GrayBoxError, RegistryError)):
+        logger.exception("asset %s: unexpected error while %s", ref.asset_id, what)
+
+
+def retry_transient(task_, task_run, state) -> bool:
+    """``retry_condition_fn``: retry a batch only after a transient error."""
+    try:
+        state.result()
+    except BaseException as error:  # noqa: BLE001
+        return is_transient(error)
+    return False
+
+
+def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
+                 attempts: int) -> list[AssetResult]:
+    """Results for a batch whose task failed after its retries."""
+    text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
+    message = (f"the batch failed after {attempts} attempt(s): {text}; windows committed "
+               f"before the error are kept, the rest are retried by the next run")
+    out = []
+    for ref in refs:
+        out.append(AssetResult(ref.asset_id, ref.vehicle_class, FAILED,
+                               error=describe_error(RuntimeError(message))))
+        progress.advance(1, f"{ref.asset_id} FAILED")
+    return out
+
+
+def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tuple,
+                clock: StageClock | None = None,
+                on_failure: Callable = batch_failed) -> list[AssetResult]:
+    """Call a batch task for each batch of ``[nightly] batch_size`` assets, one after another
+    (each batch already uses all cores). ``args`` are the task's arguments before and after
+    the batch's asset list: ``(config_path, tracking_uri, *rest)``. The batches' stage
+    seconds are added to ``clock``."""
+    out: list[AssetResult] = []
+    configured = task_fn.with_options(retries=config.nightly.retries,
+                                      retry_delay_seconds=config.nightly.retry_delay_seconds)
+    for batch in batches(list(refs), config.nightly.batch_size):
+        payload = [asdict(r) for r in batch]
+        label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
+                 if len(batch) > 1 else batch[0].asset_id)
+        state = configured(*args[:2], payload, *args[2:], label=label, return_state=True)
+        if state.is_completed():
+            output = BatchOutput.from_dict(state.result())
+            out += output.assets
+            if clock is not None:
+                clock.add(output.stages)
+        else:
+            error = state.result(raise_on_failure=False)
+            reason = error if isinstance(error, BaseException) else (state.message or
+                                                                     state.name)
+            out += on_failure(batch, reason, config.nightly.retries + 1)
+    return out

@@ -1,0 +1,265 @@
+"""The pipeline the three flows share: telemetry -> residual -> signature -> drift -> record.
+
+Every flow works on :class:`PendingAsset` records (an asset, its reference version, and the
+:class:`PendingWindow` s it has to process) through the same stages:
+
+1. :func:`read` -- read, validate and grid each window (stage ``read``);
+2. :func:`fit_candidates` or :func:`fit_baselines` -- one batched fit for a group of assets
+   (stages ``residual``, ``stationarize_ar``, ``network``, ``noise``);
+3. :func:`record_candidates` -- drift against the reference (``drift``), the registry record
+   (``registry``) and the alerts of each window.
+
+The flows differ only in what they select (which windows, against which version) and what
+they commit (alerts file and watermarks for the nightly run; a baseline version for the
+baseline flow; nothing beyond the runs for a reanalysis). :func:`memory_groups` reads the
+assets one after another and hands them over in groups that fit the memory budget, so a
+batch's peak memory does not grow with its size.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Iterator, Sequence
+
+import pandas as pd
+
+from graybox.calibration import fit_baselines as fit_calibrated_baselines
+from graybox.drift import Drift, compute_drift
+from graybox.exceptions import GrayBoxError, TelemetryError
+from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.models import load_model
+from graybox.models.base import WhiteBoxModel
+from graybox.signature import Signature
+from graybox.stage_clock import StageClock, timed
+from graybox.telemetry import GridPolicy, read_window
+
+from flows.alerts import Alert, alerts_from_drift
+from flows.batching import guard_asset_error
+from flows.config import FleetConfig
+from flows.fleet import AssetRef
+from flows.memory import MemoryBudget
+from flows.results import FAILED, AssetResult, WindowResult, describe_error
+from registry.entities import LoadedVersion
+from registry.submission import FitSubmission
+
+
+@dataclass
+class PendingWindow:
+    """One window of an asset to process, and what became of it."""
+
+    start: pd.Timestamp
+    end: pd.Timestamp
+    telemetry: object                     #: graybox.telemetry.TelemetryWindow
+    fit: Signature | GrayBoxError | None = None
+
+    @property
+    def nbytes(self) -> int:
+        frame = self.telemetry.frame
+        return int(frame.memory_usage(index=True, deep=False).sum())
+
+
+@dataclass
+class PendingAsset:
+    """An asset with work to do: its reference version, white box and windows.
+
+    Attributes
+    ----------
+    ref : AssetRef
+    result : AssetResult
+        Its entry in the run summary, updated by every stage.
+    model : WhiteBoxModel
+    reference : LoadedVersion or None
+        The version its candidates are compared with (None when fitting a new baseline).
+    windows : list of PendingWindow
+        Read and gridded, in time order.
+    empty : int
+        Windows without any row (the asset was idle), skipped.
+    stop, stop_start : exception and timestamp, optional
+        The telemetry error that stopped the reading, and the window it is in.
+    committed_end : timestamp, optional
+        End of the last window recorded.
+    """
+
+    ref: AssetRef
+    result: AssetResult
+    model: WhiteBoxModel
+    reference: LoadedVersion | None = None
+    windows: list[PendingWindow] = field(default_factory=list)
+    empty: int = 0
+    stop: BaseException | None = None
+    stop_start: pd.Timestamp | None = None
+    committed_end: pd.Timestamp | None = None
+
+    @property
+    def asset_id(self) -> str:
+        return self.ref.asset_id
+
+    @property
+    def nbytes(self) -> int:
+        return sum(w.nbytes for w in self.windows)
+
+    def fail(self, error: BaseException, window_start=None) -> None:
+        """Mark the asset failed; the first error is the one reported."""
+        if self.result.error is None:
+            self.result.status = FAILED
+            self.result.error = describe_error(error, window_start)
+
+
+def reference_model(reference: LoadedVersion) -> WhiteBoxModel:
+    """The white box a version was fitted with (its candidates must use the same)."""
+    spec = reference.signature.model
+    return load_model(spec["spec"], spec.get("parameters"), spec.get("columns"))
+
+
+def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:
+    """The class's grid policy at the reference's sample interval (candidates share its grid)."""
+    return dataclasses.replace(grid, sample_interval=reference.signature.sample_interval)
+
+
+def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
+         bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]], stop_at_error: bool,
+         clock: StageClock | None = None) -> PendingAsset:
+    """Read, validate and grid each window ``bounds`` of the asset (stage ``read``).
+
+    A window without any row is counted in ``empty`` and skipped. Another telemetry error
+    stops the reading when ``stop_at_error`` (the windows before it are kept: ``stop``);
+    otherwise it fails the asset and the other windows go on.
+    """
+    model = asset.model
+    with timed(clock, "read"):
+        for start, end in bounds:
+            try:
+                telemetry = read_window(config.telemetry_root, asset.asset_id,
+                                        model.required_columns, start=start, end=end,
+                                        policy=grid, inputs=model.input_columns)
+            except TelemetryError as error:
+                if error.kind == "no_data":
+                    asset.empty += 1
+                    continue
+                if stop_at_error:
+                    asset.stop, asset.stop_start = error, start
+                    break
+                asset.fail(error, start)
+                continue
+            asset.windows.append(PendingWindow(start, end, telemetry))
+    return asset
+
+
+def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None],
+                  budget: MemoryBudget) -> Iterator[list[PendingAsset]]:
+    """Load items one after another; yield groups of loaded assets that fit ``budget``.
+
+    ``load`` returns the asset ready to fit, or None when it has nothing to fit (its result
+    is final). Every asset is in exactly one group, in the order given.
+    """
+    group: list[PendingAsset] = []
+    used = 0
+    for item in items:
+        asset = load(item)
+        if asset is None:
+            continue
+        need = budget.need(asset.nbytes)
+        if budget.full(used, need):
+            yield group
+            group, used = [], 0
+        group.append(asset)
+        used += need
+    if group:
+        yield group
+
+
+def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
+    """One batched fit of every window of every asset against its reference's frozen
+    structure; sets each window's ``fit`` (a Signature or the GrayBoxError that stopped it)."""
+    work = [(window, FitRequest(asset.model, [window.telemetry],
+                                baseline=asset.reference.signature, asset_id=asset.asset_id))
+            for asset in assets for window in asset.windows]
+    fits = fit_signatures([request for _, request in work], clock=clock) if work else []
+    for (window, _), fit in zip(work, fits):
+        window.fit = fit
+
+
+def fit_baselines(assets: Sequence[PendingAsset], settings_of: Callable[[PendingAsset], object],
+                  false_alarm_rate: float, clock: StageClock | None = None) -> dict:
+    """Calibrated baselines of the assets (grouped by their class's settings).
+
+    Returns
+    -------
+    dict
+        asset id -> (Signature, Calibration) or GrayBoxError.
+    """
+    groups: dict[object, list[PendingAsset]] = {}
+    for asset in assets:
+        groups.setdefault(settings_of(asset), []).append(asset)
+    out = {}
+    for settings, members in groups.items():
+        requests = [FitRequest(a.model, [w.telemetry for w in a.windows], asset_id=a.asset_id)
+                    for a in members]
+        results = fit_calibrated_baselines(requests, settings, false_alarm_rate, clock=clock)
+        out.update({a.asset_id: result for a, result in zip(members, results)})
+    return out
+
+
+def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,
+                      stop_at_error: bool, clock: StageClock | None = None) -> list[Alert]:
+    """Drift, record and alert every fitted window of an asset, in time order.
+
+    A failed fit or recording fails the asset; with ``stop_at_error`` (the nightly run) the
+    later windows wait for the next run, otherwise they go on. Transient errors are raised
+    (the batch is retried; what was recorded is found again, not duplicated).
+
+    Returns
+    -------
+    list of Alert
+        The alerts of the recorded windows (also added to the asset's result).
+    """
+    reference = asset.reference
+    out: list[Alert] = []
+    for window in asset.windows:
+        if isinstance(window.fit, GrayBoxError):
+            asset.fail(window.fit, window.start)
+            if stop_at_error:
+                break
+            continue
+        try:
+            with timed(clock, "drift"):
+                drift = compute_drift(window.fit, reference.signature, reference.calibration)
+            with timed(clock, "registry"):
+                record = registry.record_fit(FitSubmission(
+                    asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
+                    drift=drift, window=window.telemetry, window_start=window.start,
+                    window_end=window.end, baseline_version=reference.version,
+                    plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis))
+        except Exception as error:  # noqa: BLE001 - one window never stops the batch
+            guard_asset_error(error, asset.ref, f"recording the window from "
+                                                f"{window.start.isoformat()}")
+            asset.fail(error, window.start)
+            if stop_at_error:
+                break
+            continue
+        alerts = alerts_from_drift(
+            drift, asset_id=asset.asset_id, vehicle_class=asset.ref.vehicle_class,
+            window_start=record.window_start, window_end=record.window_end,
+            version=None if reanalysis else record.version, baseline_version=reference.version,
+            run_id=record.run_id, major_ratio=config.alerts.major_ratio,
+            critical_ratio=config.alerts.critical_ratio,
+            source="reanalysis" if reanalysis else "nightly")
+        out += alerts
+        asset.result.alerts += [a.to_dict() for a in alerts]
+        asset.result.windows.append(WindowResult(
+            record.window_start, record.window_end, None if reanalysis else record.version,
+            record.run_id, drift.alarmed, max_ratio(drift), record.created))
+        asset.committed_end = window.end
+    if asset.stop is not None:
+        asset.fail(asset.stop, asset.stop_start)
+    return out
+
+
+def max_ratio(drift: Drift) -> float | None:
+    """The largest zeta / epsilon of a drift (None without calibration)."""
+    ratios = [e.ratio for e in drift.entries if e.ratio is not None]
+    return max(ratios) if ratios else None
+
+
+def _plots(policy: str, alarmed: bool) -> bool:
+    return policy == "all" or (policy == "alarms" and alarmed)
