@@ -302,6 +302,33 @@ def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
                         what="open model registry")
 
 
+def _synchronous_normal(connection, _record) -> None:
+    cursor = connection.cursor()
+    try:
+        cursor.execute("PRAGMA synchronous=NORMAL")
+    finally:
+        cursor.close()
+
+
+def relax_commit_sync(engine) -> None:
+    """Commit without an fsync per transaction: ``PRAGMA synchronous=NORMAL`` on every new
+    connection of a SQLite (WAL) engine.
+
+    In WAL mode this keeps the database consistent; what a power loss (not a crashed or
+    killed process) can undo is the last transactions committed, always a suffix in commit
+    order. The registry's rules survive that: a watermark is committed after the records it
+    covers, so it is never kept while they are lost, and a lost record is written again by the
+    next run (recording is idempotent). It saves an fsync on each of the dozen commits of an
+    asset-night. Applied once per engine (MLflow shares one engine per database URI).
+    """
+    from sqlalchemy import event
+
+    if engine.dialect.name != "sqlite" or event.contains(engine, "connect", _synchronous_normal):
+        return
+    event.listen(engine, "connect", _synchronous_normal)
+    engine.dispose()    # connections opened before the listener reopen with it
+
+
 def _enable_wal(path: pathlib.Path) -> None:
     connection = sqlite3.connect(str(path), timeout=30)
     try:
