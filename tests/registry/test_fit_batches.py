@@ -188,3 +188,12 @@ def test_a_fit_whose_run_was_deleted_by_hand_keeps_its_version(registry, fits):
     again = registry.record_fit(night(fits, "T-01", 5))
     assert not again.created and again.version == first.version
     assert [v.version for v in registry.history("T-01")] == [first.version]
+
+
+def test_fit_keys_are_found_through_an_index(registry, store_uri):
+    path = store_uri[len("sqlite:///"):]
+    with sqlite3.connect(path) as connection:
+        plan = connection.execute(
+            "EXPLAIN QUERY PLAN SELECT run_uuid FROM tags WHERE key = ? AND value = ?",
+            (naming.TAG_FIT_KEY, "0" * 40)).fetchall()
+    assert "fleet_health_tags_key_value" in " ".join(str(row) for row in plan)
