@@ -22,11 +22,15 @@ transactions per filler record).
 The nightly path, per asset-night (``--nightly``)::
 
     python -m benchmarks.registry_bench --nightly --assets 30 --nights 3
+    python -m benchmarks.registry_bench --nightly --assets 30 --nights 3 --batch 10
+    python -m benchmarks.registry_bench --nightly --assets 10 --nights 3 --history 365
 
 gives ``--assets`` assets a promoted baseline, then times, for every asset and night, the
 calls :func:`flows.nightly.process_batch` makes: ``watermark``, ``baseline`` (load and
 verify), ``record`` (the candidate with its drift, no plots), ``commit_watermark``; it prints
-mean, median and 90th percentile in ms per asset-night, and their total.
+mean, median and 90th percentile in ms per asset-night, and their total. ``--batch N``
+records each group of N assets with one ``record_fits``; ``--history N`` first gives every
+asset N filler runs and versions (what a year of nights leaves is ``--history 365``).
 """
 from __future__ import annotations
 
@@ -73,13 +77,13 @@ def _median_ms(function, repeat: int) -> float:
 class Filler:
     """Writes nightly-candidate-like records fast (no artifacts, no plots)."""
 
-    def __init__(self, registry, signature, drift, assets: int):
+    def __init__(self, registry, signature, drift, assets: int, prefix: str = "B"):
         from mlflow.entities import Metric, Param
 
         from registry import naming
         from registry.run_content import code_version, fit_metrics, structure_params
 
-        self.registry, self.assets, self.naming = registry, assets, naming
+        self.registry, self.assets, self.naming, self.prefix = registry, assets, naming, prefix
         self.client = registry.backend.client
         self.experiment_id = registry.backend.experiment_id("turbine", create=True)
         self.params = [Param(k, v) for k, v in structure_params(signature).items()][:100]
@@ -90,15 +94,16 @@ class Filler:
         seed = registry.record_fit("FILL-SEED", "turbine", signature, role="candidate",
                                    drift=drift, window_start="2000-01-01",
                                    window_end="2000-01-02", data_hash="seed", plots=False)
-        self.source = self.client.get_logged_model(seed.model_id).artifact_location
-        self.model_id = seed.model_id
+        self.source = self.client.get_model_version(naming.model_name("FILL-SEED"),
+                                                    str(seed.version)).source
+        self.model_id = seed.model_id or None
         self.count = 1
         for a in range(assets):
             self.registry.backend.ensure_registered_model(self._asset(a), "turbine",
                                                           self.experiment_id)
 
     def _asset(self, a: int) -> str:
-        return f"B-{a:04d}"
+        return f"{self.prefix}-{a:04d}"
 
     def fill_to(self, total: int) -> None:
         naming = self.naming
@@ -152,15 +157,22 @@ def measure(registry, fits, level: int, repeat: int) -> dict[str, float]:
 NIGHTLY_CALLS = ("watermark", "baseline", "record", "commit_watermark")
 
 
-def nightly(registry, fits, assets: int, nights: int) -> dict[str, list[tuple[float, float]]]:
+def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
+            history: int = 0) -> dict[str, list[tuple[float, float]]]:
     """Time every registry call of the nightly path, per asset-night.
 
-    ``assets`` assets get a calibrated, promoted baseline and a watermark; then ``nights``
-    nights are recorded as :func:`flows.nightly` does, asset by asset: ``watermark``,
-    ``baseline`` (load and verify), ``record`` (the candidate with its drift, no plots) and
-    ``commit_watermark``. Returns (wall, CPU) seconds per call, one per asset-night: the
-    CPU time of this thread shows what other load on the machine does not.
+    ``assets`` assets get a calibrated, promoted baseline and a watermark (and ``history``
+    filler candidate runs and versions each, as if they had been running that many nights);
+    then ``nights`` nights are recorded as :func:`flows.nightly` does, asset by asset:
+    ``watermark``, ``baseline`` (load and verify), ``record`` (the candidate with its drift,
+    no plots) and ``commit_watermark``. With ``batch``, each group of ``batch`` assets records
+    its candidates with one :meth:`Registry.record_fits` (its time shared equally).
+
+    Returns (wall, CPU) seconds per call, one per asset-night: the CPU time of this thread
+    shows what other load on the machine does not.
     """
+    from registry import FitSubmission
+
     names = [f"N-{a:04d}" for a in range(assets)]
     day0 = pd.Timestamp("2026-01-05", tz="UTC")
     for asset in names:
@@ -170,37 +182,51 @@ def nightly(registry, fits, assets: int, nights: int) -> dict[str, list[tuple[fl
                                    data_hash=f"baseline-{asset}", plots=False)
         registry.promote(asset, base.version, reason="benchmark")
         registry.commit_watermark(asset, day0)
+    if history:
+        started = time.perf_counter()
+        Filler(registry, fits["candidate"], fits["drift"], assets, prefix="N").fill_to(
+            1 + history * assets)
+        print(f"filled {history} runs and versions per asset in "
+              f"{time.perf_counter() - started:.0f} s", flush=True)
     times: dict[str, list[tuple[float, float]]] = {name: [] for name in NIGHTLY_CALLS}
+
+    def timed(name, call, share: int = 1):
+        wall, cpu = time.perf_counter(), time.thread_time()
+        value = call()
+        spent = ((time.perf_counter() - wall) / share, (time.thread_time() - cpu) / share)
+        times[name].extend([spent] * share)
+        return value
+
+    group = batch or 1
     for night in range(nights):
         start = day0 + pd.Timedelta(days=night)
         end = start + pd.Timedelta(days=1)
-        for asset in names:
-            loaded = None
-            calls = (lambda: registry.watermark(asset),
-                     lambda: registry.baseline(asset),
-                     lambda: record_candidate(registry, asset, fits, start, end, loaded.version),
-                     lambda: registry.commit_watermark(asset, end))
-            for name, call in zip(NIGHTLY_CALLS, calls):
-                wall, cpu = time.perf_counter(), time.thread_time()
-                value = call()
-                times[name].append((time.perf_counter() - wall, time.thread_time() - cpu))
-                if name == "baseline":
-                    loaded = value
+        for first in range(0, assets, group):
+            chunk = names[first:first + group]
+            submissions = []
+            for asset in chunk:
+                timed("watermark", lambda: registry.watermark(asset))
+                loaded = timed("baseline", lambda: registry.baseline(asset))
+                submissions.append(FitSubmission(
+                    asset, "turbine", fits["candidate"], role="candidate", drift=fits["drift"],
+                    window=fits["night"], window_start=start, window_end=end,
+                    baseline_version=loaded.version, plots=False))
+                if not batch:
+                    timed("record", lambda: registry.record_fit(submissions[-1]))
+            if batch:
+                timed("record", lambda: registry.record_fits(submissions), share=len(chunk))
+            for asset in chunk:
+                timed("commit_watermark", lambda: registry.commit_watermark(asset, end))
     return times
 
 
-def record_candidate(registry, asset, fits, start, end, baseline_version):
-    """One nightly candidate as flows.nightly records it (window hashed, no plots)."""
-    return registry.record_fit(asset, "turbine", fits["candidate"], role="candidate",
-                               drift=fits["drift"], window=fits["night"], window_start=start,
-                               window_end=end, baseline_version=baseline_version, plots=False)
-
-
-def print_nightly(times: dict[str, list[tuple[float, float]]], assets: int, nights: int) -> None:
+def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
     n = len(times[NIGHTLY_CALLS[0]])
     print()
-    print(f"nightly path, embedded SQLite store (WAL): {assets} assets x {nights} nights "
-          f"= {n} asset-nights; ms per asset-night (wall, and CPU of the calling thread)")
+    how = f"record_fits of {args.batch} assets" if args.batch else "record_fit per asset"
+    print(f"nightly path, embedded SQLite store (WAL): {args.assets} assets x {args.nights} "
+          f"nights = {n} asset-nights, {how}, {args.history} nights of history; ms per "
+          f"asset-night (wall, and CPU of the calling thread)")
     print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} |")
     print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|")
     total = [(sum(w for w, _ in parts), sum(c for _, c in parts))
@@ -224,6 +250,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--nightly", action="store_true",
                         help="time the nightly path per asset-night instead")
     parser.add_argument("--nights", type=int, default=3, help="nights of --nightly")
+    parser.add_argument("--batch", type=int, default=0,
+                        help="--nightly: record each group of this many assets with one "
+                             "record_fits (default: record_fit per asset, as the flow does)")
+    parser.add_argument("--history", type=int, default=0,
+                        help="--nightly: filler runs and versions per asset before timing")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -246,8 +277,8 @@ def main(argv: list[str] | None = None) -> int:
     registry = Registry(f"sqlite:///{workdir}/mlflow.db", user="bench")
     if args.nightly:
         fits.update(baseline=baseline.signature_, calibration=baseline.calibration_)
-        print_nightly(nightly(registry, fits, args.assets, args.nights), args.assets,
-                      args.nights)
+        print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,
+                              args.history), args)
         if args.workdir is None:
             shutil.rmtree(workdir, ignore_errors=True)
         return 0

@@ -12,7 +12,8 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``runs``        logging one fit as a complete run, in few round trips
 ``recording``   recording fits idempotently (runs, versions, alias), one or a batch
 ``history``     the zeta history and the recorded alerts
-``baselines``   safe loading, promote, reject, rollback, list, history
+``loading``     safe loading of a version (verified, never unpickled)
+``baselines``   promote, reject, rollback, list, history
 ``watermarks``  per-asset watermark on the registered model
 ``plots``       residual/ACF, tier fits, zeta trend (matplotlib, Agg)
 ``pyfunc``      loader module of the pyfunc model (no pickle)

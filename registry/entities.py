@@ -18,8 +18,11 @@ class FitRecord:
     version : int or None
         The registered model version of the fit (None for a reanalysis, which registers no
         version).
-    run_id, model_id : str
-        The MLflow run and logged model.
+    run_id : str
+        The MLflow run.
+    model_id : str
+        The logged model of a baseline fit; empty for a candidate (its model is in its run's
+        ``model/`` artifacts) and for a reanalysis (no model).
     fit_key : str
         Idempotence key (see :func:`registry.naming.fit_key`).
     window_start, window_end : str

@@ -87,7 +87,8 @@ class PyfuncTemplate:
         mlmodel = dict(self._mlmodel, run_id=run_id, model_uuid=uuid.uuid4().hex,
                        model_id=None, model_size_bytes=size,
                        utc_time_created=str(pd.Timestamp.now(tz="UTC").tz_localize(None)))
-        (path / "MLmodel").write_text(yaml.safe_dump(mlmodel, default_flow_style=False))
+        dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+        (path / "MLmodel").write_text(yaml.dump(mlmodel, Dumper=dumper, default_flow_style=False))
 
 
 def log_logged_model(backend: Backend, experiment_id: str, run_id: str, asset_id: str,

@@ -79,15 +79,15 @@ class _Alias:
     """The ``candidate`` alias of one asset, moved once for consecutive new versions."""
 
     def __init__(self, backend: Backend, asset_id: str):
-        self.backend, self.name, self.pending = backend, naming.model_name(asset_id), None
+        self.backend, self.asset_id, self.pending = backend, asset_id, None
+        self.name = naming.model_name(asset_id)
 
     def new_version(self, version: int) -> None:
         self.pending = version
 
     def flush(self) -> None:
         if self.pending is not None:
-            self.backend.client.set_registered_model_alias(self.name, naming.CANDIDATE,
-                                                           str(self.pending))
+            self.backend.set_alias(self.asset_id, naming.CANDIDATE, self.pending)
             self.pending = None
 
     def repair(self, version: int) -> None:
@@ -98,8 +98,7 @@ class _Alias:
         if current is None or int(current) < version:
             mv = self.backend.client.get_model_version(self.name, str(version))
             if (mv.tags or {}).get(naming.TAG_REJECTED) != "true":
-                self.backend.client.set_registered_model_alias(self.name, naming.CANDIDATE,
-                                                               str(version))
+                self.backend.set_alias(self.asset_id, naming.CANDIDATE, version)
 
 
 def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,

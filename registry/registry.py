@@ -6,7 +6,7 @@ from typing import Sequence
 
 import pandas as pd
 
-from registry import baselines, history, recording, watermarks
+from registry import baselines, history, loading, recording, watermarks
 from registry.backend import Backend
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
 from registry.model_files import PyfuncTemplate
@@ -110,7 +110,7 @@ class Registry:
         graybox.exceptions.ArtifactError
             If its artifacts are missing or were altered.
         """
-        return baselines.baseline(self._backend, asset_id)
+        return loading.baseline(self._backend, asset_id)
 
     def watermark(self, asset_id: str) -> pd.Timestamp | None:
         """End (exclusive, UTC) of the asset's last committed window: one registry call."""
@@ -123,12 +123,12 @@ class Registry:
 
     def load_version(self, asset_id: str, version: int | str | None = None) -> LoadedVersion:
         """Load and verify a version by number or alias (default ``baseline``)."""
-        return baselines.load_version(self._backend, asset_id, version)
+        return loading.load_version(self._backend, asset_id, version)
 
     def load_pyfunc(self, asset_id: str, version: int | str | None = None):
         """The version (default ``baseline``) as a verified ``mlflow.pyfunc`` model whose
         ``predict(telemetry_frame)`` returns zeta per tier and channel."""
-        return baselines.load_pyfunc(self._backend, asset_id, version)
+        return loading.load_pyfunc(self._backend, asset_id, version)
 
     # -- review --------------------------------------------------------------------------------
     def promote(self, asset_id: str, version: int | None = None, *, reason: str,

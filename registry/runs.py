@@ -74,7 +74,7 @@ def log_run(backend: Backend, experiment_id: str, fit: ResolvedFit,
                 template.write(root / MODEL_DIR, bundle, run_id)
             if s.plots:
                 _draw_plots(backend, fit, root / "plots")
-            client.log_artifacts(run_id, str(root))
+            backend.log_artifacts(run.info.artifact_uri, str(root))
             model_id = ""
             if s.role == naming.BASELINE:
                 model_id = log_logged_model(backend, experiment_id, run_id, s.asset_id, bundle,

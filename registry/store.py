@@ -300,6 +300,52 @@ def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
                         what="open tracking store")
         call_with_retry(client.search_registered_models, max_results=1, policy=policy,
                         what="open model registry")
+        call_with_retry(_index_tag_values, store.db_path, policy=policy, what="index tag values")
+
+
+def _synchronous_normal(connection, _record) -> None:
+    cursor = connection.cursor()
+    try:
+        cursor.execute("PRAGMA synchronous=NORMAL")
+    finally:
+        cursor.close()
+
+
+def relax_commit_sync(engine) -> None:
+    """Commit without an fsync per transaction: ``PRAGMA synchronous=NORMAL`` on every new
+    connection of a SQLite (WAL) engine.
+
+    In WAL mode this keeps the database consistent; what a power loss (not a crashed or
+    killed process) can undo is the last transactions committed, always a suffix in commit
+    order. The registry's rules survive that: a watermark is committed after the records it
+    covers, so it is never kept while they are lost, and a lost record is written again by the
+    next run (recording is idempotent). It saves an fsync on each of the dozen commits of an
+    asset-night. Applied once per engine (MLflow shares one engine per database URI).
+    """
+    from sqlalchemy import event
+
+    if engine.dialect.name != "sqlite" or event.contains(engine, "connect", _synchronous_normal):
+        return
+    event.listen(engine, "connect", _synchronous_normal)
+    engine.dispose()    # connections opened before the listener reopen with it
+
+
+TAG_VALUE_INDEX = "fleet_health_tags_key_value"
+
+
+def _index_tag_values(path: pathlib.Path) -> None:
+    """An index on run tags by key and value, so that finding a fit by its key is a look-up.
+
+    MLflow indexes run tags by (key, run): a filter on one tag's value reads every run's tag
+    of that key, a cost that grows with the store (every night adds a run per asset). The
+    index is ours (MLflow neither needs nor minds it); created once, then a no-op.
+    """
+    connection = sqlite3.connect(str(path), timeout=30)
+    try:
+        connection.execute(f"CREATE INDEX IF NOT EXISTS {TAG_VALUE_INDEX} ON tags (key, value)")
+        connection.commit()
+    finally:
+        connection.close()
 
 
 def _enable_wal(path: pathlib.Path) -> None:

@@ -35,7 +35,7 @@ def commit_watermark(backend: Backend, asset_id: str, end) -> pd.Timestamp:
     registry.exceptions.NotFoundError
         If nothing was ever recorded for the asset (record its fit first).
     """
-    name = naming.model_name(asset_id)
+    naming.model_name(asset_id)         # validates the id before the lock file is named
     end = pd.Timestamp(naming.iso_utc(end))
     with backend.store.asset_lock(asset_id):
         model = backend.require_registered_model(asset_id)
@@ -43,5 +43,5 @@ def commit_watermark(backend: Backend, asset_id: str, end) -> pd.Timestamp:
         current = None if not value else pd.Timestamp(value)
         if current is not None and current >= end:
             return current
-        backend.client.set_registered_model_tag(name, naming.TAG_WATERMARK, end.isoformat())
+        backend.set_model_tag(asset_id, naming.TAG_WATERMARK, end.isoformat())
         return end
