@@ -12,7 +12,8 @@ Global options (before the command; ``run``, ``reanalyze``, ``alerts``, ``baseli
 ``-v``                  show Prefect's and the libraries' log lines
 
 Exit status: 0 all assets processed; 1 some assets failed (each named, with why) or the
-operation failed; 2 bad usage or configuration.
+operation failed; 2 bad usage or configuration; 3 Prefect's API server could not be started
+or reached (one line says what to do).
 """
 from __future__ import annotations
 
@@ -27,6 +28,11 @@ from registry.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _console, _error, add
 
 DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 DEFAULT_CONFIG = "fleet.toml"
+#: seconds Prefect's temporary local server may take to start (Prefect's own default, 20 s,
+#: is missed on a loaded machine: a first run in a new PREFECT_HOME took 27.7 s on an idle one)
+EPHEMERAL_STARTUP_TIMEOUT = 180
+EXIT_UNAVAILABLE = 3
+_EPHEMERAL_TIMEOUT_MESSAGE = "Timed out while attempting to connect to ephemeral Prefect API"
 
 
 # -- plumbing --------------------------------------------------------------------------------
@@ -38,6 +44,8 @@ def _prefect_environment(args: argparse.Namespace) -> None:
     os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", level)
     os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
     os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
+    os.environ.setdefault("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS",
+                          str(EPHEMERAL_STARTUP_TIMEOUT))
     os.environ.setdefault("MLFLOW_LOGGING_LEVEL", level)
 
 
@@ -509,7 +517,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="fleet-health",
         description="Gray-box fleet health: nightly residual models, drift and baselines.",
         epilog="Exit status: 0 all assets processed; 1 some assets failed (each named, with "
-               "why); 2 bad usage or configuration.")
+               "why); 2 bad usage or configuration; 3 Prefect's API server could not be "
+               "started or reached.")
     parser.add_argument(
         "--config", metavar="PATH",
         default=os.environ.get("FLEET_HEALTH_CONFIG") or DEFAULT_CONFIG,
@@ -560,7 +569,17 @@ def main(argv: list[str] | None = None) -> int:
         status = _resolve_registry_uri(args)
         if status is not None:
             return status
-    return int(args.handler(args))
+    try:
+        return int(args.handler(args))
+    except RuntimeError as error:
+        if _EPHEMERAL_TIMEOUT_MESSAGE not in str(error):
+            raise
+        timeout = os.environ.get("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS")
+        _error(f"Prefect's temporary API server did not start within {timeout} s (a busy "
+               f"machine?): nothing was run. Retry, raise "
+               f"PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS, or start a server once "
+               f"(`prefect server start`) and set PREFECT_API_URL=http://127.0.0.1:4200/api.")
+        return EXIT_UNAVAILABLE
 
 
 if __name__ == "__main__":  # pragma: no cover

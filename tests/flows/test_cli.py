@@ -3,6 +3,7 @@ configuration) and --json output."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -156,3 +157,33 @@ def test_options_after_the_command(workspace, capsys):
     assert args.config == "x.toml" and args.tracking_uri == "sqlite:///y.db"
     args = parser.parse_args(["--config", "a.toml", "run"])
     assert args.config == "a.toml"
+
+
+def test_a_prefect_server_too_slow_to_start_is_one_clear_line_and_exit_3(tmp_path):
+    """A start-up slower than allowed (here: no time at all) fails cleanly, without running."""
+    (tmp_path / "telemetry").mkdir()
+    (tmp_path / "fleet.toml").write_text(
+        '[classes.turbine]\nmodel = "graybox.models:GasTurbineShaft"\nassets = ["T-*"]\n'
+        'columns = { omega = "shaft_speed" }\n')
+    env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
+    env.update(PREFECT_HOME=str(tmp_path / ".prefect"),
+               PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS="0")
+    done = subprocess.run([sys.executable, "-m", "flows.cli", "run", "--config", "fleet.toml"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 3, done.stderr
+    assert "Traceback" not in done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "did not start within 0 s" in lines[0]
+    assert "PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS" in lines[0]
+
+
+def test_the_command_line_allows_a_loaded_machine_time_to_start_prefect(monkeypatch):
+    from flows.cli import EPHEMERAL_STARTUP_TIMEOUT, _prefect_environment
+
+    monkeypatch.delenv("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS", raising=False)
+    _prefect_environment(build_parser().parse_args(["run"]))
+    assert os.environ["PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS"] == \
+        str(EPHEMERAL_STARTUP_TIMEOUT) == "180"
+    monkeypatch.setenv("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS", "600")
+    _prefect_environment(build_parser().parse_args(["run"]))
+    assert os.environ["PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS"] == "600"
