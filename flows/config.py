@@ -31,7 +31,7 @@ Layout (DESIGN section 4; every table but ``[classes.*]`` is optional)::
 
     [classes.turbine]                      # one table per vehicle class
     model = "graybox.models:GasTurbineShaft"
-    parameters = { gamma = 0.1 }           # overrides of the model's default_parameters
+    parameters = { inertia = 45.0 }        # overrides of the model's default_parameters
     assets = ["T-*"]                       # ids or glob patterns
     columns = { omega = "shaft_speed" }    # model variable -> telemetry column
     settings = { hidden_units = 8 }        # overrides of graybox GrayBoxSettings

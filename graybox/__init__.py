@@ -11,7 +11,8 @@ as drift (zeta) of those parameters from the asset's healthy baseline.
 >>> drift = baseline.drift(days[5])                            # refit with frozen structure
 >>> [(a.channel, a.tier, a.zeta, a.epsilon) for a in drift.alarms]
 
-This package imports numpy, scipy, pandas, pyarrow and torch only: never mlflow or prefect.
+This package imports numpy, scipy, pandas, pyarrow, threadpoolctl and torch only: never mlflow
+or prefect.
 """
 from graybox.calibration import Calibration
 from graybox.decompose import decompose

@@ -3,11 +3,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import pandas as pd
 
+from graybox.analysis_rate import decimate, decimation_factor
 from graybox.models.base import WhiteBoxModel
 from graybox.residual import infer_sample_interval, residual_frame
+from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 
 
@@ -54,14 +55,20 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
     Returns
     -------
     list of ChannelDecomposition, one per channel
+        At the signature's analysis interval (see :mod:`graybox.analysis_rate`).
     """
     frame = getattr(window, "frame", window)
     interval = getattr(window, "sample_interval", None) or infer_sample_interval(frame.index)
-    residuals = residual_frame(model, frame, signature.residual_method, interval)
+    settings = GrayBoxSettings.from_dict(signature.settings)
+    residuals = residual_frame(model, frame, signature.residual_method, interval,
+                               settings.derivative_window(interval))
+    factor = decimation_factor(signature.analysis_step, interval)
+    # a block mean stands at the block's last instant (it covers the interval up to it)
+    blocks = residuals.index[factor - 1::factor][: len(residuals) // factor]
     out = []
     for channel in signature.channels:
         structure = channel.structure
-        r = residuals[channel.channel]
+        r = pd.Series(decimate(residuals[channel.channel].to_numpy(), factor), blocks)
         differencing = structure.differencing
         index = r.index[differencing.lost:]
         z = (differencing.apply(r.to_numpy()) - structure.center) / structure.scale

@@ -1,10 +1,11 @@
-"""Run one baseline batch at 1 Hz in a fresh process and print its peak resident size.
+"""Run one baseline batch in a fresh process and print its peak resident size.
 
-Usage: memory_worker.py WORKDIR BUDGET_ABOVE_START_MB
+Usage: memory_worker.py TELEMETRY WORKDIR BUDGET_ABOVE_START_MB ASSET...
 
-Simulates 6 healthy vehicles over 3 days at 1 s, then fits their baselines in one batch with
-``[nightly] memory_budget`` set to the process's resident size after start-up plus the given
-megabytes, and prints one JSON line: start and peak resident bytes, the budget, groups fitted.
+Fits the assets' baselines (days 2026-01-01 .. 03) in one batch with ``[nightly]
+memory_budget`` set to the process's resident size after start-up plus the given megabytes,
+and prints one JSON line: start and peak resident bytes, the budget, the groups fitted. The
+telemetry is made by the caller, so that its making does not count in this process's peak.
 """
 import json
 import pathlib
@@ -13,22 +14,20 @@ import sys
 import flows.baseline
 from flows.baseline import process_baseline_batch
 from flows.config import load_config
-from flows.demo import simulated_fleet, write_simulation
 from flows.fleet import AssetRef
 from flows.memory import peak_resident_bytes, resident_bytes
 
 
-def main(workdir: str, above_mb: str) -> int:
+def main(telemetry: str, workdir: str, above_mb: str, *assets: str) -> int:
     work = pathlib.Path(workdir)
-    spec = simulated_fleet(6, 3, seed=3, sample_interval=1.0, healthy=True)
-    write_simulation(spec, work / "telemetry")
+    work.mkdir(parents=True)
     import torch  # noqa: F401 - part of start-up, not of the batch's working memory
 
     start = resident_bytes()
     budget = start + int(float(above_mb) * 2 ** 20)
     (work / "fleet.toml").write_text(f'''
 [telemetry]
-root = "telemetry"
+root = "{telemetry}"
 [mlflow]
 tracking_uri = "sqlite:///{work / 'mlflow.db'}"
 [nightly]
@@ -49,7 +48,7 @@ columns = {{ omega = "shaft_speed" }}
             yield group
 
     flows.baseline.memory_groups = counting
-    refs = [AssetRef(v.asset_id, "turbine") for v in spec.vehicles]
+    refs = [AssetRef(asset, "turbine") for asset in assets]
     results = process_baseline_batch(config, refs, "2026-01-01", "2026-01-04")
     print(json.dumps({"start": start, "peak": peak_resident_bytes(), "budget": budget,
                       "groups": groups, "statuses": [r.status for r in results]}))

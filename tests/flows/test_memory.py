@@ -54,9 +54,9 @@ def test_groups_keep_room_for_the_next_asset_and_take_every_asset_once():
         [0], lambda i: SimpleNamespace(index=i, nbytes=10 ** 9), budget)] == [[0]]
 
 
-def run_worker(tmp_path, above_mb: float) -> dict:
-    done = subprocess.run([sys.executable, str(WORKER), str(tmp_path), str(above_mb)],
-                          capture_output=True, text=True, timeout=600)
+def run_worker(telemetry, workdir, above_mb: float, assets) -> dict:
+    done = subprocess.run([sys.executable, str(WORKER), str(telemetry), str(workdir),
+                           str(above_mb), *assets], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -64,12 +64,17 @@ def run_worker(tmp_path, above_mb: float) -> dict:
 @pytest.mark.slow
 def test_a_baseline_batch_stays_within_its_memory_budget(tmp_path):
     """Measured: the peak resident size of a 1-Hz baseline batch with a small budget."""
-    small = run_worker(tmp_path / "small", 350)
+    from flows.demo import simulated_fleet, write_simulation
+
+    spec = simulated_fleet(6, 3, seed=3, sample_interval=1.0, healthy=True)
+    write_simulation(spec, tmp_path / "telemetry")
+    assets = [v.asset_id for v in spec.vehicles]
+    small = run_worker(tmp_path / "telemetry", tmp_path / "small", 350, assets)
     assert small["statuses"] == ["ok"] * 6
     assert len(small["groups"]) > 1 and sum(small["groups"]) == 6
     assert small["peak"] <= small["budget"], small
     # the same batch with room for everything fits all assets at once and needs more memory
     # than the small budget allowed: the budget, not the data, kept the peak down
-    large = run_worker(tmp_path / "large", 10_000)
+    large = run_worker(tmp_path / "telemetry", tmp_path / "large", 10_000, assets)
     assert large["groups"] == [6]
     assert large["peak"] - large["start"] > small["budget"] - small["start"], (small, large)

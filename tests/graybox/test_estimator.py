@@ -89,6 +89,11 @@ def test_decompose_reassembles_the_tiers(fleet, model, baseline):
     parts = decompose(sig, model, fleet["A"][0])[0]
     structure = sig.channel("omega").structure
     assert len(parts.stationary) == len(parts.residual) - structure.differencing.lost
-    np.testing.assert_allclose(parts.ar_prediction + parts.ar_residual,
-                               parts.stationary.iloc[structure.ar_order:])
+    # the AR tier's forecast is sum_i a_i z(t - i), computed here independently
+    z, a = parts.stationary.to_numpy(), np.asarray(sig.channel("omega").linear.coefficients)
+    n = len(a)
+    expected = [a @ z[t - n: t][::-1] for t in range(n, len(z))]
+    np.testing.assert_allclose(parts.ar_prediction.to_numpy(), expected, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(parts.ar_residual.to_numpy(), z[n:] - np.asarray(expected),
+                               rtol=1e-10, atol=1e-12)
     assert parts.noise.index.equals(parts.network_prediction.index)
