@@ -1,6 +1,7 @@
 """``fleet.toml``: the fleet's configuration, loaded and checked with errors that name the key.
 
-Layout (DESIGN section 4; every table but ``[classes.*]`` is optional)::
+Layout (every key and its default: docs/design.md section 3.3; every table but
+``[classes.*]`` is optional)::
 
     [telemetry]
     root = "telemetry"                     # hive-partitioned Parquet (relative to this file)

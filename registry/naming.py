@@ -1,4 +1,4 @@
-"""MLflow names and tag keys (DESIGN section 4, "MLflow naming").
+"""MLflow names and tag keys (docs/design.md section 3.5, "MLflow naming").
 
 * one experiment per vehicle class: ``fleet-health/<vehicle_class>``;
 * one registered model per asset: ``fleet-health.<asset_id>``;

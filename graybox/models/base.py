@@ -1,4 +1,4 @@
-"""The physics-model plugin contract (DESIGN section 4).
+"""The physics-model plugin contract (docs/design.md section 3.1).
 
 A vehicle class names its white-box model as ``package.module:ClassName``. A model declares
 its state and input variables and its default parameters as class attributes, and computes

@@ -1,4 +1,6 @@
-"""Telemetry store: reading, validating and gridding an asset's sensor data (DESIGN section 4).
+"""Telemetry store: reading, validating and gridding an asset's sensor data.
+
+The contract: docs/design.md section 3.2 (layout) and section 5.1 (validation).
 
 Layout (hive-partitioned Parquet)::
 
@@ -14,7 +16,7 @@ The path from store to model input is::
     read_raw -> validate -> to_grid      (read_window does all three)
 
 ``read_raw`` returns the rows as stored, each tagged with its file and 0-based row, so that
-``validate`` can name the file and row of the first bad sample (DESIGN section 5).
+``validate`` can name the file and row of the first bad sample (docs/design.md section 5.1).
 ``to_grid`` puts the validated rows on the uniform grid the tiers assume. The limits of
 :class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples.
 

@@ -1,4 +1,7 @@
-"""Validation of raw telemetry rows: the first bad row, by file and row (DESIGN section 5)."""
+"""Validation of raw telemetry rows: the first bad row, by file and row.
+
+The rules: docs/design.md section 5.1.
+"""
 from __future__ import annotations
 
 from typing import Collection
