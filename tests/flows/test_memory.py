@@ -1,4 +1,5 @@
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -55,8 +56,12 @@ def test_groups_keep_room_for_the_next_asset_and_take_every_asset_once():
 
 
 def run_worker(telemetry, workdir, above_mb: float, assets) -> dict:
+    # a clean environment: what other tests left in os.environ must not change the measure
+    env = {key: os.environ[key] for key in ("PATH", "HOME", "PYTHONPATH", "LANG")
+           if key in os.environ}
     done = subprocess.run([sys.executable, str(WORKER), str(telemetry), str(workdir),
-                           str(above_mb), *assets], capture_output=True, text=True, timeout=600)
+                           str(above_mb), *assets], capture_output=True, text=True,
+                          timeout=600, env=env)
     assert done.returncode == 0, done.stdout + done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
