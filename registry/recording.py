@@ -33,6 +33,7 @@ import logging
 from typing import Sequence
 
 from mlflow.entities import ViewType
+from mlflow.exceptions import MlflowException
 
 from registry import naming
 from registry.backend import Backend, is_not_found
@@ -109,7 +110,7 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
     alarm = None if s.drift is None else s.drift.alarmed
     if s.reanalysis:
         created = run is None
-        run_id = log_run(backend, experiment_id, fit, s.baseline_version, template).run_id \
+        run_id = _log(backend, experiment_id, fit, s.baseline_version, template).run_id \
             if created else run.info.run_id
         return FitRecord(s.asset_id, s.vehicle_class, s.role, None, run_id, "", fit.key,
                          fit.start, fit.end, fit.data_hash, created=created, alarm=alarm)
@@ -129,7 +130,7 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
         model = backend.registered_model(s.asset_id)
         baseline_version = (model.aliases or {}).get(naming.BASELINE) if model else None
     if run is None:
-        logged = log_run(backend, experiment_id, fit, baseline_version, template)
+        logged = _log(backend, experiment_id, fit, baseline_version, template)
         run_id, model_id, manifest_sha, source = (logged.run_id, logged.model_id,
                                                   logged.manifest_sha256, logged.source)
     else:
@@ -146,6 +147,16 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
     alias.new_version(version)
     return FitRecord(s.asset_id, s.vehicle_class, s.role, version, run_id, model_id, fit.key,
                      fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
+
+
+def _log(backend: Backend, experiment_id: str, fit: ResolvedFit, baseline_version,
+         template: PyfuncTemplate):
+    try:
+        return log_run(backend, experiment_id, fit, baseline_version, template)
+    except MlflowException:
+        # perhaps the experiment was deleted since this backend saw it: look it up next time
+        backend.forget(fit.asset_id, fit.submission.vehicle_class)
+        raise
 
 
 def _find_runs(backend: Backend, experiment_id: str, key: str):

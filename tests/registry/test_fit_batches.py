@@ -197,3 +197,13 @@ def test_fit_keys_are_found_through_an_index(registry, store_uri):
             "EXPLAIN QUERY PLAN SELECT run_uuid FROM tags WHERE key = ? AND value = ?",
             (naming.TAG_FIT_KEY, "0" * 40)).fetchall()
     assert "fleet_health_tags_key_value" in " ".join(str(row) for row in plan)
+
+
+def test_a_registered_model_deleted_by_hand_is_made_again(registry, fits):
+    registry.record_fit(night(fits, "T-01", 5))          # the backend now remembers T-01
+    registry.backend.client.delete_registered_model(naming.model_name("T-01"))
+    record = registry.record_fit(night(fits, "T-01", 6))
+    assert record.created and record.version == 1
+    model = registry.backend.client.get_registered_model(naming.model_name("T-01"))
+    assert model.tags[naming.TAG_VEHICLE_CLASS] == "turbine"
+    assert model.aliases == {"candidate": 1}
