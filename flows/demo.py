@@ -277,7 +277,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
     db = workdir / "mlflow.db"
     console.print()
     console.print(f"Done in {elapsed:.0f} s. Everything is in {workdir}:")
-    console.print(f"  fleet.toml, telemetry/, alerts.jsonl, mlflow.db + mlartifacts/, .prefect/")
+    console.print("  fleet.toml, telemetry/, alerts.jsonl, mlflow.db + mlartifacts/, .prefect/")
     console.print("Open the MLflow UI (experiments fleet-health/turbine; models fleet-health.T-*):")
     console.print(f"  mlflow ui --backend-store-uri sqlite:///{db} --port 5000")
     console.print("  then http://127.0.0.1:5000")

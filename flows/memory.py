@@ -60,11 +60,6 @@ def resident_bytes() -> int:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
-def peak_resident_bytes() -> int:
-    """The process's peak resident size so far."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-
-
 @dataclass(frozen=True)
 class MemoryBudget:
     """Bytes a batch may use for its assets' telemetry and fits.

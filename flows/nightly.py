@@ -47,8 +47,8 @@ from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, discover, pending_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, candidate_grid, fit_candidates, memory_groups, read,
-                            record_candidates, reference_model)
+from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
+                            record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, describe_error, is_transient, now_iso)
@@ -65,15 +65,15 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
         with timed(clock, "registry"):
             watermark = registry.watermark(asset)
         before = None if watermark is None else watermark.isoformat()
-        if watermark is not None and not pending_windows(
-                list_dates(config.telemetry_root, asset), watermark, as_of, window):
+        dates = list_dates(config.telemetry_root, asset)
+        if watermark is not None and not pending_windows(dates, watermark, as_of, window):
             # nothing new: no need to load the baseline
             return AssetResult(asset, ref.vehicle_class, UP_TO_DATE, watermark_before=before,
                                watermark_after=before), None
         with timed(clock, "registry"):
             loaded = registry.baseline(asset)
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
-        guard_asset_error(error, ref, "loading its baseline")
+        guard_asset_error(error, ref, "looking up its watermark, telemetry and baseline")
         return AssetResult(asset, ref.vehicle_class, FAILED, watermark_before=before,
                            watermark_after=before, error=describe_error(error)), None
     if loaded is None:
@@ -84,15 +84,9 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
     result = AssetResult(asset, ref.vehicle_class, OK, watermark_before=before,
                          watermark_after=before, baseline_version=loaded.version)
     start_after = watermark if watermark is not None else utc(loaded.info.window_end)
-    try:
-        bounds = pending_windows(list_dates(config.telemetry_root, asset), start_after, as_of,
-                                 window)
-        pending = PendingAsset(ref, result, reference_model(loaded), loaded)
-        read(config, pending, candidate_grid(config.classes[ref.vehicle_class].grid, loaded),
-             bounds, stop_at_error=True, clock=clock)
-    except Exception as error:  # noqa: BLE001
-        guard_asset_error(error, ref, "reading its telemetry")
-        result.status, result.error = FAILED, describe_error(error)
+    bounds = pending_windows(dates, start_after, as_of, window)
+    pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock)
+    if pending is None:
         return result, None
     if not pending.windows:
         if pending.stop is not None:

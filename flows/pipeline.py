@@ -145,6 +145,21 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
     return asset
 
 
+def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
+                 reference: LoadedVersion, bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]],
+                 stop_at_error: bool, clock: StageClock | None = None) -> PendingAsset | None:
+    """The asset's windows read with ``reference``'s white box and grid (see :func:`read`);
+    None, with ``result`` failed, when reading raised something other than bad telemetry."""
+    try:
+        pending = PendingAsset(ref, result, reference_model(reference), reference)
+        grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
+        return read(config, pending, grid, bounds, stop_at_error, clock)
+    except Exception as error:  # noqa: BLE001 - one asset never stops the batch
+        guard_asset_error(error, ref, "reading its telemetry")
+        result.status, result.error = FAILED, describe_error(error)
+        return None
+
+
 def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None],
                   budget: MemoryBudget) -> Iterator[list[PendingAsset]]:
     """Load items one after another; yield groups of loaded assets that fit ``budget``.

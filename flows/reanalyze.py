@@ -27,8 +27,8 @@ from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, discover, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, candidate_grid, fit_candidates, memory_groups, read,
-                            record_candidates, reference_model)
+from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
+                            record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, describe_error,
                            now_iso)
@@ -57,15 +57,9 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
     if loaded.calibration is None:
         result.note = (f"v{loaded.version} has no calibration: zeta is reported without "
                        f"epsilon (no alarms)")
-    try:
-        pending = PendingAsset(ref, result, reference_model(loaded), loaded)
-        read(config, pending, candidate_grid(config.classes[ref.vehicle_class].grid, loaded),
-             windows, stop_at_error=False, clock=clock)
-    except Exception as error:  # noqa: BLE001
-        guard_asset_error(error, ref, "reading its telemetry")
-        result.status, result.error = FAILED, describe_error(error)
-        return result, None
-    return result, (pending if pending.windows else None)
+    pending = read_against(config, ref, result, loaded, windows, stop_at_error=False,
+                           clock=clock)
+    return result, (pending if pending is not None and pending.windows else None)
 
 
 def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,

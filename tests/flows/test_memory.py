@@ -68,18 +68,19 @@ def run_worker(telemetry, workdir, above_mb: float, assets) -> dict:
 
 @pytest.mark.slow
 def test_a_baseline_batch_stays_within_its_memory_budget(tmp_path):
-    """Measured: the peak resident size of a 1-Hz baseline batch with a small budget."""
+    """Measured: the peak working memory (anonymous resident size) of a 1-Hz baseline batch
+    with a small budget, above the process's after start-up."""
     from flows.demo import simulated_fleet, write_simulation
 
     spec = simulated_fleet(6, 3, seed=3, sample_interval=1.0, healthy=True)
     write_simulation(spec, tmp_path / "telemetry")
     assets = [v.asset_id for v in spec.vehicles]
-    small = run_worker(tmp_path / "telemetry", tmp_path / "small", 350, assets)
+    small = run_worker(tmp_path / "telemetry", tmp_path / "small", 250, assets)
     assert small["statuses"] == ["ok"] * 6
     assert len(small["groups"]) > 1 and sum(small["groups"]) == 6
-    assert small["peak"] <= small["budget"], small
+    assert small["peak"] - small["start"] <= small["above"], small
     # the same batch with room for everything fits all assets at once and needs more memory
     # than the small budget allowed: the budget, not the data, kept the peak down
     large = run_worker(tmp_path / "telemetry", tmp_path / "large", 10_000, assets)
     assert large["groups"] == [6]
-    assert large["peak"] - large["start"] > small["budget"] - small["start"], (small, large)
+    assert large["peak"] - large["start"] > small["above"], (small, large)
