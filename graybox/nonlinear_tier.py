@@ -18,6 +18,7 @@ import numpy as np
 
 # FitSettings and initial_weights are part of this module's public API (fit_networks' arguments)
 from graybox.network_settings import FitSettings, NetworkFit, initial_weights
+from graybox.output_layer_fit import fit_output_layers
 
 #: samples per batched network computation at most: about 230 MB of tensors (measured 400-450
 #: bytes per series-sample for J = 8, m = 6, with and without trained input weights)
@@ -148,6 +149,9 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                 raise ValueError(f"warm start shapes {w.shape}, {W.shape} do not match "
                                  f"J={hidden}, m={dim}")
         starts.append(np.concatenate([w.ravel(), W]))
+    if not train_input_weights:
+        # one minimum: Levenberg-Marquardt on the output weights, series by series, no torch
+        return fit_output_layers(problems, starts, hidden, settings)
     # Series are padded to a length bucket and batched only with series of the same bucket:
     # every array shape a series meets then depends on its own length alone, so its float
     # rounding (and hence its optimization path) is the same in any batch as alone.

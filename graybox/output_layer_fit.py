@@ -1,0 +1,95 @@
+"""The output layer of an Eq. 25 network whose hidden layer is fixed, by Levenberg-Marquardt.
+
+With the hidden weights ``w`` fixed (the null network of :mod:`graybox.fleet_fit`), the
+hidden activations ``H = tanh(X w^T)`` are data and the network is ``tanh(H W)``: a
+generalised linear model in the ``J`` output weights. Its loss, the same as the batched
+L-BFGS minimises for a full network,
+
+.. math:: L(W) = \\frac{1}{T} \\sum_t \\big(y_t - \\tanh(h_t \\cdot W)\\big)^2 + \\lambda |W|^2,
+
+has one minimum, which Gauss-Newton steps reach in a handful of iterations: each needs one
+``T x J`` product and a ``J x J`` solve, instead of L-BFGS's dozens of autograd passes (a
+1-Hz night: ~40 iterations, 0.1 s; here a few milliseconds). Levenberg-Marquardt damping keeps
+every step a descent. Each series is fitted on its own, so its result never depends on the
+others of a call.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from graybox.network_settings import FitSettings, NetworkFit
+
+
+def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
+                      starts: Sequence[np.ndarray], hidden: int,
+                      settings: FitSettings) -> list[NetworkFit]:
+    """Fit ``W`` of each problem with its hidden layer fixed at its start.
+
+    Parameters
+    ----------
+    problems : sequence of (X, y)
+        Design matrices (T, m) and targets (T,).
+    starts : sequence of ndarray
+        Flat start weights ``[w.ravel(), W]`` of each problem; ``w`` stays as it is.
+    hidden : int
+        Hidden units J.
+    settings : FitSettings
+        ``weight_decay`` (lambda), ``tolerance`` and ``max_iter`` as for the full network.
+
+    Returns
+    -------
+    list of NetworkFit
+    """
+    out = []
+    for (X, y), start in zip(problems, starts):
+        X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
+        dim = X.shape[1]
+        w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
+        W, iterations = _levenberg_marquardt(np.tanh(X @ w.T), y, np.asarray(
+            start[hidden * dim:], dtype=float), settings)
+        mse = float(np.mean((y - np.tanh(np.tanh(X @ w.T) @ W)) ** 2))
+        out.append(NetworkFit(w.copy(), W, mse, iterations))
+    return out
+
+
+def _loss(H: np.ndarray, y: np.ndarray, W: np.ndarray, decay: float) -> float:
+    return float(np.mean((y - np.tanh(H @ W)) ** 2) + decay * (W @ W))
+
+
+def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray,
+                         settings: FitSettings) -> tuple[np.ndarray, int]:
+    n = len(y)
+    decay = settings.weight_decay
+    identity = np.eye(H.shape[1])
+    loss = _loss(H, y, W, decay)
+    damping = 1e-3
+    iterations = 0
+    for _ in range(settings.max_iter):
+        prediction = np.tanh(H @ W)
+        residual = y - prediction
+        J = H * (1.0 - prediction ** 2)[:, None]              # d prediction / d W
+        gradient = -2.0 * (J.T @ residual) / n + 2.0 * decay * W
+        if np.abs(gradient).max() <= settings.tolerance:
+            break
+        curvature = 2.0 * (J.T @ J) / n + 2.0 * decay * identity
+        improved = False
+        while damping < 1e12:
+            step = np.linalg.solve(curvature + damping * np.diag(np.diag(curvature)) +
+                                   damping * 1e-12 * identity, -gradient)
+            trial = W + step
+            trial_loss = _loss(H, y, trial, decay)
+            if trial_loss < loss:
+                improved = True
+                break
+            damping *= 10.0
+        if not improved:
+            break                                              # at the minimum to precision
+        relative = (loss - trial_loss) / max(abs(loss), 1e-300)
+        W, loss = trial, trial_loss
+        damping = max(damping / 10.0, 1e-12)
+        iterations += 1
+        if relative <= settings.tolerance:
+            break
+    return W, iterations

@@ -1,0 +1,62 @@
+import numpy as np
+import pytest
+
+from graybox.network_settings import FitSettings, initial_weights
+from graybox.nonlinear_tier import lagged
+from graybox.output_layer_fit import fit_output_layers
+
+
+def problem(seed, n=3000, dim=3, hidden=8):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 0.25, n)
+    x[1:] += 0.3 * np.tanh(4 * x[:-1])                      # some structure to explain
+    X, y = lagged(x, dim, 1)
+    w, W = initial_weights(hidden, dim, seed, 4.0)
+    return (X, y), np.concatenate([w.ravel(), W])
+
+
+def torch_lbfgs(problems, starts, hidden, settings):
+    """The batched L-BFGS of the full network with the hidden layer frozen: the reference."""
+    from graybox.network_training import fit_chunk, single_thread
+
+    with single_thread():
+        return fit_chunk(problems, starts, hidden, problems[0][0].shape[1], settings,
+                         max(len(y) for _, y in problems), train_input_weights=False)
+
+
+def loss(fit, X, y, decay):
+    return np.mean((y - np.tanh(np.tanh(X @ fit.w.T) @ fit.W)) ** 2) + decay * fit.W @ fit.W
+
+
+def test_reaches_the_minimum_the_batched_lbfgs_finds():
+    settings = FitSettings()
+    problems, starts = zip(*[problem(seed) for seed in range(3)])
+    ours = fit_output_layers(problems, starts, 8, settings)
+    reference = torch_lbfgs(list(problems), list(starts), 8, settings)
+    for (X, y), start, a, b in zip(problems, starts, ours, reference):
+        np.testing.assert_array_equal(a.w, start[:24].reshape(8, 3))   # hidden layer fixed
+        # one minimum: the same weights up to where L-BFGS stops (a relative loss change of
+        # 1e-9 leaves flat directions ~1e-4 short), and never a higher loss than it reached
+        np.testing.assert_allclose(a.W, b.W, atol=5e-4)
+        assert loss(a, X, y, settings.weight_decay) <= loss(b, X, y, settings.weight_decay) + 1e-15
+        assert a.iterations < b.iterations
+
+
+def test_the_gradient_vanishes_at_the_result():
+    settings = FitSettings()
+    (X, y), start = problem(7)
+    fit = fit_output_layers([(X, y)], [start], 8, settings)[0]
+    H = np.tanh(X @ fit.w.T)
+    p = np.tanh(H @ fit.W)
+    gradient = -2 * ((1 - p ** 2)[:, None] * H).T @ (y - p) / len(y) + 2 * settings.weight_decay * fit.W
+    assert np.abs(gradient).max() < 1e-8
+
+
+def test_each_series_alone_or_together():
+    settings = FitSettings()
+    problems, starts = zip(*[problem(seed, n=500 + 300 * seed) for seed in range(3)])
+    together = fit_output_layers(problems, starts, 8, settings)
+    for p, s, fit in zip(problems, starts, together):
+        alone = fit_output_layers([p], [s], 8, settings)[0]
+        np.testing.assert_array_equal(alone.W, fit.W)
+        assert alone.mse == fit.mse
