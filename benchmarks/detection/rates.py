@@ -88,11 +88,14 @@ def noise_share(intervals, seed: int = 1, vehicles: int = 4, days: int = 2) -> p
     the gray box chooses (block means). A sensor noise x (1 + m) then raises the residual
     variance by about ``share ((1 + m)^2 - 1)``: the change the noise tier has to see.
     """
-    from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
+    from benchmarks.detection.run import white_box
+    from graybox.analysis_rate import (
+        choose_analysis_interval,
+        decimate,
+        decimation_factor,
+    )
     from graybox.residual import one_step_residual
     from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet_with_truth
-
-    from benchmarks.detection.run import white_box
 
     model = white_box(0.0)
     rows = []
@@ -100,7 +103,7 @@ def noise_share(intervals, seed: int = 1, vehicles: int = 4, days: int = 2) -> p
         specs = tuple(VehicleSpec(f"V{i}", seed=vehicle_seed(seed, i)) for i in range(vehicles))
         frames, truth = simulate_fleet_with_truth(FleetSpec(specs, days=days,
                                                             sample_interval=float(interval)))
-        day = int(round(86_400 / interval))
+        day = round(86_400 / interval)
         pieces = [(frames[a].set_index("timestamp").iloc[d * day:(d + 1) * day],
                    truth[a]["sensor_noise"].to_numpy()[d * day:(d + 1) * day])
                   for a in frames for d in range(days)]
@@ -223,8 +226,8 @@ def _noise_table(noise: pd.DataFrame, magnitude: float | None) -> str:
         if magnitude is not None:
             row.append(_pct1(r.analysis_share * ((1 + magnitude) ** 2 - 1)))
         rows.append(row)
-    header = ["sample interval", "analysis interval", "residual std", "sensor-noise share of "
-              "the residual variance", "share at the analysis interval"]
+    header = ["sample interval", "analysis interval", "residual std",
+              "sensor-noise share of the residual variance", "share at the analysis interval"]
     if magnitude is not None:
         header.append(f"residual variance change of noise x {1 + magnitude:g}")
     return _table(header, rows)
@@ -406,7 +409,7 @@ def main(argv=None) -> int:
         table, info = run_rates(grid, intervals, args.workers, args.threads)
         noise = noise_share(intervals)
     detection, false_alarms = summarize_rates(table, grid)
-    run = {"command": command, "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    run = {"command": command, "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
            "commit": commit, "commit_at_end": _commit(), "workers": workers,
            "threads": args.threads, "cpus": os.cpu_count(), "load_note": load.note(workers),
            "versions": _versions(), "wall_seconds": time.perf_counter() - start, **info}
