@@ -11,5 +11,7 @@ Modules: :mod:`~benchmarks.detection.grid` (scenario grid, simulation),
 :mod:`~benchmarks.detection.classic` (detectors and their calibration),
 :mod:`~benchmarks.detection.run` (the grid, in worker processes),
 :mod:`~benchmarks.detection.metrics` (false alarms, detection rate, delay, AUC),
-:mod:`~benchmarks.detection.report` (markdown, PNG, CSV).
+:mod:`~benchmarks.detection.report` (markdown, PNG, CSV),
+:mod:`~benchmarks.detection.rates` (the reduced grid per sampling interval:
+``python -m benchmarks.detection.rates``, a section of the same report).
 """

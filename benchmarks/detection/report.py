@@ -492,6 +492,12 @@ def write_report(results: Results, out: pathlib.Path, discussion: str | None = N
     md.append("Baseline structures chosen (per model error, over all vehicles):\n")
     md.append(_structure_table(results) + "\n")
 
+    from benchmarks.detection.rates import section
+
+    rates = section(assets_dir)   # present once ``python -m benchmarks.detection.rates`` ran
+    if rates:
+        md.append(rates)
+
     if discussion:
         md.append(discussion.strip() + "\n")
 

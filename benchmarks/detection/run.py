@@ -91,7 +91,8 @@ def _graybox_rows(grid: Grid, vehicles: list[VehicleData], model, settings) -> t
         signature, calibration = result
         structure = signature.channel(CHANNEL).structure
         info["structures"].append({
-            "vehicle": v.vehicle, "diff_order": structure.diff_order,
+            "vehicle": v.vehicle, "analysis_interval": signature.analysis_step,
+            "diff_order": structure.diff_order,
             "seasonal_order": structure.seasonal_order, "period": structure.period,
             "ar_order": structure.ar_order, "tau": structure.tau,
             "embedding_dim": structure.embedding_dim,

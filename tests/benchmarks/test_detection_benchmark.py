@@ -233,3 +233,37 @@ def test_command_line_grid():
     full = grid_from_args(parse_args(["--seeds", "3", "--magnitudes", "noise=0.2,0.4"]))
     assert full.seeds == (1, 2, 3) and full.magnitudes["noise"] == (0.2, 0.4)
     assert full.magnitudes["friction"] == Grid().magnitudes["friction"]
+
+
+# ------------------------------------------------------------------------------------------
+# the sampling-interval axis
+# ------------------------------------------------------------------------------------------
+def test_rate_grid_at_two_intervals_and_its_section(tmp_path):
+    from benchmarks.detection import rates
+
+    base = Grid(magnitudes={"friction": (0.5,), "noise": (1.0,)}, model_errors=(0.0,), seeds=(1,),
+                vehicles=2, baseline_days=3, pre_nights=1, post_nights=2)
+    intervals = (10.0, 60.0)
+    table, info = rates.run_rates(base, intervals, workers=1, progress=None)
+    nights_per_vehicle = base.days - base.baseline_days + len(base.scenarios()) * base.post_nights
+    assert len(table) == len(intervals) * base.vehicles * nights_per_vehicle
+    assert sorted(table.sample_interval.unique()) == list(intervals)
+    assert [p["sample_interval"] for p in info["per_interval"]] == list(intervals)
+    detection, false_alarms = rates.summarize_rates(table, base)
+    assert len(detection) == len(intervals) * len(metrics.ALL_DETECTORS) * len(base.scenarios())
+    assert (false_alarms.nights == base.vehicles * (base.days - base.baseline_days)).all()
+    goals = rates.goal(detection, false_alarms)
+    assert len(goals) == len(intervals) * len(base.scenarios())
+    assert (goals[goals.sample_interval == 10.0].gap == 0).all()
+    noise = rates.noise_share(intervals, vehicles=1, days=1)
+    assert list(noise.sample_interval) == list(intervals)
+    assert noise.native_share.between(0, 1).all()
+    run = {"command": "test", "date": "today", "commit": "test", "workers": 1, "threads": 1,
+           "load_note": "test", "wall_seconds": 1.0, **info}
+    rates.save(tmp_path / "bench", table, detection, false_alarms, noise, base, intervals, run)
+    text = rates.section(tmp_path / "bench")
+    assert text.startswith("## Detection per sampling interval")
+    for needle in ("| 10 s |", "| 60 s |", "false alarms per healthy asset-night",
+                   "(c) sensor-noise change 1", "Gray-box baselines per interval"):
+        assert needle in text
+    assert rates.section(tmp_path / "missing") is None
