@@ -86,6 +86,26 @@ def test_alerts_exactly_for_the_faulty_assets_after_onset(workspace, count):
     assert len(_jsonl(workspace.alerts)) == len(alerts)
 
 
+def test_registry_and_alerts_file_hold_equal_records(workspace):
+    """One alert type: the night's alerts read back from the registry are the records the
+    JSON-lines file and the run summary hold, equal field for field."""
+    from flows.alerts import AlertLog
+    from flows.config import load_config
+    from registry.alert import Alert
+
+    state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat())
+    assert state.is_completed(), state.message
+    logged = AlertLog(workspace.alerts).read()
+    assert logged and {a.asset_id for a in logged} <= set(FAULTY)
+    config = load_config(workspace.config)
+    recorded = workspace.registry().alerts(major_ratio=config.alerts.major_ratio,
+                                           critical_ratio=config.alerts.critical_ratio)
+    assert all(isinstance(a, Alert) for a in recorded)
+    assert recorded == logged
+    assert sorted((Alert.from_dict(a) for a in summary["alerts"]), key=lambda a: a.key) == \
+        sorted(logged, key=lambda a: a.key)
+
+
 def test_corrupt_telemetry_fails_only_that_asset(workspace, corrupt, capsys):
     from flows.cli import main
 
