@@ -1,11 +1,13 @@
-"""Alerts: one record per asset, window, channel and tier whose zeta exceeded epsilon.
+"""The JSON-lines alert file: :class:`registry.alert.Alert` records, one object per line.
 
-An alert carries zeta, epsilon, their ratio, a severity from the ratio, the window, and the
-parameters that moved most (the root-cause hint: :class:`graybox.drift.ParameterChange`
-entries). Alerts are stored twice:
+An alert (:class:`registry.alert.Alert`, re-exported here with :func:`alerts_from_drift` and
+:func:`severity`) carries zeta, epsilon, their ratio, a severity from the ratio, the window,
+and the parameters that moved most (the root-cause hint). Alerts are stored twice, as the
+same records:
 
 * in the registry (the candidate's MLflow run: the ``fleet_health.alarm`` tag, zeta/epsilon/
-  ratio metrics and ``drift.json``), which :meth:`registry.Registry.alerts` reads back;
+  ratio metrics for the MLflow UI, and ``drift.json``, from which
+  :meth:`registry.Registry.alerts` makes the records again);
 * in a JSON-lines file (``[alerts] jsonl``), one object per line, for scripts and the
   ``fleet-health alerts`` command.
 
@@ -21,105 +23,13 @@ import fcntl
 import json
 import os
 import pathlib
-from dataclasses import asdict, dataclass, field
 from typing import Iterable, Iterator
 
 import pandas as pd
 
-SEVERITIES = ("minor", "major", "critical")
+from registry.alert import Alert, alerts_from_drift, severity
 
-
-def severity(ratio: float | None, major_ratio: float = 2.0, critical_ratio: float = 5.0) -> str:
-    """``minor`` for 1 < zeta/epsilon < major_ratio, ``major`` up to critical_ratio, else
-    ``critical``."""
-    if ratio is None:
-        return "minor"
-    if ratio >= critical_ratio:
-        return "critical"
-    if ratio >= major_ratio:
-        return "major"
-    return "minor"
-
-
-@dataclass(frozen=True)
-class Alert:
-    """One exceeded threshold: asset, window, channel and tier.
-
-    Attributes
-    ----------
-    asset_id, vehicle_class : str
-    window_start, window_end : str
-        ISO UTC bounds of the candidate's telemetry window (end exclusive).
-    channel, tier : str
-    zeta, epsilon, ratio : float
-    severity : str
-        ``minor``, ``major`` or ``critical`` (from ``ratio``).
-    top_changes : list of dict
-        The parameters that moved most: ``name``, ``baseline``, ``candidate`` and
-        ``contribution`` (its share of zeta).
-    version : int or None
-        The candidate's registered model version (None for a reanalysis).
-    baseline_version : int or None
-    run_id : str or None
-        The candidate's MLflow run.
-    source : str
-        ``nightly`` or ``reanalysis``.
-    """
-
-    asset_id: str
-    vehicle_class: str
-    window_start: str
-    window_end: str
-    channel: str
-    tier: str
-    zeta: float
-    epsilon: float
-    ratio: float
-    severity: str
-    top_changes: list = field(default_factory=list)
-    version: int | None = None
-    baseline_version: int | None = None
-    run_id: str | None = None
-    source: str = "nightly"
-
-    @property
-    def key(self) -> tuple[str, str, str, str, str]:
-        return (self.asset_id, self.window_start, self.window_end, self.channel, self.tier)
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "Alert":
-        known = {f for f in cls.__dataclass_fields__}
-        return cls(**{k: v for k, v in data.items() if k in known})
-
-    def hint(self, count: int = 3) -> str:
-        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``."""
-        return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
-                         for c in self.top_changes[:count])
-
-
-def alerts_from_drift(drift, *, asset_id: str, vehicle_class: str, window_start: str,
-                      window_end: str, version: int | None, baseline_version: int | None,
-                      run_id: str | None, major_ratio: float = 2.0,
-                      critical_ratio: float = 5.0, source: str = "nightly") -> list[Alert]:
-    """The alerts of a :class:`graybox.drift.Drift`: one per entry whose zeta exceeds epsilon,
-    largest ratio first."""
-    out = []
-    for entry in drift.alarms:
-        ratio = entry.ratio
-        out.append(Alert(
-            asset_id=asset_id, vehicle_class=vehicle_class, window_start=window_start,
-            window_end=window_end, channel=entry.channel, tier=entry.tier,
-            zeta=float(entry.zeta), epsilon=float(entry.epsilon),
-            ratio=float(ratio) if ratio is not None else float("nan"),
-            severity=severity(ratio, major_ratio, critical_ratio),
-            top_changes=[{"name": c.name, "baseline": c.baseline, "candidate": c.candidate,
-                          "contribution": c.contribution} for c in entry.top_changes],
-            version=version, baseline_version=baseline_version, run_id=run_id, source=source))
-    out.sort(key=lambda a: -a.ratio)
-    return out
+__all__ = ["Alert", "AlertLog", "alerts_from_drift", "severity"]
 
 
 class AlertLog:

@@ -324,28 +324,22 @@ def _alerts(args: argparse.Namespace) -> int:
     config = _load(args)
     since = None if args.since is None else parse_time(args.since, "--since")
     if args.from_registry:
+        from graybox.exceptions import ArtifactError
         from registry.exceptions import RegistryError
 
         try:
-            records = config.registry().alerts(since=since)
-        except RegistryError as error:
+            alerts = config.registry().alerts(since=since,
+                                              major_ratio=config.alerts.major_ratio,
+                                              critical_ratio=config.alerts.critical_ratio)
+        except (RegistryError, ArtifactError) as error:
             _error(str(error))
             return EXIT_FAILED
         if args.assets:
-            records = [r for r in records if r["asset_id"] in set(args.assets)]
-        alerts = [{"asset_id": r["asset_id"], "vehicle_class": r["vehicle_class"],
-                   "window_start": r["window_start"], "window_end": r["window_end"],
-                   "channel": e["channel"], "tier": e["tier"], "zeta": e["zeta"],
-                   "epsilon": e["epsilon"], "ratio": e["ratio"],
-                   "severity": _severity(config, e["ratio"]), "top_changes": [],
-                   "baseline_version": r["baseline_version"], "run_id": r["run_id"],
-                   "source": "registry"}
-                  for r in records for e in r["exceeded"]]
+            alerts = [a for a in alerts if a.asset_id in set(args.assets)]
     else:
-        alerts = [a.to_dict() for a in AlertLog(config.alerts.jsonl).read(
-            since=since, assets=args.assets)]
+        alerts = AlertLog(config.alerts.jsonl).read(since=since, assets=args.assets)
     if args.json:
-        print(json.dumps(alerts, indent=2, default=str))
+        print(json.dumps([a.to_dict() for a in alerts], indent=2, default=str))
         return EXIT_OK
     console = _console()
     if not alerts:
@@ -355,12 +349,6 @@ def _alerts(args: argparse.Namespace) -> int:
         return EXIT_OK
     console.print(alert_table(alerts))
     return EXIT_OK
-
-
-def _severity(config, ratio) -> str:
-    from flows.alerts import severity
-
-    return severity(ratio, config.alerts.major_ratio, config.alerts.critical_ratio)
 
 
 # -- simulate --------------------------------------------------------------------------------

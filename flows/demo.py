@@ -19,11 +19,13 @@ import json
 import pathlib
 import shutil
 import time
+from typing import Sequence
 
 import pandas as pd
 
 from flows import progress
 from flows.fleet import UsageError
+from registry.alert import Alert
 
 MARKER = ".fleet-health-demo"
 _OURS = ("telemetry", "mlflow.db", "mlflow.db-wal", "mlflow.db-shm", "mlflow.db.init.lock",
@@ -150,7 +152,7 @@ class Verdict:
     ok: bool
 
 
-def verdicts(spec, alerts: list[dict]) -> list[Verdict]:
+def verdicts(spec, alerts: Sequence[Alert]) -> list[Verdict]:
     """Each vehicle's alerts against the simulator's ground truth.
 
     A faulty vehicle is *detected* when it alerts, and all its alert windows end after the
@@ -159,8 +161,8 @@ def verdicts(spec, alerts: list[dict]) -> list[Verdict]:
     start = spec.start_timestamp
     out = []
     for vehicle in spec.vehicles:
-        mine = sorted({(a["window_start"], a["window_end"]) for a in alerts
-                       if a["asset_id"] == vehicle.asset_id})
+        mine = sorted({(a.window_start, a.window_end) for a in alerts
+                       if a.asset_id == vehicle.asset_id})
         nights = [pd.Timestamp(s).strftime("%Y-%m-%d") for s, _ in mine]
         first_end = pd.Timestamp(mine[0][1]) if mine else None
         if vehicle.faults:
@@ -248,7 +250,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
     failures += len(summary.failed)
     if summary.failed:
         console.print(fleet_table(summary, title="Baselines"))
-    nightly_alerts: list[dict] = []
+    nightly_alerts: list[Alert] = []
     last = None
     for night in range(baseline_days, days):
         as_of = day0 + pd.Timedelta(days=night + 1)
@@ -258,7 +260,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
         last = _summary(state)
         failures += len(last.failed)
         nightly_alerts += last.alerts
-        alarmed = sorted({a["asset_id"] for a in last.alerts})
+        alarmed = sorted({a.asset_id for a in last.alerts})
         console.print(f"night {as_of - pd.Timedelta(days=1):%Y-%m-%d}: "
                       f"{sum(len(a.windows) for a in last.assets)} windows, "
                       f"{len(last.alerts)} alert(s)"

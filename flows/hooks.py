@@ -21,7 +21,19 @@ logger = logging.getLogger(__name__)
 
 def compose_message(flow_name: str, summary: dict | None, state_name: str,
                     state_message: str | None) -> tuple[str, str] | None:
-    """(subject, body) of the notification, or None when there is nothing to say."""
+    """(subject, body) of the notification, or None when there is nothing to say.
+
+    Parameters
+    ----------
+    flow_name : str
+    summary : dict or None
+        The flow run's result as Prefect hands it over: the run summary serialised
+        (:meth:`flows.results.RunSummary.to_dict`, alerts as
+        :meth:`registry.alert.Alert.to_dict`), or None when the run left none. Only the
+        fields the message shows are read, so a partial summary is enough.
+    state_name, state_message : str
+        The final state's name and message.
+    """
     if summary is None:
         if state_name in ("Completed",):
             return None

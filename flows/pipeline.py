@@ -33,12 +33,12 @@ from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import GridPolicy, read_window
 
-from flows.alerts import Alert, alerts_from_drift
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig
 from flows.fleet import AssetRef
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error
+from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
 from registry.entities import LoadedVersion
 from registry.submission import FitSubmission
 
@@ -258,9 +258,9 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             version=None if reanalysis else record.version, baseline_version=reference.version,
             run_id=record.run_id, major_ratio=config.alerts.major_ratio,
             critical_ratio=config.alerts.critical_ratio,
-            source="reanalysis" if reanalysis else "nightly")
+            source=REANALYSIS if reanalysis else NIGHTLY)
         out += alerts
-        asset.result.alerts += [a.to_dict() for a in alerts]
+        asset.result.alerts += alerts
         asset.result.windows.append(WindowResult(
             record.window_start, record.window_end, None if reanalysis else record.version,
             record.run_id, drift.alarmed, max_ratio(drift), record.created))

@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import pandas as pd
 
 from flows.results import FAILED, RunSummary
+from registry.alert import Alert
 
 
 def _when(value: str | None, fmt: str = "%Y-%m-%d %H:%M") -> str:
@@ -28,12 +30,6 @@ def _ratio(value) -> str:
     return "inf" if math.isinf(value) else f"{value:.2f}"
 
 
-def hint(alert: dict, count: int = 3) -> str:
-    """The parameters that moved most, e.g. ``a1 0.912→1.04, a2 ...``."""
-    return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
-                     for c in (alert.get("top_changes") or [])[:count])
-
-
 def fleet_rows(summary: RunSummary) -> list[dict]:
     """One row per asset (the fleet table)."""
     rows = []
@@ -49,16 +45,15 @@ def fleet_rows(summary: RunSummary) -> list[dict]:
     return rows
 
 
-def alert_rows(alerts: list[dict]) -> list[dict]:
+def alert_rows(alerts: Sequence[Alert]) -> list[dict]:
     """One row per alert (asset, window, tier, channel): the alert table."""
     rows = []
-    for alert in sorted(alerts, key=lambda a: (a["window_start"], a["asset_id"],
-                                               -(a.get("ratio") or 0))):
-        rows.append({"asset": alert["asset_id"],
-                     "night": window_label(alert["window_start"], alert["window_end"]),
-                     "tier": alert["tier"], "channel": alert["channel"],
-                     "zeta/epsilon": _ratio(alert.get("ratio")),
-                     "severity": alert["severity"], "moved most": hint(alert)})
+    for alert in sorted(alerts, key=lambda a: (a.window_start, a.asset_id, -(a.ratio or 0))):
+        rows.append({"asset": alert.asset_id,
+                     "night": window_label(alert.window_start, alert.window_end),
+                     "tier": alert.tier, "channel": alert.channel,
+                     "zeta/epsilon": _ratio(alert.ratio),
+                     "severity": alert.severity, "moved most": alert.hint()})
     return rows
 
 
@@ -121,7 +116,7 @@ def fleet_table(summary: RunSummary, title: str | None = None):
     return table
 
 
-def alert_table(alerts: list[dict], title: str | None = None):
+def alert_table(alerts: Sequence[Alert], title: str | None = None):
     from rich.table import Table
 
     rows = alert_rows(alerts)

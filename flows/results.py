@@ -18,6 +18,8 @@ from dataclasses import asdict, dataclass, field
 
 import pandas as pd
 
+from registry.alert import Alert
+
 logger = logging.getLogger(__name__)
 
 OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
@@ -125,7 +127,7 @@ class AssetResult:
     watermark_after: str | None = None
     baseline_version: int | None = None
     error: ErrorInfo | None = None
-    alerts: list[dict] = field(default_factory=list)
+    alerts: list[Alert] = field(default_factory=list)
     note: str | None = None
 
     @property
@@ -135,6 +137,7 @@ class AssetResult:
     def to_dict(self) -> dict:
         data = asdict(self)
         data["error"] = None if self.error is None else self.error.to_dict()
+        data["alerts"] = [alert.to_dict() for alert in self.alerts]
         return data
 
     @classmethod
@@ -142,6 +145,7 @@ class AssetResult:
         data = dict(data)
         data["windows"] = [WindowResult(**w) for w in data.get("windows", [])]
         data["error"] = ErrorInfo.from_dict(data.get("error"))
+        data["alerts"] = [Alert.from_dict(a) for a in data.get("alerts", [])]
         return cls(**data)
 
     def reason(self) -> str:
@@ -171,7 +175,8 @@ class RunSummary:
         return [a for a in self.assets if a.failed]
 
     @property
-    def alerts(self) -> list[dict]:
+    def alerts(self) -> list[Alert]:
+        """Every asset's alerts, in asset order."""
         return [alert for a in self.assets for alert in a.alerts]
 
     @property
@@ -190,7 +195,8 @@ class RunSummary:
                 "as_of": self.as_of, "config": self.config, "tracking_uri": self.tracking_uri,
                 "flow_run_id": self.flow_run_id, "exit_status": self.exit_status,
                 "counts": self.counts(), "unmatched_assets": list(self.unmatched),
-                "assets": [a.to_dict() for a in self.assets], "alerts": self.alerts,
+                "assets": [a.to_dict() for a in self.assets],
+                "alerts": [alert.to_dict() for alert in self.alerts],
                 **({"extra": self.extra} if self.extra else {})}
 
     @classmethod

@@ -42,6 +42,12 @@ class ParameterChange:
     candidate: float
     contribution: float   #: its share of zeta (squared scaled change)
 
+    @classmethod
+    def from_dict(cls, data: dict) -> "ParameterChange":
+        """The change of :func:`dataclasses.asdict` (or its JSON)."""
+        return cls(str(data["name"]), float(data["baseline"]), float(data["candidate"]),
+                   float(data["contribution"]))
+
 
 @dataclass(frozen=True)
 class TierDrift:
@@ -64,6 +70,14 @@ class TierDrift:
     def exceeded(self) -> bool:
         """No alarm while ``zeta <= epsilon`` (Eq. 29)."""
         return self.epsilon is not None and self.zeta > self.epsilon
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "TierDrift":
+        """The entry of :meth:`Drift.to_dict` (or its JSON); other keys are ignored."""
+        epsilon = data.get("epsilon")
+        return cls(str(data["channel"]), str(data["tier"]), float(data["zeta"]),
+                   None if epsilon is None else float(epsilon),
+                   tuple(ParameterChange.from_dict(c) for c in data.get("top_changes", ())))
 
 
 @dataclass(frozen=True)
@@ -94,6 +108,13 @@ class Drift:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Drift":
+        """The drift of :meth:`to_dict` (or its JSON): an exact round trip; other keys are
+        ignored."""
+        return cls(tuple(TierDrift.from_dict(e) for e in data["entries"]),
+                   int(data["n_samples"]))
 
 
 def check_comparable(candidate: Signature, baseline: Signature) -> None:

@@ -11,6 +11,7 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``model_files`` the pyfunc model of a fit (logged model or the run's model/)
 ``runs``        logging one fit as a complete run, in few round trips
 ``recording``   recording fits idempotently (runs, versions, alias), one or a batch
+``alert``       Alert, the one alert record (made from a drift, read back, in JSON lines)
 ``history``     the zeta history and the recorded alerts
 ``loading``     safe loading of a version (verified, never unpickled)
 ``baselines``   promote, reject, rollback, list, history
@@ -25,11 +26,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-__all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary", "LoadedVersion",
-           "RegistryError", "NotFoundError", "PromotionError", "RetryPolicy"]
+__all__ = ["Registry", "Alert", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
+           "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "RetryPolicy"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
+    "Alert": "registry.alert",
     "FitSubmission": "registry.submission",
     "FitRecord": "registry.entities",
     "VersionInfo": "registry.entities",
@@ -42,6 +44,7 @@ _LOCATIONS = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover
+    from registry.alert import Alert
     from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
     from registry.exceptions import NotFoundError, PromotionError, RegistryError
     from registry.registry import Registry

@@ -1,19 +1,32 @@
 """The nightly record read back: an asset's zeta history and the recorded alerts.
 
 Both come from tag-filtered run searches (complete runs only, reanalyses left out, one run
-per asset and window: the latest recorded).
+per asset and window: the latest recorded). The history reads the runs' per-entry metrics
+(one search, no download); the alerts are made from each alarmed run's ``drift.json`` by
+:func:`registry.alert.alerts_from_drift`, as the nightly run made them from the drift
+itself, so both return the same :class:`registry.alert.Alert` records.
 """
 from __future__ import annotations
 
+import json
+import pathlib
+import tempfile
 from typing import Any, Iterable
 
 import numpy as np
 import pandas as pd
+from mlflow.exceptions import MlflowException
 
+from graybox.drift import Drift
+from graybox.exceptions import ArtifactError
 from graybox.signature import TIERS
 from registry import naming
-from registry.backend import Backend
+from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
+from registry.artifacts import DRIFT_FILE
+from registry.backend import Backend, is_not_found
+from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
 
+VERSION_QUERY_RUNS = 50         # run ids per model-version search (``run_id IN (...)``)
 HISTORY_COLUMNS = ("window_start", "window_end", "channel", "tier", "zeta", "epsilon", "ratio",
                    "exceeded", "run_id", "baseline_version")
 
@@ -62,14 +75,15 @@ def zeta_history(backend: Backend, asset_id: str, last: int | None = None) -> pd
     for run in runs:
         metrics, tags = run.data.metrics, run.data.tags
         for metric, zeta in metrics.items():
-            if not metric.startswith("zeta."):
+            entry = parse_entry_metric(metric)
+            if entry is None or entry[0] != "zeta":
                 continue
-            channel, tier = metric[len("zeta."):].rsplit(".", 1)
-            epsilon = metrics.get(f"epsilon.{channel}.{tier}", np.nan)
+            _, channel, tier = entry
+            epsilon = metrics.get(entry_metric("epsilon", channel, tier), np.nan)
             rows.append({"window_start": tags.get(naming.TAG_WINDOW_START),
                          "window_end": tags.get(naming.TAG_WINDOW_END), "channel": channel,
                          "tier": tier, "zeta": zeta, "epsilon": epsilon,
-                         "ratio": metrics.get(f"ratio.{channel}.{tier}", np.nan),
+                         "ratio": metrics.get(entry_metric("ratio", channel, tier), np.nan),
                          "exceeded": bool(np.isfinite(epsilon) and zeta > epsilon),
                          "run_id": run.info.run_id,
                          "baseline_version": tags.get(naming.TAG_BASELINE_VERSION)})
@@ -81,34 +95,74 @@ def zeta_history(backend: Backend, asset_id: str, last: int | None = None) -> pd
     return frame
 
 
-def alerts(backend: Backend, since=None) -> list[dict]:
-    """Recorded alarms (candidate runs with any zeta above epsilon), oldest window first."""
+def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
+           critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
+    """The recorded nightly alerts, oldest window first.
+
+    Parameters
+    ----------
+    since : timestamp-like, optional
+        Only windows ending at or after this instant (naive is UTC).
+    major_ratio, critical_ratio : float
+        Severity thresholds (``[alerts]`` of fleet.toml).
+
+    Returns
+    -------
+    list of Alert
+        Per window (by window end, then asset), its alerts largest ratio first: the records
+        :func:`registry.alert.alerts_from_drift` made of the run's drift when it was
+        recorded (source ``nightly``; reanalyses are left out).
+
+    Raises
+    ------
+    graybox.exceptions.ArtifactError
+        If an alarmed run's ``drift.json`` is missing or unreadable.
+    """
     experiment_ids = backend.experiment_ids()
     if not experiment_ids:
         return []
-    since = None if since is None else naming.iso_utc(since)
-    out = []
-    for run in _asset_runs(backend, experiment_ids, [f"tags.`{naming.TAG_ALARM}` = 'true'"]):
-        tags, metrics = run.data.tags, run.data.metrics
-        if since is not None and pd.Timestamp(tags[naming.TAG_WINDOW_END]) < pd.Timestamp(since):
-            continue
-        exceeded = []
-        for metric, zeta in metrics.items():
-            if not metric.startswith("zeta."):
-                continue
-            channel, tier = metric[len("zeta."):].rsplit(".", 1)
-            epsilon = metrics.get(f"epsilon.{channel}.{tier}")
-            if epsilon is not None and zeta > epsilon:
-                exceeded.append({"channel": channel, "tier": tier, "zeta": zeta,
-                                 "epsilon": epsilon,
-                                 "ratio": metrics.get(f"ratio.{channel}.{tier}")})
-        exceeded.sort(key=lambda e: -(e["ratio"] or 0))
-        baseline = tags.get(naming.TAG_BASELINE_VERSION)
-        out.append({"asset_id": tags.get(naming.TAG_ASSET_ID),
-                    "vehicle_class": tags.get(naming.TAG_VEHICLE_CLASS),
-                    "window_start": tags.get(naming.TAG_WINDOW_START),
-                    "window_end": tags.get(naming.TAG_WINDOW_END),
-                    "baseline_version": int(baseline) if baseline else None,
-                    "run_id": run.info.run_id, "max_ratio": metrics.get("max_ratio"),
-                    "exceeded": exceeded})
+    since = None if since is None else pd.Timestamp(naming.iso_utc(since))
+    runs = [run for run in _asset_runs(backend, experiment_ids,
+                                       [f"tags.`{naming.TAG_ALARM}` = 'true'"])
+            if since is None or pd.Timestamp(run.data.tags[naming.TAG_WINDOW_END]) >= since]
+    versions = _versions_of(backend, [run.info.run_id for run in runs])
+    out: list[Alert] = []
+    with tempfile.TemporaryDirectory(prefix="fleet-health-alerts-") as scratch:
+        for run in runs:
+            tags = run.data.tags
+            baseline = tags.get(naming.TAG_BASELINE_VERSION)
+            out += alerts_from_drift(
+                _recorded_drift(backend, run.info.run_id, pathlib.Path(scratch)),
+                asset_id=tags.get(naming.TAG_ASSET_ID),
+                vehicle_class=tags.get(naming.TAG_VEHICLE_CLASS),
+                window_start=tags.get(naming.TAG_WINDOW_START),
+                window_end=tags.get(naming.TAG_WINDOW_END),
+                version=versions.get(run.info.run_id),
+                baseline_version=int(baseline) if baseline else None, run_id=run.info.run_id,
+                major_ratio=major_ratio, critical_ratio=critical_ratio, source=NIGHTLY)
     return out
+
+
+def _versions_of(backend: Backend, run_ids: list[str]) -> dict[str, int]:
+    """The model version of each run (one search per :data:`VERSION_QUERY_RUNS` runs)."""
+    out: dict[str, int] = {}
+    for first in range(0, len(run_ids), VERSION_QUERY_RUNS):
+        chunk = run_ids[first:first + VERSION_QUERY_RUNS]
+        clause = "run_id IN (" + ", ".join(naming.quote(r) for r in chunk) + ")"
+        for mv in backend.paged(backend.client.search_model_versions, clause):
+            version = int(mv.version)
+            out[mv.run_id] = min(version, out.get(mv.run_id, version))
+    return out
+
+
+def _recorded_drift(backend: Backend, run_id: str, scratch: pathlib.Path) -> Drift:
+    """The run's drift, from its ``drift.json`` (other errors, e.g. an unreachable server,
+    are raised as they are)."""
+    try:
+        local = backend.client.download_artifacts(run_id, DRIFT_FILE, str(scratch / run_id))
+        return drift_from_document(json.loads(pathlib.Path(local).read_text(encoding="utf-8")))
+    except (FileNotFoundError, ValueError, KeyError, TypeError, MlflowException) as error:
+        if isinstance(error, MlflowException) and not is_not_found(error):
+            raise
+        raise ArtifactError(f"run {run_id}: {DRIFT_FILE} missing or unreadable: "
+                            f"{type(error).__name__}: {error}") from None

@@ -7,6 +7,7 @@ from typing import Sequence
 import pandas as pd
 
 from registry import baselines, history, loading, recording, watermarks
+from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
 from registry.backend import Backend
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
 from registry.model_files import PyfuncTemplate
@@ -160,6 +161,14 @@ class Registry:
         again with other data keeps its latest record."""
         return history.zeta_history(self._backend, asset_id, last)
 
-    def alerts(self, since=None) -> list[dict]:
-        """Recorded alarms (window end at or after ``since``), oldest first."""
-        return history.alerts(self._backend, since)
+    def alerts(self, since=None, *, major_ratio: float = MAJOR_RATIO,
+               critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
+        """The recorded nightly alerts (window end at or after ``since``), oldest first.
+
+        One :class:`registry.alert.Alert` per asset, window, channel and tier whose zeta
+        exceeded epsilon: the same records the nightly run wrote to its alerts file.
+        ``major_ratio`` and ``critical_ratio`` grade their severity (``[alerts]`` of
+        fleet.toml). Reanalyses are left out.
+        """
+        return history.alerts(self._backend, since, major_ratio=major_ratio,
+                              critical_ratio=critical_ratio)

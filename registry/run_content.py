@@ -1,7 +1,10 @@
 """What a recorded fit says about itself: tags, params, metrics, ``drift.json``, description.
 
 Pure functions of a :class:`registry.submission.ResolvedFit` (no MLflow call), so every
-record of a fit says the same whichever path wrote it.
+record of a fit says the same whichever path wrote it. Each writer has its reader here:
+:func:`entry_metric` / :func:`parse_entry_metric` for the per-entry metric names (for the
+MLflow UI and the zeta history), :func:`drift_document` / :func:`drift_from_document` for
+``drift.json`` (the structured record the alerts are read back from).
 """
 from __future__ import annotations
 
@@ -16,11 +19,13 @@ from typing import Any
 
 from graybox.calibration import Calibration
 from graybox.drift import Drift
-from graybox.signature import Signature
+from graybox.signature import TIERS, Signature
 from registry import naming
 from registry.submission import ResolvedFit
 
 _KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")
+#: the metrics logged per (channel, tier): ``<kind>.<channel>.<tier>``
+ENTRY_METRICS = ("zeta", "epsilon", "ratio", "healthy_zeta")
 
 
 @functools.lru_cache(maxsize=1)
@@ -62,6 +67,33 @@ def _flatten(prefix: str, value: Any, out: dict[str, str]) -> None:
         out[_key(prefix)] = json.dumps(value) if isinstance(value, (list, tuple)) else str(value)
 
 
+def entry_metric(kind: str, channel: str, tier: str) -> str:
+    """The metric name of one (channel, tier) entry, ``<kind>.<channel>.<tier>``.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`ENTRY_METRICS`.
+    channel, tier : str
+    """
+    if kind not in ENTRY_METRICS:
+        raise ValueError(f"unknown entry metric {kind!r}; known: {ENTRY_METRICS}")
+    return _key(f"{kind}.{channel}.{tier}")
+
+
+def parse_entry_metric(name: str) -> tuple[str, str, str] | None:
+    """``(kind, channel, tier)`` of a metric named by :func:`entry_metric`, else None.
+
+    The channel is as it appears in the name (characters MLflow does not allow in a key are
+    replaced by ``_``); ``drift.json`` holds the exact names.
+    """
+    kind, _, rest = name.partition(".")
+    channel, _, tier = rest.rpartition(".")
+    if kind not in ENTRY_METRICS or tier not in TIERS or not channel:
+        return None
+    return kind, channel, tier
+
+
 def structure_params(signature: Signature) -> dict[str, str]:
     """The frozen structure as flat MLflow params (``channels.omega.ar_order`` = ``6``...)."""
     params: dict[str, str] = {}
@@ -89,15 +121,15 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
         metrics["calibration.false_alarm_rate"] = calibration.false_alarm_rate
         metrics["calibration.n_windows"] = calibration.n_windows
         for entry in calibration.thresholds:
-            metrics[f"epsilon.{entry.channel}.{entry.tier}"] = entry.epsilon
-            metrics[f"healthy_zeta.{entry.channel}.{entry.tier}"] = entry.mean_zeta
+            metrics[entry_metric("epsilon", entry.channel, entry.tier)] = entry.epsilon
+            metrics[entry_metric("healthy_zeta", entry.channel, entry.tier)] = entry.mean_zeta
     if drift is not None:
         ratios = []
         for entry in drift.entries:
-            metrics[f"zeta.{entry.channel}.{entry.tier}"] = entry.zeta
+            metrics[entry_metric("zeta", entry.channel, entry.tier)] = entry.zeta
             if entry.epsilon is not None:
-                metrics[f"epsilon.{entry.channel}.{entry.tier}"] = entry.epsilon
-                metrics[f"ratio.{entry.channel}.{entry.tier}"] = entry.ratio
+                metrics[entry_metric("epsilon", entry.channel, entry.tier)] = entry.epsilon
+                metrics[entry_metric("ratio", entry.channel, entry.tier)] = entry.ratio
                 ratios.append(entry.ratio)
         if ratios:
             metrics["max_ratio"] = max(ratios)
@@ -115,6 +147,13 @@ def drift_document(drift: Drift, baseline_version: int | None) -> dict:
     data["alarmed"] = drift.alarmed
     data["baseline_version"] = baseline_version
     return data
+
+
+def drift_from_document(data: dict) -> Drift:
+    """The drift of a ``drift.json`` document (:func:`drift_document`), exactly as recorded
+    (the added ``ratio``, ``exceeded``, ``alarmed`` and ``baseline_version`` follow from it
+    or are in the run's tags)."""
+    return Drift.from_dict(data)
 
 
 def run_tags(fit: ResolvedFit, baseline_version: int | None) -> dict[str, str]:

@@ -78,3 +78,13 @@ def test_concurrent_appends_write_each_alert_once(tmp_path):
     for thread in threads:
         thread.join()
     assert len(log.path.read_text().splitlines()) == 20
+
+
+def test_one_alert_type_with_an_exact_json_round_trip():
+    from registry.alert import Alert as RecordedAlert
+
+    assert Alert is RecordedAlert          # the flows use the registry's record
+    record = alert()
+    assert isinstance(record.top_changes, tuple)
+    assert Alert.from_dict(json.loads(json.dumps(record.to_dict()))) == record
+    assert Alert.from_dict({**record.to_dict(), "unknown": 1}) == record

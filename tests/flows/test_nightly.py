@@ -58,7 +58,7 @@ def test_alerts_exactly_for_the_faulty_assets_after_onset(workspace, count):
     assert {(a["asset_id"], a["window_start"], a["channel"], a["tier"]) for a in lines} == \
         {(a["asset_id"], a["window_start"], a["channel"], a["tier"]) for a in alerts}
     recorded = registry.alerts()
-    assert {(r["asset_id"], r["window_start"]) for r in recorded} == \
+    assert {(r.asset_id, r.window_start) for r in recorded} == \
         {(a["asset_id"], a["window_start"]) for a in alerts}
 
     # the night's fleet table is a Prefect artifact
@@ -84,6 +84,26 @@ def test_alerts_exactly_for_the_faulty_assets_after_onset(workspace, count):
     assert {a["status"] for a in again["assets"]} == {"up to date"}
     assert count(registry) == before
     assert len(_jsonl(workspace.alerts)) == len(alerts)
+
+
+def test_registry_and_alerts_file_hold_equal_records(workspace):
+    """One alert type: the night's alerts read back from the registry are the records the
+    JSON-lines file and the run summary hold, equal field for field."""
+    from flows.alerts import AlertLog
+    from flows.config import load_config
+    from registry.alert import Alert
+
+    state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat())
+    assert state.is_completed(), state.message
+    logged = AlertLog(workspace.alerts).read()
+    assert logged and {a.asset_id for a in logged} <= set(FAULTY)
+    config = load_config(workspace.config)
+    recorded = workspace.registry().alerts(major_ratio=config.alerts.major_ratio,
+                                           critical_ratio=config.alerts.critical_ratio)
+    assert all(isinstance(a, Alert) for a in recorded)
+    assert recorded == logged
+    assert sorted((Alert.from_dict(a) for a in summary["alerts"]), key=lambda a: a.key) == \
+        sorted(logged, key=lambda a: a.key)
 
 
 def test_corrupt_telemetry_fails_only_that_asset(workspace, corrupt, capsys):
@@ -166,8 +186,9 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
     final = count(registry)
     assert final["versions"] == len(ASSETS) + len(ASSETS) * nights   # baselines + candidates
     assert final["runs"] == final["versions"]
-    alarmed = {(r["asset_id"], r["window_start"]) for r in registry.alerts()}
-    assert final["alerts"] == len(alarmed)
+    recorded = registry.alerts()
+    alarmed = {(r.asset_id, r.window_start) for r in recorded}
+    assert final["alerts"] == len({r.key for r in recorded})   # each window read back once
     lines = [json.loads(l) for l in workspace.alerts.read_text().splitlines()]
     keys = [(a["asset_id"], a["window_start"], a["channel"], a["tier"]) for a in lines]
     assert len(keys) == len(set(keys))

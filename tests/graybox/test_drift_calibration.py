@@ -1,10 +1,12 @@
+import json
+
 import numpy as np
 import pytest
 from conftest import make_channel, make_signature
 from scipy import stats
 
 from graybox.calibration import Calibration, TierThreshold, threshold_from_deltas
-from graybox.drift import compute_drift, tier_deltas
+from graybox.drift import Drift, compute_drift, tier_deltas
 from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
 from graybox.noise_tier import MOMENT_WEIGHTS
 
@@ -49,6 +51,16 @@ def test_alarm_only_when_zeta_exceeds_epsilon_and_epsilon_scales_with_window():
     assert drift.get("omega", "linear").exceeded and drift.alarms[0].tier == "linear"
     assert drift.get("omega", "linear").ratio == pytest.approx(0.01 / 0.009)
 
+
+
+def test_drift_json_round_trip_is_exact():
+    base = make_signature((make_channel(a=(0.5,)),))
+    cand = make_signature((make_channel(a=(0.6,), moments=(0.1, 3.0, 0.2, 1.2)),))
+    thresholds = tuple(TierThreshold("omega", tier, 0.003, 0.001, 2.0, (0.1, 0.2, 0.3))
+                       for tier in ("linear", "nonlinear", "noise"))
+    for calibration in (None, Calibration(thresholds, 0.01, 0.01 / 3, 1000, 12)):
+        drift = compute_drift(cand, base, calibration)
+        assert Drift.from_dict(json.loads(json.dumps(drift.to_dict()))) == drift
 
 def test_structure_mismatch_is_refused():
     base = make_signature((make_channel(a=(0.5, -0.2)),))

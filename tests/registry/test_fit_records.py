@@ -2,12 +2,15 @@
 from __future__ import annotations
 
 import json
+import pathlib
+import urllib.parse
 
 import pandas as pd
 import pytest
 
-from graybox.exceptions import InvalidAssetIdError
+from graybox.exceptions import ArtifactError, InvalidAssetIdError
 from registry import naming
+from registry.alert import Alert, alerts_from_drift
 from registry.exceptions import NotFoundError
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")     # as in conftest.make_day
@@ -176,8 +179,8 @@ def test_zeta_history_and_alerts(rec, registry, fits):
     rec.baseline()
     registry.promote("T-01", 1, reason="initial")
     rec.candidate(night=5)
-    rec.candidate(night=6, alarmed=True)
-    rec.candidate(asset_id="T-02", night=6, alarmed=True)
+    alarmed = rec.candidate(night=6, alarmed=True)
+    other = rec.candidate(asset_id="T-02", night=6, alarmed=True)
     history = registry.zeta_history("T-01")
     assert list(history.columns[:5]) == ["window_start", "window_end", "channel", "tier", "zeta"]
     assert len(history) == 2 * 3
@@ -189,10 +192,34 @@ def test_zeta_history_and_alerts(rec, registry, fits):
     latest = registry.zeta_history("T-01", last=1)
     assert len(latest) == 3 and set(latest["window_end"]) == {history["window_end"].iloc[-1]}
     assert latest["exceeded"].all()
+    # one Alert per exceeded (channel, tier) of each alarmed window, oldest window first
     alerts = registry.alerts()
-    assert [(a["asset_id"], a["window_end"][:10]) for a in alerts] == [
-        ("T-01", "2026-01-08"), ("T-02", "2026-01-08")]
-    assert alerts[0]["exceeded"] and alerts[0]["baseline_version"] == 1
-    assert alerts[1]["baseline_version"] is None          # T-02 has no baseline
-    assert len(registry.alerts(since="2026-01-08")) == 2
+    exceeded = len(fits.alarmed.alarms)
+    assert exceeded
+    assert [(a.asset_id, a.window_end[:10]) for a in alerts] == (
+        [("T-01", "2026-01-08")] * exceeded + [("T-02", "2026-01-08")] * exceeded)
+    assert all(isinstance(a, Alert) and a.zeta > a.epsilon and a.source == "nightly"
+               for a in alerts)
+    assert {a.baseline_version for a in alerts[:exceeded]} == {1}
+    assert {a.baseline_version for a in alerts[exceeded:]} == {None}   # T-02 has no baseline
+    # the very records the nightly run makes of the drift (top changes, version and all)
+    for record, baseline, mine in ((alarmed, 1, alerts[:exceeded]),
+                                   (other, None, alerts[exceeded:])):
+        assert mine == alerts_from_drift(
+            fits.alarmed, asset_id=record.asset_id, vehicle_class="turbine",
+            window_start=record.window_start, window_end=record.window_end,
+            version=record.version, baseline_version=baseline, run_id=record.run_id)
+    assert len(registry.alerts(since="2026-01-08")) == 2 * exceeded
     assert registry.alerts(since="2026-01-09") == []
+    graded = registry.alerts(major_ratio=1e12, critical_ratio=1e13)
+    assert {a.severity for a in graded} == {"minor"}
+    assert [a.key for a in graded] == [a.key for a in alerts]
+
+
+def test_alerts_need_the_recorded_drift(rec, registry):
+    record = rec.candidate(night=6, alarmed=True)
+    uri = registry.backend.client.get_run(record.run_id).info.artifact_uri
+    artifacts = pathlib.Path(urllib.parse.urlparse(uri).path)
+    (artifacts / "drift.json").unlink()
+    with pytest.raises(ArtifactError, match="drift.json"):
+        registry.alerts()

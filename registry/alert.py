@@ -1,0 +1,166 @@
+"""Alert: one record per asset, window, channel and tier whose zeta exceeded epsilon.
+
+The one alert type of fleet-health. :meth:`registry.Registry.alerts` returns it (read back
+from the candidate runs), the pipeline makes it from a fresh :class:`graybox.drift.Drift`
+(:func:`alerts_from_drift`, the only place an alert is made from a drift), and the
+JSON-lines file (:class:`flows.alerts.AlertLog`) writes and reads it. It becomes a dict only
+at the edges: :meth:`Alert.to_dict` / :meth:`Alert.from_dict` for JSON lines, run summaries,
+Prefect artifacts and ``--json`` output.
+
+The registry defines it (not the flows) because the registry returns it and nothing in the
+registry may import the flows.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import TYPE_CHECKING, Any, Mapping
+
+if TYPE_CHECKING:  # pragma: no cover
+    from graybox.drift import Drift
+
+SEVERITIES = ("minor", "major", "critical")
+NIGHTLY, REANALYSIS = "nightly", "reanalysis"
+SOURCES = (NIGHTLY, REANALYSIS)
+MAJOR_RATIO = 2.0        #: default zeta/epsilon from which an alert is ``major``
+CRITICAL_RATIO = 5.0     #: default zeta/epsilon from which an alert is ``critical``
+
+
+def severity(ratio: float | None, major_ratio: float = MAJOR_RATIO,
+             critical_ratio: float = CRITICAL_RATIO) -> str:
+    """The severity of a zeta/epsilon ratio.
+
+    Parameters
+    ----------
+    ratio : float or None
+        zeta / epsilon (None: no threshold).
+    major_ratio, critical_ratio : float
+        The ratios from which an alert is ``major`` and ``critical``.
+
+    Returns
+    -------
+    str
+        ``minor`` below ``major_ratio`` (or without a ratio), ``major`` below
+        ``critical_ratio``, else ``critical``.
+    """
+    if ratio is None:
+        return "minor"
+    if ratio >= critical_ratio:
+        return "critical"
+    if ratio >= major_ratio:
+        return "major"
+    return "minor"
+
+
+@dataclass(frozen=True)
+class Alert:
+    """One exceeded threshold: asset, window, channel and tier.
+
+    Attributes
+    ----------
+    asset_id, vehicle_class : str
+    window_start, window_end : str
+        ISO UTC bounds of the candidate's telemetry window (end exclusive), as recorded.
+    channel, tier : str
+    zeta, epsilon, ratio : float
+    severity : str
+        ``minor``, ``major`` or ``critical`` (from ``ratio``, see :func:`severity`).
+    top_changes : tuple of dict
+        The parameters that moved most, largest first: ``name``, ``baseline``,
+        ``candidate`` and ``contribution`` (its share of zeta). A list given is kept as a
+        tuple.
+    version : int or None
+        The candidate's registered model version (None for a reanalysis).
+    baseline_version : int or None
+        The baseline version the candidate was compared with.
+    run_id : str or None
+        The candidate's MLflow run.
+    source : str
+        ``nightly`` or ``reanalysis``.
+    """
+
+    asset_id: str
+    vehicle_class: str
+    window_start: str
+    window_end: str
+    channel: str
+    tier: str
+    zeta: float
+    epsilon: float
+    ratio: float
+    severity: str
+    top_changes: tuple[dict, ...] = ()
+    version: int | None = None
+    baseline_version: int | None = None
+    run_id: str | None = None
+    source: str = NIGHTLY
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "top_changes", tuple(dict(c) for c in self.top_changes))
+
+    @property
+    def key(self) -> tuple[str, str, str, str, str]:
+        """``(asset_id, window_start, window_end, channel, tier)``: one alert per key."""
+        return (self.asset_id, self.window_start, self.window_end, self.channel, self.tier)
+
+    def hint(self, count: int = 3) -> str:
+        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``."""
+        return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
+                         for c in self.top_changes[:count])
+
+    def to_dict(self) -> dict[str, Any]:
+        """The alert as plain JSON types (``top_changes`` a list of dicts)."""
+        data = asdict(self)
+        data["top_changes"] = [dict(c) for c in self.top_changes]
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "Alert":
+        """The alert of :meth:`to_dict` (or its JSON); unknown keys are ignored.
+
+        Raises
+        ------
+        TypeError
+            If a field without a default is missing.
+        """
+        known = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in known})
+
+
+def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, window_start: str,
+                      window_end: str, version: int | None, baseline_version: int | None,
+                      run_id: str | None, major_ratio: float = MAJOR_RATIO,
+                      critical_ratio: float = CRITICAL_RATIO,
+                      source: str = NIGHTLY) -> list[Alert]:
+    """The alerts of a drift: one per entry whose zeta exceeds epsilon, largest ratio first.
+
+    Parameters
+    ----------
+    drift : graybox.drift.Drift
+    asset_id, vehicle_class, window_start, window_end : str
+        The candidate's asset and recorded window.
+    version, baseline_version : int or None
+    run_id : str or None
+    major_ratio, critical_ratio : float
+        Severity thresholds (see :func:`severity`).
+    source : str
+        ``nightly`` or ``reanalysis``.
+
+    Returns
+    -------
+    list of Alert
+    """
+    if source not in SOURCES:
+        raise ValueError(f"alert source must be one of {SOURCES}, not {source!r}")
+    out = []
+    for entry in drift.alarms:
+        ratio = entry.ratio
+        out.append(Alert(
+            asset_id=asset_id, vehicle_class=vehicle_class, window_start=window_start,
+            window_end=window_end, channel=entry.channel, tier=entry.tier,
+            zeta=float(entry.zeta), epsilon=float(entry.epsilon),
+            ratio=float(ratio) if ratio is not None else float("nan"),
+            severity=severity(ratio, major_ratio, critical_ratio),
+            top_changes=tuple(asdict(c) for c in entry.top_changes),
+            version=version, baseline_version=baseline_version, run_id=run_id, source=source))
+    out.sort(key=lambda a: -a.ratio)
+    return out
