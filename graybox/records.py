@@ -152,7 +152,8 @@ def _decode_tuple(args: tuple, value: Any, where: str) -> tuple:
         return tuple(_decode(args[0], item, f"{where}[{i}]") for i, item in enumerate(value))
     if len(value) != len(args):
         raise ArtifactError(f"{where} must have {len(args)} items, got {len(value)}")
-    return tuple(_decode(arg, item, f"{where}[{i}]") for i, (arg, item) in enumerate(zip(args, value)))
+    return tuple(_decode(arg, item, f"{where}[{i}]")
+                 for i, (arg, item) in enumerate(zip(args, value)))
 
 
 def _decode_mapping(hint: Any, origin: Any, args: tuple, value: Any, where: str) -> Any:

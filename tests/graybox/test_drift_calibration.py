@@ -102,8 +102,8 @@ def test_calibration_json_round_trip_and_refusal():
 def test_a_calibration_written_by_the_hand_written_reader_code_loads_equal():
     text = (pathlib.Path(__file__).parent / "data" / "calibration_v1.json").read_text().strip()
     loaded = Calibration.from_json(text)
-    assert loaded == Calibration((TierThreshold("omega", "linear", 1.5, 0.5, 3.2, (0.1, 0.7, 1 / 3)),),
-                                 0.01, 0.01 / 6, 1000, 24)
+    threshold = TierThreshold("omega", "linear", 1.5, 0.5, 3.2, (0.1, 0.7, 1 / 3))
+    assert loaded == Calibration((threshold,), 0.01, 0.01 / 6, 1000, 24)
     assert loaded.to_json() == text
     with pytest.raises(ArtifactError, match=r"TierThreshold: missing field\(s\) \['dof'"):
         Calibration.from_json(text.replace('"dof": 3.2, ', ""))

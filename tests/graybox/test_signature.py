@@ -90,7 +90,8 @@ def test_a_signature_written_by_the_dict_code_loads_to_an_equal_record():
 
 def test_typed_model_and_settings_are_hashable_records(signature):
     again = Signature.from_json(signature.to_json())
-    assert hash(again.model) == hash(signature.model) and hash(again.settings) == hash(signature.settings)
+    assert hash(again.model) == hash(signature.model)
+    assert hash(again.settings) == hash(signature.settings)
     assert len({signature.settings, again.settings, GrayBoxSettings(hidden_units=3)}) == 2
     assert signature.model.parameters == {"gamma": 0.06}
     assert signature.frozen_structure()["model"] == {
@@ -111,14 +112,17 @@ def test_settings_stored_before_rate_invariance_load_at_the_native_rate():
     (lambda d: d["model"].update(spec=3), "ModelSpec.spec must be a string"),
     (lambda d: d["model"]["parameters"].update(gamma="fast"),
      r"ModelSpec.parameters\['gamma'\] must be a number"),
-    (lambda d: d["settings"].update(hidden_units=2.5), "GrayBoxSettings.hidden_units must be an integer"),
+    (lambda d: d["settings"].update(hidden_units=2.5),
+     "GrayBoxSettings.hidden_units must be an integer"),
     (lambda d: d["settings"].update(analysis_interval=[1]),
      "GrayBoxSettings.analysis_interval must be a number or a string"),
     (lambda d: d["settings"].update(residual="magic"), "GrayBoxSettings: residual must be one of"),
-    (lambda d: d["settings"]["network"].update(iters=3), r"FitSettings: unknown field\(s\) \['iters'\]"),
+    (lambda d: d["settings"]["network"].update(iters=3),
+     r"FitSettings: unknown field\(s\) \['iters'\]"),
     (lambda d: d["channels"][0]["nonlinear"].update(input_weights=[[0.1, "x"]]),
      r"NonlinearTier.input_weights\[0\]\[1\] must be a number"),
-    (lambda d: d["channels"][0]["linear"].update(coefficients=None), "LinearTier.coefficients must not be null"),
+    (lambda d: d["channels"][0]["linear"].update(coefficients=None),
+     "LinearTier.coefficients must not be null"),
 ])
 def test_malformed_model_and_settings_name_the_record_and_field(mutate, message):
     data = json.loads((DATA / "signature_v1.json").read_text())
