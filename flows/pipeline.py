@@ -27,7 +27,6 @@ from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError, TelemetryError
 from graybox.fleet_fit import FitRequest, fit_signatures
-from graybox.models import load_model
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
@@ -107,8 +106,7 @@ class PendingAsset:
 
 def reference_model(reference: LoadedVersion) -> WhiteBoxModel:
     """The white box a version was fitted with (its candidates must use the same)."""
-    spec = reference.signature.model
-    return load_model(spec["spec"], spec.get("parameters"), spec.get("columns"))
+    return reference.signature.model.load()
 
 
 def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:

@@ -37,13 +37,14 @@ the pieces, all assets batched together (:func:`graybox.fleet_fit.fit_signatures
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
+from graybox import records
 from graybox.analysis_rate import decimation_factor
 from graybox.drift import tier_deltas
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
@@ -106,29 +107,16 @@ class Calibration:
         return value
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """A JSON-ready dict; :meth:`from_dict` gives back an equal calibration."""
+        return records.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
         return json.dumps(self.to_dict(), indent=indent)
 
     @classmethod
     def from_dict(cls, data) -> "Calibration":
-        try:
-            entries = tuple(TierThreshold(str(t["channel"]), str(t["tier"]), float(t["epsilon"]),
-                                          float(t["mean_zeta"]), float(t["dof"]),
-                                          tuple(float(z) for z in t["healthy_zetas"]))
-                            for t in data["thresholds"])
-            known = {"thresholds", "false_alarm_rate", "test_alpha", "reference_samples",
-                     "n_windows", "method"}
-            if set(data) - known:
-                raise ArtifactError(f"calibration has unknown field(s) {sorted(set(data) - known)}")
-            return cls(entries, float(data["false_alarm_rate"]), float(data["test_alpha"]),
-                       int(data["reference_samples"]), int(data["n_windows"]),
-                       str(data.get("method", METHOD)))
-        except ArtifactError:
-            raise
-        except (TypeError, ValueError, KeyError) as error:
-            raise ArtifactError(f"malformed calibration: {error!r}") from None
+        """Rebuild from :meth:`to_dict`; anything malformed raises ArtifactError."""
+        return records.from_dict(cls, data)
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Calibration":

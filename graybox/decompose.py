@@ -8,7 +8,6 @@ import pandas as pd
 from graybox.analysis_rate import decimate, decimation_factor
 from graybox.models.base import WhiteBoxModel
 from graybox.residual import infer_sample_interval, residual_frame
-from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 
 
@@ -59,7 +58,7 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
     """
     frame = getattr(window, "frame", window)
     interval = getattr(window, "sample_interval", None) or infer_sample_interval(frame.index)
-    settings = GrayBoxSettings.from_dict(signature.settings)
+    settings = signature.settings
     residuals = residual_frame(model, frame, signature.residual_method, interval,
                                settings.derivative_window(interval))
     factor = decimation_factor(signature.analysis_step, interval)

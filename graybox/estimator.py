@@ -78,11 +78,10 @@ class GrayBox:
         windows = [windows] if isinstance(windows, pd.DataFrame) or hasattr(windows, "frame") else list(windows)
         settings = self.settings
         if self.baseline is not None:
-            if settings is not None and settings.to_dict() != self.baseline.settings:
+            if settings is not None and settings != self.baseline.settings:
                 raise GrayBoxError("a candidate must be fitted with its baseline's settings "
-                                   "(leave settings out, or GrayBoxSettings.from_dict("
-                                   "baseline.settings))")
-            settings = GrayBoxSettings.from_dict(self.baseline.settings)
+                                   "(leave settings out, or pass baseline.settings)")
+            settings = self.baseline.settings
         settings = settings or GrayBoxSettings()
         request = FitRequest(self.model, windows, self.baseline, seed=self.random_state)
         self.calibration_ = None

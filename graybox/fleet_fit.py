@@ -20,6 +20,7 @@ from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
+from graybox.models.spec import ModelSpec
 from graybox.noise_tier import describe_noise
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
 from graybox.residual import infer_sample_interval, residual_frame
@@ -286,8 +287,8 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
             noise = [s[span:] for s in channel.w_segments]
         channels.append(ChannelSignature(channel.name, structure, channel.linear, channel.nonlinear,
                                          describe_noise(noise), channel.n_samples, channel.selection))
-    return Signature(tuple(channels), item.request.model.to_dict(), settings.residual,
-                     item.sample_interval, channels[0].n_samples, settings.to_dict(), item.asset_id,
+    return Signature(tuple(channels), ModelSpec.from_model(item.request.model), settings.residual,
+                     item.sample_interval, channels[0].n_samples, settings, item.asset_id,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval)
 
 
@@ -319,8 +320,7 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     default = settings or GrayBoxSettings()
     groups: dict[GrayBoxSettings, list[int]] = {}
     for position, request in enumerate(requests):
-        effective = (default if request.baseline is None
-                     else GrayBoxSettings.from_dict(request.baseline.settings))
+        effective = default if request.baseline is None else request.baseline.settings
         groups.setdefault(effective, []).append(position)
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     # these are many small vector products: BLAS threads spin-waiting on a busy machine made

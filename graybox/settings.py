@@ -8,10 +8,13 @@ Counts that remain are statistical (how many samples an estimate needs), not dur
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
+from typing import Mapping
 
+from graybox import records
 from graybox.network_settings import FitSettings
 from graybox.residual import RESIDUAL_METHODS
+
 #: keys of settings stored before the method was rate-invariant; such baselines were fitted
 #: at their native sample interval with these counts, which their frozen structures keep
 LEGACY_KEYS = ("max_ar_order", "max_delay")
@@ -128,11 +131,17 @@ class GrayBoxSettings:
         return max(2 * half + 1, polyorder + 2 + (polyorder + 1) % 2)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """A JSON-ready dict; :meth:`from_dict` gives back equal settings."""
+        return records.to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict) -> "GrayBoxSettings":
-        """Rebuild from :meth:`to_dict`.
+    def from_dict(cls, data: Mapping) -> "GrayBoxSettings":
+        """Rebuild from :meth:`to_dict` (through :meth:`migrate`); raises ArtifactError."""
+        return records.from_dict(cls, data)
+
+    @classmethod
+    def migrate(cls, data: Mapping) -> dict:
+        """Stored settings in today's fields (applied by :func:`graybox.records.from_dict`).
 
         Settings stored before the method was rate-invariant (with ``max_ar_order`` and
         ``max_delay`` counts) were fitted at the telemetry's own interval: they load with
@@ -143,6 +152,4 @@ class GrayBoxSettings:
             for key in LEGACY_KEYS:
                 data.pop(key, None)
             data.setdefault("analysis_interval", "native")
-        if "network" in data and isinstance(data["network"], dict):
-            data["network"] = FitSettings(**data["network"])
-        return cls(**data)
+        return data

@@ -4,15 +4,18 @@ structure they were fitted with. Small typed records with an exact JSON round tr
 from __future__ import annotations
 
 import json
-from dataclasses import MISSING, asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
+from graybox import records
 from graybox.exceptions import ArtifactError
 from graybox.linear_tier import LinearTier
+from graybox.models.spec import ModelSpec
 from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
+from graybox.settings import GrayBoxSettings
 from graybox.stationarize import Differencing
 
 FORMAT_VERSION = 1
@@ -94,17 +97,17 @@ class Signature:
     Attributes
     ----------
     channels : tuple of ChannelSignature
-    model : dict
-        The white box used: ``{"spec", "parameters", "columns"}``.
+    model : ModelSpec
+        The white box used (``model.load()`` rebuilds it).
     residual_method : str
         ``"one_step"`` or ``"inverse"``.
     sample_interval : float
         Seconds between samples.
     n_samples : int
         Residual samples the fit used.
-    settings : dict
-        The :class:`graybox.estimator.GrayBoxSettings` it was fitted with; candidates of a
-        baseline are fitted with the same settings.
+    settings : GrayBoxSettings
+        The settings it was fitted with; candidates of a baseline are fitted with the same
+        settings.
     asset_id : str or None
     window_start, window_end : str or None
         ISO timestamps of the telemetry window (end exclusive).
@@ -116,11 +119,11 @@ class Signature:
     """
 
     channels: tuple[ChannelSignature, ...]
-    model: dict
+    model: ModelSpec
     residual_method: str
     sample_interval: float
     n_samples: int
-    settings: dict
+    settings: GrayBoxSettings
     asset_id: str | None = None
     window_start: str | None = None
     window_end: str | None = None
@@ -145,9 +148,9 @@ class Signature:
 
     def frozen_structure(self) -> dict:
         """Everything a candidate must share with this signature to be compared with it."""
-        return {"model": self.model, "residual_method": self.residual_method,
+        return {"model": self.model.to_dict(), "residual_method": self.residual_method,
                 "sample_interval": self.sample_interval, "analysis_interval": self.analysis_step,
-                "settings": self.settings,
+                "settings": self.settings.to_dict(),
                 "channels": {c.channel: asdict(c.structure) for c in self.channels}}
 
     def parameter_vector(self) -> tuple[list[str], np.ndarray]:
@@ -166,7 +169,7 @@ class Signature:
 
     def to_dict(self) -> dict:
         """A JSON-ready dict; :meth:`from_dict` gives back an equal signature."""
-        return asdict(self)
+        return records.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
         return json.dumps(self.to_dict(), indent=indent)
@@ -174,16 +177,11 @@ class Signature:
     @classmethod
     def from_dict(cls, data: Any) -> "Signature":
         """Rebuild a signature from :meth:`to_dict`; anything malformed raises ArtifactError."""
-        try:
-            record = _build(cls, data)
-        except ArtifactError:
-            raise
-        except (TypeError, ValueError, KeyError) as error:
-            raise ArtifactError(f"malformed signature: {error}") from None
-        if record.format_version != FORMAT_VERSION:
-            raise ArtifactError(f"signature format {record.format_version} is not supported "
+        version = data.get("format_version", FORMAT_VERSION) if isinstance(data, dict) else None
+        if version is not None and version != FORMAT_VERSION:
+            raise ArtifactError(f"signature format {version!r} is not supported "
                                 f"(this code reads {FORMAT_VERSION})")
-        return record
+        return records.from_dict(cls, data)
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Signature":
@@ -207,72 +205,3 @@ def tier_parameters(channel: ChannelSignature, tier: str) -> tuple[list[str], np
     if tier == "noise":
         return ["mean", "variance", "skewness", "excess_kurtosis"], np.asarray(channel.noise.moments)
     raise ValueError(f"unknown tier {tier!r}; tiers: {TIERS}")
-
-
-_NESTED = {
-    Signature: {"channels": ("tuple", ChannelSignature)},
-    ChannelSignature: {"structure": ("record", ChannelStructure), "linear": ("record", LinearTier),
-                       "nonlinear": ("record", NonlinearTier), "noise": ("record", NoiseTier),
-                       "selection": ("optional", Selection)},
-    LinearTier: {"coefficients": ("floats", None), "standard_errors": ("floats", None)},
-    NonlinearTier: {"input_weights": ("matrix", None), "output_weights": ("floats", None)},
-}
-_SCALARS = {int: int, float: float, str: str, bool: bool}
-
-
-def _build(cls, data):
-    if not isinstance(data, dict):
-        raise ArtifactError(f"{cls.__name__}: expected an object, got {type(data).__name__}")
-    names = {f.name for f in fields(cls)}
-    required = {f.name for f in fields(cls)
-                if f.default is MISSING and f.default_factory is MISSING}
-    unknown, missing = set(data) - names, required - set(data)
-    if unknown:
-        raise ArtifactError(f"{cls.__name__}: unknown field(s) {sorted(unknown)}")
-    if missing:
-        raise ArtifactError(f"{cls.__name__}: missing field(s) {sorted(missing)}")
-    nested = _NESTED.get(cls, {})
-    values = {}
-    for f in fields(cls):
-        if f.name not in data:
-            continue
-        value = data[f.name]
-        kind, inner = nested.get(f.name, (None, None))
-        if kind == "tuple":
-            value = tuple(_build(inner, item) for item in value)
-        elif kind == "record":
-            value = _build(inner, value)
-        elif kind == "optional":
-            value = None if value is None else _build(inner, value)
-        elif kind == "floats":
-            value = tuple(float(v) for v in value)
-        elif kind == "matrix":
-            value = tuple(tuple(float(v) for v in row) for row in value)
-        else:
-            value = _scalar(cls, f, value)
-        values[f.name] = value
-    return cls(**values)
-
-
-def _scalar(cls, f, value):
-    annotation = str(f.type)
-    if value is None:
-        if "None" in annotation:
-            return None
-        raise ArtifactError(f"{cls.__name__}.{f.name} must not be null")
-    if annotation.startswith("dict"):
-        if not isinstance(value, dict):
-            raise ArtifactError(f"{cls.__name__}.{f.name} must be an object")
-        return value
-    for name, kind in (("bool", bool), ("int", int), ("float", float), ("str", str)):
-        if annotation.startswith(name):
-            if kind is bool and not isinstance(value, bool):
-                raise ArtifactError(f"{cls.__name__}.{f.name} must be true or false")
-            if kind is int and (isinstance(value, bool) or not isinstance(value, int)):
-                raise ArtifactError(f"{cls.__name__}.{f.name} must be an integer")
-            if kind is float and (isinstance(value, bool) or not isinstance(value, (int, float))):
-                raise ArtifactError(f"{cls.__name__}.{f.name} must be a number")
-            if kind is str and not isinstance(value, str):
-                raise ArtifactError(f"{cls.__name__}.{f.name} must be a string")
-            return kind(value)
-    return value

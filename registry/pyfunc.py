@@ -32,7 +32,6 @@ import pandas as pd
 from graybox.calibration import Calibration
 from graybox.drift import compute_drift
 from graybox.estimator import GrayBox
-from graybox.models import load_model
 from graybox.signature import Signature
 from registry.artifacts import read_bundle
 
@@ -57,8 +56,7 @@ class SignatureModel:
         bundle = read_bundle(data_path, where=f"pyfunc bundle {pathlib.Path(data_path).name!r}")
         self.signature: Signature = bundle.signature
         self.calibration: Calibration | None = bundle.calibration
-        spec = self.signature.model
-        self._model = load_model(spec["spec"], spec.get("parameters"), spec.get("columns"))
+        self._model = self.signature.model.load()
 
     @property
     def telemetry_columns(self) -> tuple[str, ...]:

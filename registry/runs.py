@@ -25,7 +25,6 @@ import pandas as pd
 from mlflow.entities import Metric, Param, RunTag
 
 from graybox.decompose import decompose
-from graybox.models import load_model
 from registry import naming
 from registry.artifacts import DRIFT_FILE, write_bundle
 from registry.backend import Backend
@@ -123,8 +122,7 @@ def _draw_plots(backend: Backend, fit: ResolvedFit, directory: pathlib.Path) -> 
     found = frames(window)
     try:
         if found:
-            spec = s.signature.model
-            white_box = load_model(spec["spec"], spec.get("parameters"), spec.get("columns"))
+            white_box = s.signature.model.load()
             last = window[-1] if isinstance(window, (list, tuple)) else window
             parts = decompose(s.signature, white_box, last)
             when = f"{found[-1].index[0]:%Y-%m-%d %H:%M} .. {found[-1].index[-1]:%Y-%m-%d %H:%M}"

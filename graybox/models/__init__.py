@@ -2,6 +2,7 @@
 from graybox.models.base import WhiteBoxModel, load_model
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.models.linear import DriveTrain, LinearStateSpace, linear_parameters
+from graybox.models.spec import ModelSpec
 
-__all__ = ["WhiteBoxModel", "load_model", "GasTurbineShaft", "LangevinShaft",
+__all__ = ["WhiteBoxModel", "load_model", "ModelSpec", "GasTurbineShaft", "LangevinShaft",
            "LinearStateSpace", "DriveTrain", "linear_parameters"]

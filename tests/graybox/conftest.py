@@ -3,8 +3,10 @@ import numpy as np
 import pytest
 
 from graybox.linear_tier import LinearTier
+from graybox.models.spec import ModelSpec
 from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
+from graybox.settings import GrayBoxSettings
 from graybox.signature import ChannelSignature, ChannelStructure, Selection, Signature
 
 
@@ -25,10 +27,10 @@ def make_channel(name="omega", a=(0.5, -0.2), w=None, W=None, moments=(0.0, 1.0,
 
 def make_signature(channels=None, **kwargs):
     channels = channels or (make_channel(),)
-    fields = dict(model={"spec": "graybox.models.gas_turbine:LangevinShaft",
-                         "parameters": {"gamma": 0.06}, "columns": {"omega": "omega"}},
+    fields = dict(model=ModelSpec("graybox.models.gas_turbine:LangevinShaft", {"gamma": 0.06},
+                                  {"omega": "omega"}),
                   residual_method="one_step", sample_interval=10.0,
-                  n_samples=channels[0].n_samples, settings={"hidden_units": 2},
+                  n_samples=channels[0].n_samples, settings=GrayBoxSettings(hidden_units=2),
                   asset_id="T-001", window_start="2026-01-01T00:00:00+00:00",
                   window_end="2026-01-02T00:00:00+00:00")
     fields.update(kwargs)

@@ -1,4 +1,5 @@
 import json
+import pathlib
 
 import numpy as np
 import pytest
@@ -107,3 +108,15 @@ def test_calibration_json_round_trip_and_refusal():
         calibration.epsilon("omega", "noise")
     with pytest.raises(ArtifactError):
         Calibration.from_json('{"thresholds": [{"channel": "omega"}]}')
+
+
+def test_a_calibration_written_by_the_hand_written_reader_code_loads_equal():
+    text = (pathlib.Path(__file__).parent / "data" / "calibration_v1.json").read_text().strip()
+    loaded = Calibration.from_json(text)
+    threshold = TierThreshold("omega", "linear", 1.5, 0.5, 3.2, (0.1, 0.7, 1 / 3))
+    assert loaded == Calibration((threshold,), 0.01, 0.01 / 6, 1000, 24)
+    assert loaded.to_json() == text
+    with pytest.raises(ArtifactError, match=r"TierThreshold: missing field\(s\) \['dof'"):
+        Calibration.from_json(text.replace('"dof": 3.2, ', ""))
+    with pytest.raises(ArtifactError, match="Calibration.n_windows must be an integer"):
+        Calibration.from_json(text.replace('"n_windows": 24', '"n_windows": "24"'))

@@ -1,10 +1,14 @@
 import json
+import pathlib
 
 import numpy as np
 import pytest
 from conftest import make_channel, make_signature
 
 from graybox.exceptions import ArtifactError
+from graybox.models import ModelSpec, load_model
+from graybox.network_settings import FitSettings
+from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature, tier_parameters
 
 
@@ -59,3 +63,69 @@ def test_malformed_json_is_refused_with_a_clear_error(signature, mutate, message
 def test_non_json_is_refused():
     with pytest.raises(ArtifactError, match="not valid JSON"):
         Signature.from_json(b"\x80\x04\x95 pickle bytes")
+
+
+DATA = pathlib.Path(__file__).parent / "data"
+
+
+def _format_1_signature():
+    """The record the format-1 file in tests/graybox/data was written from (by the code
+    that still kept ``model`` and ``settings`` as dicts)."""
+    model = load_model("graybox.models.gas_turbine:LangevinShaft", {"gamma": 0.06})
+    return make_signature((make_channel(), make_channel("torque", a=(1 / 3,), selection=False)),
+                          model=ModelSpec.from_model(model),
+                          settings=GrayBoxSettings(hidden_units=2, analysis_interval=30.0),
+                          analysis_interval=30.0)
+
+
+def test_a_signature_written_by_the_dict_code_loads_to_an_equal_record():
+    text = (DATA / "signature_v1.json").read_text().strip()
+    loaded = Signature.from_json(text)
+    assert loaded == _format_1_signature()
+    assert loaded.to_json() == text                   # and is written back byte for byte
+    assert isinstance(loaded.model, ModelSpec) and isinstance(loaded.settings, GrayBoxSettings)
+    assert loaded.settings.network == FitSettings()
+    assert loaded.model.load().parameters["gamma"] == 0.06
+
+
+def test_typed_model_and_settings_are_hashable_records(signature):
+    again = Signature.from_json(signature.to_json())
+    assert hash(again.model) == hash(signature.model)
+    assert hash(again.settings) == hash(signature.settings)
+    assert len({signature.settings, again.settings, GrayBoxSettings(hidden_units=3)}) == 2
+    assert signature.model.parameters == {"gamma": 0.06}
+    assert signature.frozen_structure()["model"] == {
+        "spec": "graybox.models.gas_turbine:LangevinShaft", "parameters": {"gamma": 0.06},
+        "columns": {"omega": "omega"}}
+    assert signature.frozen_structure()["settings"]["hidden_units"] == 2
+
+
+def test_settings_stored_before_rate_invariance_load_at_the_native_rate():
+    data = json.loads((DATA / "signature_v1.json").read_text())
+    data["settings"].pop("analysis_interval")
+    data["settings"].update(max_ar_order=20, max_delay=20)
+    loaded = Signature.from_dict(data)
+    assert loaded.settings == GrayBoxSettings(hidden_units=2, analysis_interval="native")
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda d: d["model"].update(spec=3), "ModelSpec.spec must be a string"),
+    (lambda d: d["model"]["parameters"].update(gamma="fast"),
+     r"ModelSpec.parameters\['gamma'\] must be a number"),
+    (lambda d: d["settings"].update(hidden_units=2.5),
+     "GrayBoxSettings.hidden_units must be an integer"),
+    (lambda d: d["settings"].update(analysis_interval=[1]),
+     "GrayBoxSettings.analysis_interval must be a number or a string"),
+    (lambda d: d["settings"].update(residual="magic"), "GrayBoxSettings: residual must be one of"),
+    (lambda d: d["settings"]["network"].update(iters=3),
+     r"FitSettings: unknown field\(s\) \['iters'\]"),
+    (lambda d: d["channels"][0]["nonlinear"].update(input_weights=[[0.1, "x"]]),
+     r"NonlinearTier.input_weights\[0\]\[1\] must be a number"),
+    (lambda d: d["channels"][0]["linear"].update(coefficients=None),
+     "LinearTier.coefficients must not be null"),
+])
+def test_malformed_model_and_settings_name_the_record_and_field(mutate, message):
+    data = json.loads((DATA / "signature_v1.json").read_text())
+    mutate(data)
+    with pytest.raises(ArtifactError, match=message):
+        Signature.from_dict(data)

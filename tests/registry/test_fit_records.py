@@ -58,7 +58,7 @@ def test_run_record_holds_tags_params_metrics_and_artifacts(registry, fits):
     structure = fits.baseline.channel("omega").structure
     assert params["channels.omega.ar_order"] == str(structure.ar_order)
     assert params["channels.omega.embedding_dim"] == str(structure.embedding_dim)
-    assert params["model.spec"] == fits.baseline.model["spec"]
+    assert params["model.spec"] == fits.baseline.model.spec
     metrics = run.data.metrics
     for tier in ("linear", "nonlinear", "noise"):
         assert metrics[f"epsilon.omega.{tier}"] == fits.calibration.epsilon("omega", tier)

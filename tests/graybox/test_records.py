@@ -1,0 +1,144 @@
+"""The one serialisation helper of frozen records (graybox.records) and its FrozenMap."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Mapping
+
+import pytest
+
+from graybox import records
+from graybox.exceptions import ArtifactError
+from graybox.frozen_map import FrozenMap
+from graybox.models import ModelSpec, load_model
+
+
+@dataclass(frozen=True)
+class Leaf:
+    name: str
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class Tree:
+    leaves: tuple[Leaf, ...]
+    grid: tuple[tuple[float, ...], ...]
+    pair: tuple[int, str]
+    labels: FrozenMap[str, int]
+    extra: dict
+    best: Leaf | None = None
+    span: float | str = "auto"
+    flag: bool = False
+
+    @classmethod
+    def migrate(cls, data: Mapping) -> dict:
+        data = dict(data)
+        if "old_span" in data:
+            data["span"] = data.pop("old_span")
+        return data
+
+
+@dataclass(frozen=True)
+class Forest:
+    trees: tuple[Tree, ...]
+
+
+def make_tree(**changes) -> Tree:
+    fields = dict(leaves=(Leaf("a"), Leaf("b", 1 / 3)), grid=((0.1, -2 ** -40), (1e-300,)),
+                  pair=(2, "x"), labels=FrozenMap(b=2, a=1), extra={"any": [1, None]},
+                  best=Leaf("c", 0.5), span=30.0, flag=True)
+    fields.update(changes)
+    return Tree(**fields)
+
+
+def round_trip(record):
+    return records.from_dict(type(record), json.loads(json.dumps(records.to_dict(record))))
+
+
+def test_round_trip_is_exact_for_nested_records_tuples_maps_and_unions():
+    tree = make_tree()
+    forest = Forest((tree, make_tree(best=None, span="auto", labels=FrozenMap())))
+    assert round_trip(forest) == forest
+    assert json.dumps(records.to_dict(round_trip(forest))) == json.dumps(records.to_dict(forest))
+    assert list(records.to_dict(tree)["labels"]) == ["b", "a"]      # order is kept
+    assert isinstance(round_trip(tree).labels, FrozenMap)
+    assert isinstance(round_trip(tree).grid[0], tuple)
+
+
+def test_defaults_fill_absent_fields_and_integers_become_floats():
+    data = records.to_dict(make_tree())
+    del data["best"], data["span"], data["flag"]
+    data["leaves"][0]["weight"] = 2
+    tree = records.from_dict(Tree, data)
+    assert tree.best is None and tree.span == "auto" and tree.flag is False
+    assert tree.leaves[0].weight == 2.0 and isinstance(tree.leaves[0].weight, float)
+
+
+def test_migrate_hook_applies_wherever_the_record_is_nested():
+    data = records.to_dict(Forest((make_tree(),)))
+    data["trees"][0]["old_span"] = data["trees"][0].pop("span")
+    assert records.from_dict(Forest, data) == Forest((make_tree(),))
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda d: d.update(color="red"), r"Tree: unknown field\(s\) \['color'\]"),
+    (lambda d: d.pop("grid"), r"Tree: missing field\(s\) \['grid'\]"),
+    (lambda d: d["leaves"][1].update(weight="heavy"), "Leaf.weight must be a number"),
+    (lambda d: d["leaves"][1].update(weight=True), "Leaf.weight must be a number"),
+    (lambda d: d.update(flag=1), "Tree.flag must be true or false"),
+    (lambda d: d.update(pair=[2]), "Tree.pair must have 2 items"),
+    (lambda d: d.update(pair=[2.5, "x"]), r"Tree.pair\[0\] must be an integer"),
+    (lambda d: d.update(grid=[[0.1], 3]), r"Tree.grid\[1\] must be an array"),
+    (lambda d: d.update(labels={"a": "one"}), r"Tree.labels\['a'\] must be an integer"),
+    (lambda d: d.update(labels=[1]), "Tree.labels must be an object"),
+    (lambda d: d.update(span=None), "Tree.span must not be null"),
+    (lambda d: d.update(span=[1]), "Tree.span must be a number or a string"),
+    (lambda d: d.update(best=[1]), "Leaf: expected an object, got list"),
+    (lambda d: d["leaves"].append(None), r"Tree.leaves\[2\] must not be null"),
+])
+def test_malformed_input_names_the_record_and_field(mutate, message):
+    data = records.to_dict(make_tree())
+    mutate(data)
+    with pytest.raises(ArtifactError, match=message):
+        records.from_dict(Tree, data)
+
+
+def test_a_record_refusing_its_values_is_an_artifact_error():
+    @dataclass(frozen=True)
+    class Positive:
+        value: float
+
+        def __post_init__(self):
+            if self.value <= 0:
+                raise ValueError("value must be > 0")
+
+    with pytest.raises(ArtifactError, match="Positive: value must be > 0"):
+        records.from_dict(Positive, {"value": -1})
+    with pytest.raises(ArtifactError, match="Positive: expected an object, got str"):
+        records.from_dict(Positive, "value")
+
+
+def test_frozen_map_is_an_ordered_hashable_read_only_mapping():
+    parameters = FrozenMap({"b": 2.0, "a": 1.0})
+    assert parameters == {"a": 1.0, "b": 2.0} and list(parameters) == ["b", "a"]
+    assert hash(parameters) == hash(FrozenMap(a=1.0, b=2.0))
+    assert parameters != FrozenMap(a=1.0) and parameters != [("b", 2.0), ("a", 1.0)]
+    with pytest.raises(TypeError):
+        parameters["c"] = 3.0
+    source = {"x": 1}
+    copy = FrozenMap(source)
+    source["x"] = 2
+    assert copy["x"] == 1
+
+
+def test_model_spec_rebuilds_its_white_box():
+    model = load_model("graybox.models.gas_turbine:LangevinShaft", {"gamma": 0.06},
+                       {"omega": "shaft_speed"})
+    spec = ModelSpec.from_model(model)
+    assert spec.to_dict() == model.to_dict()
+    assert ModelSpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec
+    again = spec.load()
+    assert type(again) is type(model) and again.parameters == model.parameters
+    assert again.columns == model.columns
+    assert ModelSpec(spec.spec, dict(model.parameters), dict(model.columns)) == spec
+    assert hash(ModelSpec(spec.spec, dict(model.parameters), dict(model.columns))) == hash(spec)
