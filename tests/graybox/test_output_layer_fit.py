@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 
 from graybox.network_settings import FitSettings, initial_weights
 from graybox.nonlinear_tier import lagged
