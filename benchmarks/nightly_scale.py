@@ -64,8 +64,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--out", help="write the Markdown report here (docs/performance.md)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: N = 2, 3 baseline days at 10-s samples")
-    parser.add_argument("--rerender", metavar="JSON",
-                        help="render a saved nightly_scale.json (no runs)")
+    parser.add_argument("--rerender", metavar="JSON[,JSON...]",
+                        help="render saved nightly_scale.json files (no runs); the sizes of "
+                             "several files are shown together")
     args = parser.parse_args(argv)
     if args.quick:
         args.sizes, args.baseline_days, args.sample_interval = "2", 3, 10.0
@@ -206,11 +207,22 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
     return results
 
 
+def merge(runs: list[dict]) -> dict:
+    """Several saved runs as one: their sizes in order of N, their commands joined (the
+    first run's machine figures are kept, and each size keeps its own load samples)."""
+    merged = dict(runs[0])
+    merged["sizes"] = sorted((s for r in runs for s in r["sizes"]), key=lambda s: s["n"])
+    merged["command"] = "; ".join(r["command"] for r in runs)
+    merged["wall_seconds"] = sum(r.get("wall_seconds", 0.0) for r in runs)
+    return merged
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv)
     if args.rerender:
-        results = json.loads(pathlib.Path(args.rerender).read_text())
+        results = merge([json.loads(pathlib.Path(p).read_text())
+                         for p in args.rerender.split(",")])
     else:
         results = run(args, argv)
     print(render_text(results))

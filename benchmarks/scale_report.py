@@ -6,9 +6,12 @@ again without being repeated.
 """
 from __future__ import annotations
 
+import pathlib
 import statistics
 
 GB = 10 ** 9
+#: hand-written observations appended to the Markdown report (kept apart so a rerun keeps them)
+NOTES = pathlib.Path(__file__).with_name("nightly_scale_notes.md")
 FLEET = 1000
 #: (stage key in a run summary's ``extra["stages"]``, label)
 STAGES = (("read", "read + validate + grid"), ("residual", "residual"),
@@ -255,6 +258,10 @@ def render_markdown(results: dict) -> str:
           f"{d['nightly_wall']:.1f} s run.",
         "## Growth with the fleet",
         _markdown(*summary_table(results)),
+        "\"Of which Prefect\" is the per-asset share of the process's time outside the stages "
+        "beyond the start-up run's (a difference of two single runs: within their noise it "
+        "can come out negative). Peak RSS: the largest single process (`ru_maxrss`) / the "
+        "sampled sum over the process tree (the CLI and Prefect's server).",
         "## Where a night's time goes",
     ]
     for size in results["sizes"]:
@@ -291,4 +298,6 @@ def render_markdown(results: dict) -> str:
         f"torch operations, Parquet, the registry's SQLite transactions, Prefect), not "
         f"arithmetic.",
     ]
+    if NOTES.exists():
+        parts += ["## Notes", NOTES.read_text().strip()]
     return "\n\n".join(parts) + "\n"
