@@ -1,0 +1,105 @@
+"""Run a command as a child process and measure it from outside: wall seconds, the kernel's
+CPU accounting and peak resident size (``os.wait4``), the peak summed resident size of its
+process tree (sampled from ``/proc``) and the 1-minute load average while it ran.
+"""
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+import time
+from dataclasses import asdict, dataclass, field
+
+SAMPLE_SECONDS = 0.25
+
+
+@dataclass
+class Measured:
+    """One finished child process.
+
+    Attributes
+    ----------
+    wall : float
+        Seconds from start to reaping.
+    user, system : float
+        CPU seconds of the child and the descendants it waited for (``wait4``).
+    max_rss : int
+        Bytes: the largest resident size of any single process among those (``ru_maxrss``).
+    tree_rss : int
+        Bytes: the largest sum of resident sizes of the child's process tree, sampled every
+        :data:`SAMPLE_SECONDS` (0 where ``/proc`` is missing).
+    load : list of float
+        1-minute load averages sampled while it ran.
+    """
+
+    command: list[str]
+    returncode: int
+    wall: float
+    user: float
+    system: float
+    max_rss: int
+    tree_rss: int
+    load: list[float] = field(default_factory=list)
+    stdout: str = ""
+    stderr_tail: str = ""
+
+    @property
+    def cpu(self) -> float:
+        return self.user + self.system
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Measured:
+    """Run ``command`` to completion; its output goes to ``log_dir/<name>.out`` and ``.err``
+    (stdout is returned too, and stderr's last 3,000 characters)."""
+    log_dir = pathlib.Path(log_dir)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    out_path, err_path = log_dir / f"{name}.out", log_dir / f"{name}.err"
+    load, tree_peak = [], 0
+    with open(out_path, "w") as out, open(err_path, "w") as err:
+        start = time.perf_counter()
+        child = subprocess.Popen(command, cwd=cwd, env=env, stdout=out, stderr=err,
+                                 stdin=subprocess.DEVNULL)
+        while True:
+            pid, status, usage = os.wait4(child.pid, os.WNOHANG)
+            if pid:
+                wall = time.perf_counter() - start
+                break
+            tree_peak = max(tree_peak, tree_resident_bytes(child.pid))
+            load.append(os.getloadavg()[0])
+            time.sleep(SAMPLE_SECONDS)
+    child.returncode = os.waitstatus_to_exitcode(status)   # keep Popen from waiting again
+    return Measured(command, child.returncode, wall, usage.ru_utime, usage.ru_stime,
+                    usage.ru_maxrss * 1024, tree_peak, load, out_path.read_text(),
+                    err_path.read_text()[-3000:])
+
+
+def tree_resident_bytes(root: int) -> int:
+    """Summed resident bytes of ``root`` and its descendants now (0 without ``/proc``)."""
+    parents: dict[int, int] = {}
+    rss: dict[int, int] = {}
+    page = os.sysconf("SC_PAGE_SIZE")
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return 0
+    for entry in entries:
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as stat:
+                fields = stat.read().rsplit(")", 1)[1].split()
+            with open(f"/proc/{entry}/statm") as statm:
+                rss[int(entry)] = int(statm.read().split()[1]) * page
+        except (OSError, IndexError, ValueError):
+            continue
+        parents[int(entry)] = int(fields[1])        # after "pid (comm)": state, ppid
+    tree, frontier = {root}, [root]
+    while frontier:
+        parent = frontier.pop()
+        children = [pid for pid, ppid in parents.items() if ppid == parent and pid not in tree]
+        tree.update(children)
+        frontier += children
+    return sum(rss.get(pid, 0) for pid in tree)
