@@ -114,7 +114,8 @@ class NoiseTierKind(Tier):
     name = "noise"
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
-        return ["mean", "variance", "skewness", "excess_kurtosis"], np.asarray(channel.noise.moments)
+        names = ["mean", "variance", "skewness", "excess_kurtosis"]
+        return names, np.asarray(channel.noise.moments)
 
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
         delta = super().deltas(candidate, baseline)
