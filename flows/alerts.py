@@ -25,8 +25,7 @@ import os
 import pathlib
 from typing import Iterable, Iterator
 
-import pandas as pd
-
+from graybox.timestamps import utc
 from registry.alert import Alert, alerts_from_drift, severity
 
 __all__ = ["Alert", "AlertLog", "alerts_from_drift", "severity"]
@@ -117,22 +116,19 @@ class AlertLog:
         """
         records = [Alert.from_dict(r) for r in self._read_lines() if _valid(r)]
         if since is not None:
-            limit = _utc(since)
-            records = [a for a in records if _utc(a.window_end) >= limit]
+            limit = utc(since)
+            records = [a for a in records if utc(a.window_end) >= limit]
         if assets is not None:
             wanted = set(assets)
             records = [a for a in records if a.asset_id in wanted]
         if windows is not None:
-            wanted_windows = {(a, _utc(s), _utc(e)) for a, s, e in windows}
+            wanted_windows = {(a, utc(s), utc(e)) for a, s, e in windows}
             records = [a for a in records
-                       if (a.asset_id, _utc(a.window_start), _utc(a.window_end)) in wanted_windows]
-        records.sort(key=lambda a: (_utc(a.window_end), a.asset_id, -a.ratio))
+                       if (a.asset_id, utc(a.window_start), utc(a.window_end)) in wanted_windows]
+        records.sort(key=lambda a: (utc(a.window_end), a.asset_id, -a.ratio))
         return records
 
 
-def _utc(value) -> pd.Timestamp:
-    stamp = pd.Timestamp(value)
-    return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
 
 
 def _valid(record: dict) -> bool:

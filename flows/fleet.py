@@ -22,6 +22,7 @@ from typing import Iterable, Sequence
 import pandas as pd
 
 from flows.config import ConfigError, FleetConfig
+from graybox import timestamps
 
 DAY = pd.Timedelta(days=1)
 
@@ -58,11 +59,15 @@ class Fleet:
 
 
 def utc(value) -> pd.Timestamp:
-    """A timestamp in UTC (naive values are taken as UTC)."""
-    stamp = pd.Timestamp(value)
-    if stamp is pd.NaT:
-        raise ValueError(f"not a timestamp: {value!r}")
-    return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+    """A timestamp in UTC (naive values are taken as UTC); see :func:`graybox.timestamps.utc`.
+
+    Raises
+    ------
+    ValueError
+        When ``value`` is not a timestamp or is NaT (:func:`parse_time` turns this into a
+        :class:`UsageError`).
+    """
+    return timestamps.utc(value)
 
 
 def parse_time(text: str, what: str = "time") -> pd.Timestamp:

@@ -46,12 +46,12 @@ from scipy import stats
 
 from graybox import records
 from graybox.analysis_rate import decimation_factor
-from graybox.drift import tier_deltas
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
 from graybox.fleet_fit import FitRequest, fit_signatures
 from graybox.settings import GrayBoxSettings
-from graybox.signature import TIERS, Signature
+from graybox.signature import Signature
 from graybox.stage_clock import StageClock
+from graybox.tiers import TIER_KINDS
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
@@ -258,22 +258,22 @@ def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], wi
                false_alarm_rate: float) -> Calibration:
     """Epsilons from (rest, piece) pairs: a piece of a window against the baseline refitted
     without that window, rescaled to a night against the full baseline."""
-    alpha = false_alarm_rate / (len(baseline.channels) * len(TIERS))
+    alpha = false_alarm_rate / (len(baseline.channels) * len(TIER_KINDS))
     total = baseline.n_samples
     reference = total / windows
     thresholds = []
     for channel in baseline.channel_names:
-        for tier in TIERS:
+        for kind in TIER_KINDS:
             deltas = []
             for rest, piece in pairs:
-                delta = tier_deltas(piece.channel(channel), rest.channel(channel), tier)[1]
+                delta = kind.deltas(piece.channel(channel), rest.channel(channel))
                 # Var(theta_n) ~ V / n: the piece and its reference are independent, so the
                 # change has variance V (1/n_piece + 1/n_rest); a night against the baseline
                 # has V (1/n_night + 1/n_baseline)
                 scale = (1 / reference + 1 / total) / (1 / piece.n_samples + 1 / rest.n_samples)
                 deltas.append(delta * np.sqrt(scale))
             epsilon, mean, dof = threshold_from_deltas(deltas, alpha)
-            thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
+            thresholds.append(TierThreshold(channel, kind.name, epsilon, mean, dof,
                                             tuple(float(d @ d) for d in deltas)))
     return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
                        len(pairs))

@@ -6,8 +6,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from graybox.exceptions import StructureMismatchError
-from graybox.noise_tier import MOMENT_WEIGHTS
-from graybox.signature import TIERS, ChannelSignature, Signature, tier_parameters
+from graybox.signature import ChannelSignature, Signature
+from graybox.tiers import TIER_KINDS, tier_kind
 
 
 def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
@@ -17,20 +17,22 @@ def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
     Linear tier: ``a_i - a_i0``. Nonlinear tier: ``W_1j - W_1j0`` and ``w_jk - w_jk0``, so that
     zeta is exactly Eq. 28. Noise tier: moment changes in units of the baseline noise standard
     deviation (mean), relative (variance), or as they are (skewness, kurtosis), each scaled by
-    the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS`.
+    the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS` (see :mod:`graybox.tiers`).
+
+    Parameters
+    ----------
+    candidate, baseline : ChannelSignature
+    tier : str
+        One of :data:`graybox.tiers.TIERS`.
+
+    Returns
+    -------
+    names : list of str
+    deltas : ndarray
     """
-    names, current = tier_parameters(candidate, tier)
-    _, healthy = tier_parameters(baseline, tier)
-    if current.shape != healthy.shape:
-        raise StructureMismatchError(
-            f"channel {candidate.channel!r} {tier} tier has {current.size} parameters, "
-            f"the baseline {healthy.size}: fit the candidate with the baseline's structure")
-    delta = current - healthy
-    if tier == "noise":
-        variance = baseline.noise.variance
-        delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
-        delta = delta * np.sqrt(MOMENT_WEIGHTS)
-    return names, delta
+    kind = tier_kind(tier)
+    names, _ = kind.parameters(candidate)
+    return names, kind.deltas(candidate, baseline)
 
 
 @dataclass(frozen=True)
@@ -148,12 +150,12 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     entries = []
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
-        for tier in TIERS:
-            names, delta = tier_deltas(channel, healthy, tier)
-            contributions = delta ** 2
+        for kind in TIER_KINDS:
+            tier = kind.name
+            names, current = kind.parameters(channel)
+            _, reference = kind.parameters(healthy)
+            contributions = kind.deltas(channel, healthy) ** 2
             order = np.argsort(contributions)[::-1][:top]
-            _, current = tier_parameters(channel, tier)
-            _, reference = tier_parameters(healthy, tier)
             changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
                                             float(contributions[i])) for i in order)
             epsilon = (None if calibration is None else

@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from graybox.autocovariance import autocovariance
+
 
 def delay_vectors(x: np.ndarray, dim: int, tau: int) -> np.ndarray:
     """Rows ``[x(t), x(t - tau), ..., x(t - (dim - 1) tau)]`` for every ``t`` with a full history."""
@@ -52,9 +54,8 @@ def choose_delay(x: np.ndarray, max_delay: int = 50, bins: int = 32,
     smooth_correlation : float, default 0.5
     """
     x = np.asarray(x, dtype=float)
-    centred = x - x.mean()
-    denominator = centred @ centred
-    if denominator == 0 or abs(centred[1:] @ centred[:-1] / denominator) < smooth_correlation:
+    gamma = autocovariance([x], 1)
+    if gamma[0] == 0 or abs(gamma[1] / gamma[0]) < smooth_correlation:
         return 1
     information = np.array([mutual_information(x, lag, bins) for lag in range(1, max_delay + 2)])
     for lag in range(1, max_delay):

@@ -11,6 +11,7 @@ from typing import Literal, Sequence
 import numpy as np
 from scipy.linalg import solve_toeplitz, toeplitz
 
+from graybox.autocovariance import autocovariance
 from graybox.exceptions import InsufficientDataError
 
 
@@ -65,19 +66,13 @@ class LinearTier:
 def autocovariances(segments: Sequence[np.ndarray], max_lag: int) -> tuple[np.ndarray, int]:
     """Pooled biased autocovariances ``gamma_0..gamma_max_lag`` and the sample count.
 
-    Each segment is centred on the pooled mean; lag products never cross segment borders.
+    Only segments longer than ``max_lag`` count; each is centred on their pooled mean and lag
+    products never cross segment borders (:func:`graybox.autocovariance.autocovariance`).
     """
     segments = [np.asarray(s, dtype=float) for s in segments if len(s) > max_lag]
     if not segments:
         raise InsufficientDataError(f"no segment is longer than {max_lag} samples")
-    total = sum(len(s) for s in segments)
-    mean = sum(s.sum() for s in segments) / total
-    acov = np.zeros(max_lag + 1)
-    for s in segments:
-        c = s - mean
-        for k in range(max_lag + 1):
-            acov[k] += np.dot(c[k:], c[: len(c) - k])
-    return acov / total, total
+    return autocovariance(segments, max_lag), sum(len(s) for s in segments)
 
 
 def _solve(acov: np.ndarray, order: int, n_obs: int) -> LinearTier:

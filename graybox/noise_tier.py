@@ -7,6 +7,7 @@ from typing import Sequence
 import numpy as np
 from scipy import stats
 
+from graybox.autocovariance import autocovariance
 from graybox.exceptions import InsufficientDataError
 
 #: inverse asymptotic variances of (mean, variance, skewness, excess kurtosis) of a Gaussian
@@ -68,15 +69,12 @@ def describe_noise(segments: Sequence[np.ndarray] | np.ndarray, lags: int = 20) 
     if n < max(10, lags + 2):
         raise InsufficientDataError(f"{n} samples are too few to describe the noise")
     mean = float(values.mean())
-    centred = [s - mean for s in segments]
     variance = float(np.mean((values - mean) ** 2))
     if variance <= 0:
         raise InsufficientDataError("the residual is constant")
     skewness = float(stats.skew(values))
     kurtosis = float(stats.kurtosis(values))
-    acov = np.array([sum(np.dot(c[k:], c[: len(c) - k]) for c in centred if len(c) > k)
-                     for k in range(1, lags + 1)]) / n
-    rho = acov / variance
+    rho = autocovariance(segments, lags, mean=mean)[1:] / variance
     statistic = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
     pvalue = float(stats.chi2.sf(statistic, lags))
     return NoiseTier(mean, variance, skewness, kurtosis, statistic, pvalue, lags, n)

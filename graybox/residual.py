@@ -14,6 +14,7 @@ from scipy.signal import savgol_filter
 
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
+from graybox.rk4 import rk4_step
 
 ResidualMethod = Literal["one_step", "inverse"]
 RESIDUAL_METHODS = ("one_step", "inverse")
@@ -56,11 +57,7 @@ def one_step_residual(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: fl
         ua = u0 + (u1 - u0) * begin
         um = u0 + (u1 - u0) * (begin + 0.5 / substeps)
         ub = u0 + (u1 - u0) * (begin + 1.0 / substeps)
-        k1 = model.derivatives(state, ua)
-        k2 = model.derivatives(state + 0.5 * h * k1, um)
-        k3 = model.derivatives(state + 0.5 * h * k2, um)
-        k4 = model.derivatives(state + h * k3, ub)
-        state = state + (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4)
+        state = rk4_step(model.derivatives, state, ua, um, ub, h)
     return x[1:] - state
 
 

@@ -17,9 +17,9 @@ from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import Differencing
+from graybox.tiers import TIER_KINDS, TIERS, tier_kind
 
 FORMAT_VERSION = 1
-TIERS = ("linear", "nonlinear", "noise")
 
 
 @dataclass(frozen=True)
@@ -161,9 +161,9 @@ class Signature:
         """
         names, values = [], []
         for channel in self.channels:
-            for tier in TIERS:
-                tier_names, tier_values = tier_parameters(channel, tier)
-                names += [f"{channel.channel}.{tier}.{n}" for n in tier_names]
+            for kind in TIER_KINDS:
+                tier_names, tier_values = kind.parameters(channel)
+                names += [f"{channel.channel}.{kind.name}.{n}" for n in tier_names]
                 values.append(tier_values)
         return names, np.concatenate(values) if values else np.zeros(0)
 
@@ -193,15 +193,17 @@ class Signature:
 
 
 def tier_parameters(channel: ChannelSignature, tier: str) -> tuple[list[str], np.ndarray]:
-    """Names and values of one tier's parameters (the quantities zeta compares)."""
-    if tier == "linear":
-        coefficients = channel.linear.coefficients
-        return [f"a{i}" for i in range(1, len(coefficients) + 1)], np.asarray(coefficients, float)
-    if tier == "nonlinear":
-        w, W = channel.nonlinear.weight_arrays()
-        names = [f"W1_{j}" for j in range(1, len(W) + 1)]
-        names += [f"w_{j}_{k}" for j in range(1, w.shape[0] + 1) for k in range(1, w.shape[1] + 1)]
-        return names, np.concatenate([W, w.ravel()])
-    if tier == "noise":
-        return ["mean", "variance", "skewness", "excess_kurtosis"], np.asarray(channel.noise.moments)
-    raise ValueError(f"unknown tier {tier!r}; tiers: {TIERS}")
+    """Names and values of one tier's parameters (the quantities zeta compares).
+
+    Parameters
+    ----------
+    channel : ChannelSignature
+    tier : str
+        One of :data:`TIERS` (see :mod:`graybox.tiers`).
+
+    Returns
+    -------
+    names : list of str
+    values : ndarray
+    """
+    return tier_kind(tier).parameters(channel)

@@ -11,6 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
+from graybox.autocovariance import autocorrelation
 from graybox.exceptions import InsufficientDataError
 
 #: asymptotic 5 % critical value of the Dickey-Fuller t statistic with a constant (MacKinnon)
@@ -96,19 +97,6 @@ class Differencing:
                 out[s + phase::s] = start[phase] + np.cumsum(z[phase::s])
             z = out
         return z
-
-
-def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
-    """Sample autocorrelation ``rho_0..rho_max_lag`` (biased estimator, computed by FFT)."""
-    x = np.asarray(x, dtype=float)
-    x = x - x.mean()
-    n = len(x)
-    size = 1 << int(np.ceil(np.log2(2 * n - 1)))
-    spectrum = np.fft.rfft(x, size)
-    acov = np.fft.irfft(spectrum * np.conj(spectrum), size)[: max_lag + 1] / n
-    if acov[0] <= 0:
-        return np.zeros(max_lag + 1)
-    return acov / acov[0]
 
 
 def acf_area(segments: Sequence[np.ndarray], lags: int) -> float:

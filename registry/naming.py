@@ -13,9 +13,8 @@ from __future__ import annotations
 import hashlib
 import re
 
-import pandas as pd
-
 from graybox.telemetry import validate_asset_id
+from graybox.timestamps import utc
 
 EXPERIMENT_PREFIX = "fleet-health/"
 MODEL_PREFIX = "fleet-health."
@@ -101,11 +100,7 @@ def iso_utc(value) -> str:
     One spelling per instant, so window bounds compare and hash the same however they were
     given (string, datetime or pandas Timestamp).
     """
-    stamp = pd.Timestamp(value)
-    if stamp is pd.NaT:
-        raise ValueError(f"not a timestamp: {value!r}")
-    stamp = stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
-    return stamp.as_unit("ns").isoformat()
+    return utc(value).as_unit("ns").isoformat()
 
 
 def fit_key(asset_id: str, window_start, window_end, role: str, data_hash: str,

@@ -22,6 +22,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.dates import AutoDateLocator, ConciseDateFormatter
 from matplotlib.figure import Figure
 
+from graybox.autocovariance import autocorrelation as series_autocorrelation
 from graybox.decompose import ChannelDecomposition
 from graybox.signature import TIERS, Signature
 
@@ -37,17 +38,16 @@ def _figure(width: float, height: float) -> Figure:
 
 
 def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
-    """Sample autocorrelation at lags ``0..max_lag`` (biased estimator, as in the ACF plot)."""
+    """Sample autocorrelation at lags ``0..max_lag`` of the finite values of ``x``.
+
+    :func:`graybox.autocovariance.autocorrelation` (biased estimator, as in the ACF plot),
+    with the lags cut to the series' length.
+    """
     x = np.asarray(x, float)
-    x = x[np.isfinite(x)] - np.nanmean(x)
-    n = len(x)
-    if n < 2 or not np.any(x):
-        return np.zeros(min(max_lag, max(n - 1, 0)) + 1)
-    max_lag = min(max_lag, n - 1)
-    size = 1 << (2 * n - 1).bit_length()
-    spectrum = np.fft.rfft(x, size)
-    acov = np.fft.irfft(spectrum * np.conj(spectrum), size)[: max_lag + 1]
-    return acov / acov[0]
+    x = x[np.isfinite(x)]
+    if len(x) < 2:
+        return np.zeros(1)
+    return series_autocorrelation(x, min(max_lag, len(x) - 1))
 
 
 def residual_figure(decompositions: Sequence[ChannelDecomposition], title: str = "") -> Figure:

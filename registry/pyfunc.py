@@ -33,6 +33,7 @@ from graybox.calibration import Calibration
 from graybox.drift import compute_drift
 from graybox.estimator import GrayBox
 from graybox.signature import Signature
+from graybox.timestamps import utc
 from registry.artifacts import read_bundle
 
 OUTPUT_COLUMNS = ("channel", "tier", "zeta", "epsilon", "ratio", "exceeded")
@@ -99,9 +100,7 @@ class SignatureModel:
             frame = frame.set_index(pd.to_datetime(frame["timestamp"], utc=True)).drop(columns="timestamp")
         if not isinstance(frame.index, pd.DatetimeIndex):
             raise ValueError("telemetry needs a DatetimeIndex or a 'timestamp' column")
-        index = frame.index
-        index = index.tz_localize("UTC") if index.tz is None else index.tz_convert("UTC")
-        frame = frame.set_axis(index.as_unit("ns"), axis=0)  # graybox reads nanosecond ticks
+        frame = frame.set_axis(utc(frame.index).as_unit("ns"), axis=0)  # graybox reads nanosecond ticks
         frame.index.name = "timestamp"
         missing = [c for c in self.telemetry_columns if c not in frame.columns]
         if missing:

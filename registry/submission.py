@@ -18,6 +18,7 @@ import pandas as pd
 from graybox.calibration import Calibration
 from graybox.drift import Drift
 from graybox.signature import Signature
+from graybox.timestamps import utc
 from registry import naming
 
 
@@ -41,8 +42,7 @@ def data_hash(window) -> str:
         digest.update(json.dumps([str(c) for c in frame.columns]).encode())
         index = frame.index
         if isinstance(index, pd.DatetimeIndex):
-            index = index.tz_localize("UTC") if index.tz is None else index.tz_convert("UTC")
-            digest.update(np.ascontiguousarray(index.as_unit("ns").asi8).tobytes())
+            digest.update(np.ascontiguousarray(utc(index).as_unit("ns").asi8).tobytes())
         else:
             digest.update(np.ascontiguousarray(np.asarray(index, dtype=np.int64)).tobytes())
         digest.update(np.ascontiguousarray(frame.to_numpy(dtype=np.float64)).tobytes())

@@ -6,6 +6,7 @@ from typing import Callable
 import numpy as np
 from scipy.signal import lfilter
 
+from graybox.rk4 import rk4_step
 from graybox.simulation.checks import finite, integer
 
 
@@ -55,12 +56,11 @@ def simulate_langevin(n: int, dt: float, gamma: float, force: np.ndarray | Calla
         values = np.interp(times, np.arange(n) * dt, force)
     h = dt / substeps
 
+    def derivative(omega, force):
+        return -gamma * omega + force
+
     def step(omega, fa, fm, fb):
-        k1 = -gamma * omega + fa
-        k2 = -gamma * (omega + 0.5 * h * k1) + fm
-        k3 = -gamma * (omega + 0.5 * h * k2) + fm
-        k4 = -gamma * (omega + h * k3) + fb
-        return omega + (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4)
+        return rk4_step(derivative, omega, fa, fm, fb, h)
 
     amplification = step(1.0, 0.0, 0.0, 0.0)
     offsets = step(0.0, values[0:-1:2], values[1::2], values[2::2])

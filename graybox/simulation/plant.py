@@ -9,6 +9,7 @@ import numpy as np
 
 from graybox.exceptions import GrayBoxError
 from graybox.models.gas_turbine import GasTurbineShaft
+from graybox.rk4 import rk4_step
 
 WARMUP_SECONDS = 1_500.0        # warm-up of each time chunk (25 decay times at gamma = 0.06)
 CHUNK_SAMPLES = 512             # integration steps per time chunk (the warm-up is extra)
@@ -66,18 +67,13 @@ def _rk4_step(plant: Plant, omega, fuel0, fuel1, moment, friction, dt, substeps,
     a, b = plant.coefficients(fuel, moment, friction, with_friction)
     b = np.broadcast_to(b, a.shape)
     d = plant.quadratic_j
+
+    def derivative(x, j):
+        return a[j] - x * (b[j] + d * x)
+
     h = dt / substeps
-    half, sixth = 0.5 * h, h / 6.0
     for s in range(substeps):
-        j = 2 * s
-        k1 = a[j] - omega * (b[j] + d * omega)
-        x = omega + half * k1
-        k2 = a[j + 1] - x * (b[j + 1] + d * x)
-        x = omega + half * k2
-        k3 = a[j + 1] - x * (b[j + 1] + d * x)
-        x = omega + h * k3
-        k4 = a[j + 2] - x * (b[j + 2] + d * x)
-        omega = omega + sixth * (k1 + 2.0 * (k2 + k3) + k4)
+        omega = rk4_step(derivative, omega, 2 * s, 2 * s + 1, 2 * s + 2, h)
     return omega
 
 

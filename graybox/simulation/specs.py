@@ -12,6 +12,7 @@ from graybox.simulation.checks import finite, integer, unknown_keys
 from graybox.simulation.clock import SECONDS_PER_DAY, moment_steps_ratio
 from graybox.simulation.faults import Fault
 from graybox.telemetry import validate_asset_id
+from graybox.timestamps import utc
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,7 @@ class FleetSpec:
         stamp = pd.Timestamp(self.start)
         if stamp is pd.NaT:
             raise ValueError("NaT")
-        return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+        return utc(stamp)
 
     @property
     def n_samples(self) -> int:

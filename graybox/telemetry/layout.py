@@ -16,6 +16,7 @@ import re
 import pandas as pd
 
 from graybox.exceptions import InvalidAssetIdError, TelemetryError
+from graybox.timestamps import utc
 
 ASSET_ID_PATTERN: re.Pattern = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 """Valid asset ids (use with ``fullmatch``); ``"."`` and ``".."`` are rejected besides."""
@@ -157,8 +158,7 @@ def utc_ns(value, what: str) -> int:
         raise ValueError(f"{what} {value!r} is not a timestamp: {error}") from None
     if when is pd.NaT:
         raise ValueError(f"{what} must not be NaT")
-    when = when.tz_localize("UTC") if when.tz is None else when.tz_convert("UTC")
-    return int(when.as_unit("ns").value)
+    return int(utc(when).as_unit("ns").value)
 
 
 def day_ns(day: datetime.date) -> int:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from graybox.timestamps import utc
+
 RESERVED = ("timestamp", "_file", "_row")
 """Column names of a raw frame that are not channels."""
 
@@ -78,9 +80,7 @@ class Rows:
 
 def timestamps_ns(frame: pd.DataFrame) -> np.ndarray:
     """A frame's ``timestamp`` column as int64 ns UTC (naive taken as UTC)."""
-    index = pd.DatetimeIndex(frame["timestamp"])
-    index = index.tz_localize("UTC") if index.tz is None else index.tz_convert("UTC")
-    return index.as_unit("ns").asi8
+    return utc(pd.DatetimeIndex(frame["timestamp"])).as_unit("ns").asi8
 
 
 def check_columns(columns) -> list[str]:

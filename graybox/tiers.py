@@ -1,0 +1,154 @@
+"""The three tier kinds: which parameters a tier has, and how zeta scales their changes.
+
+One small object per kind (as ``ruptures`` has one ``BaseCost`` subclass per cost), so that
+code which needs "the parameters of tier X" or "the changes of tier X" asks the kind instead
+of dispatching on its name. :data:`TIER_KINDS` lists them in the order every table, plot and
+parameter vector uses; :data:`TIERS` holds their names in the same order.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from graybox.exceptions import StructureMismatchError
+from graybox.noise_tier import MOMENT_WEIGHTS
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (graybox.signature imports this module)
+    from graybox.signature import ChannelSignature
+
+
+class Tier:
+    """One tier kind.
+
+    Attributes
+    ----------
+    name : str
+        The tier's name in signatures, drifts and calibrations.
+
+    Notes
+    -----
+    Subclasses define :meth:`parameters`; :meth:`deltas` defaults to the plain differences of
+    those parameters.
+    """
+
+    name: str = ""
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        """Names and values of this tier's parameters in ``channel``.
+
+        Parameters
+        ----------
+        channel : ChannelSignature
+
+        Returns
+        -------
+        names : list of str
+        values : ndarray of shape (len(names),)
+        """
+        raise NotImplementedError
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        """Per-parameter changes of ``candidate`` from ``baseline`` whose squares sum to zeta.
+
+        Parameters
+        ----------
+        candidate, baseline : ChannelSignature
+            The same channel of a candidate and of its baseline.
+
+        Returns
+        -------
+        ndarray
+            One change per parameter, in the order of :meth:`parameters`.
+
+        Raises
+        ------
+        StructureMismatchError
+            When the two have different numbers of parameters in this tier.
+        """
+        _, current = self.parameters(candidate)
+        _, healthy = self.parameters(baseline)
+        if current.shape != healthy.shape:
+            raise StructureMismatchError(
+                f"channel {candidate.channel!r} {self.name} tier has {current.size} parameters, "
+                f"the baseline {healthy.size}: fit the candidate with the baseline's structure")
+        return current - healthy
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+class LinearTierKind(Tier):
+    """The AR tier: coefficients ``a_1..a_n``; changes ``a_i - a_i0``."""
+
+    name = "linear"
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        coefficients = channel.linear.coefficients
+        return [f"a{i}" for i in range(1, len(coefficients) + 1)], np.asarray(coefficients, float)
+
+
+class NonlinearTierKind(Tier):
+    """The network tier: output weights ``W_1j`` then input weights ``w_jk``.
+
+    Changes ``W_1j - W_1j0`` and ``w_jk - w_jk0``, so that zeta is exactly Eq. 28.
+    """
+
+    name = "nonlinear"
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        w, W = channel.nonlinear.weight_arrays()
+        names = [f"W1_{j}" for j in range(1, len(W) + 1)]
+        names += [f"w_{j}_{k}" for j in range(1, w.shape[0] + 1) for k in range(1, w.shape[1] + 1)]
+        return names, np.concatenate([W, w.ravel()])
+
+
+class NoiseTierKind(Tier):
+    """The noise tier: mean, variance, skewness and excess kurtosis of the final residual.
+
+    Changes are in units of the baseline noise standard deviation (mean), relative (variance),
+    or as they are (skewness, kurtosis), each scaled by the square root of
+    :data:`graybox.noise_tier.MOMENT_WEIGHTS`.
+    """
+
+    name = "noise"
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        names = ["mean", "variance", "skewness", "excess_kurtosis"]
+        return names, np.asarray(channel.noise.moments)
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        delta = super().deltas(candidate, baseline)
+        variance = baseline.noise.variance
+        delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
+        return delta * np.sqrt(MOMENT_WEIGHTS)
+
+
+#: the tier kinds, in the order of every table, plot and parameter vector
+TIER_KINDS: tuple[Tier, ...] = (LinearTierKind(), NonlinearTierKind(), NoiseTierKind())
+
+#: their names, in the same order
+TIERS: tuple[str, ...] = tuple(kind.name for kind in TIER_KINDS)
+
+
+def tier_kind(tier: str) -> Tier:
+    """The tier kind called ``tier``.
+
+    Parameters
+    ----------
+    tier : str
+        One of :data:`TIERS`.
+
+    Returns
+    -------
+    Tier
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    """
+    for kind in TIER_KINDS:
+        if kind.name == tier:
+            return kind
+    raise ValueError(f"unknown tier {tier!r}; tiers: {TIERS}")
