@@ -60,6 +60,7 @@ import pandas as pd
 from flows.memory import parse_bytes
 
 DEFAULT_CONFIG = "fleet.toml"
+DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 PLOT_POLICIES = ("alarms", "all", "none")
 _CLASS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _CRON_FIELD = re.compile(r"[0-9A-Za-z*/,?LW#-]+")
@@ -262,7 +263,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
 
     mlflow = check.table("mlflow", data.get("mlflow", {}))
     check.keys("mlflow", mlflow, ("tracking_uri",))
-    uri = check.string("mlflow.tracking_uri", mlflow.get("tracking_uri", "sqlite:///mlflow.db"))
+    uri = check.string("mlflow.tracking_uri", mlflow.get("tracking_uri", DEFAULT_TRACKING_URI))
     try:
         uri = resolve_tracking_uri(uri, base)
     except ValueError as error:
