@@ -29,7 +29,7 @@ from graybox.stage_clock import StageClock, timed
 
 from flows import progress
 from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
-from flows.config import FleetConfig, load_config
+from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, UsageError, discover, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
@@ -161,7 +161,8 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     return [results[ref.asset_id] for ref in refs]
 
 
-@task(name="baseline-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
+@task(name="baseline-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
+      retry_delay_seconds=NightlySettings().retry_delay_seconds,
       retry_condition_fn=retry_transient,
       task_run_name="baseline {label}")
 def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,

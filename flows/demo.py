@@ -18,13 +18,21 @@ import dataclasses
 import json
 import pathlib
 import shutil
+import sys
 import time
 from typing import Sequence
 
 import pandas as pd
+from rich.console import Console
+from rich.table import Table
 
 from flows import progress
+from flows.config import load_config, render_config
 from flows.fleet import UsageError
+from flows.report import alert_table, fleet_table
+from flows.results import RunSummary
+from graybox.simulator import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
+from graybox.telemetry import write_telemetry
 from registry.alert import Alert
 
 MARKER = ".fleet-health-demo"
@@ -37,8 +45,6 @@ _OURS = ("telemetry", "mlflow.db", "mlflow.db-wal", "mlflow.db-shm", "mlflow.db.
 
 def parse_fault(text: str):
     """``ASSET:KIND:ONSET_DAY[:MAGNITUDE]`` -> (asset_id, Fault)."""
-    from graybox.simulator import Fault
-
     parts = text.split(":")
     if len(parts) not in (3, 4):
         raise UsageError(f"--fault {text!r}: expected ASSET:KIND:ONSET_DAY:MAGNITUDE")
@@ -64,8 +70,6 @@ def simulated_fleet(vehicles: int = 8, days: int = 10, seed: int = 0,
     healthy : bool
         No faults at all.
     """
-    from graybox.simulator import demo_fleet
-
     spec = demo_fleet(vehicles, days, seed)
     try:
         spec = dataclasses.replace(spec, start=start, sample_interval=float(sample_interval))
@@ -87,10 +91,6 @@ def simulated_fleet(vehicles: int = 8, days: int = 10, seed: int = 0,
 
 def write_simulation(spec, root: pathlib.Path, config_out: str | None = None) -> None:
     """Simulate ``spec`` and write it under ``root`` (and a fleet.toml at ``config_out``)."""
-    from flows.config import render_config
-    from graybox.simulator import TRUTH_FILE, simulate_fleet
-    from graybox.telemetry import write_telemetry
-
     root = pathlib.Path(root)
     progress.start("simulating", len(spec.vehicles))
     frames = simulate_fleet(spec)
@@ -186,8 +186,6 @@ def verdicts(spec, alerts: Sequence[Alert]) -> list[Verdict]:
 
 
 def _verdict_table(rows: list[Verdict]):
-    from rich.table import Table
-
     table = Table(title="Against the simulator's ground truth (fleet_truth.json)",
                   title_justify="left")
     for column in ("asset", "injected fault", "onset (UTC)", "alert nights", "verdict"):
@@ -207,13 +205,6 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
     0 when every run processed every asset and the alerts agree with the ground truth
     (faulty vehicles alert, only after their onsets; healthy ones stay quiet); 1 otherwise.
     """
-    import sys
-
-    from rich.console import Console
-
-    from flows.config import load_config, render_config
-    from flows.report import alert_table, fleet_table
-
     console = console or Console()
     if baseline_days < 3:
         raise UsageError("--baseline-days must be at least 3 (epsilon is calibrated from "
@@ -233,6 +224,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
     config_path.write_text(render_config(telemetry_root="telemetry"))
     config = load_config(config_path)
 
+    # prefect loads only here: the command line sets PREFECT_HOME and its logging first
     from flows.baseline import baseline
     from flows.nightly import nightly
 
@@ -300,8 +292,6 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
 
 
 def _summary(state):
-    from flows.results import RunSummary
-
     data = state.result(raise_on_failure=False)
     if isinstance(data, BaseException):
         raise data

@@ -23,6 +23,8 @@ import pandas as pd
 
 from flows.config import ConfigError, FleetConfig
 from graybox import timestamps
+from graybox.exceptions import InvalidAssetIdError
+from graybox.telemetry import list_assets, validate_asset_id
 
 DAY = pd.Timedelta(days=1)
 
@@ -102,9 +104,6 @@ def discover(config: FleetConfig, assets: Sequence[str] | None = None,
     UsageError
         If a requested id is invalid or belongs to no class, or the class is unknown.
     """
-    from graybox.exceptions import InvalidAssetIdError
-    from graybox.telemetry import list_assets, validate_asset_id
-
     if vehicle_class is not None and vehicle_class not in config.classes:
         raise UsageError(f"unknown vehicle class {vehicle_class!r}; {config.path.name} defines "
                          f"{', '.join(config.classes)}")

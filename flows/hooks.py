@@ -16,6 +16,10 @@ from __future__ import annotations
 
 import logging
 
+from prefect.blocks.core import Block
+
+from flows.config import load_config
+
 logger = logging.getLogger(__name__)
 
 
@@ -64,8 +68,6 @@ def notify_hook(flow, flow_run, state) -> None:
     """Prefect state hook: notify the configured block (see the module docstring)."""
     try:
         config_path = (flow_run.parameters or {}).get("config_path", "fleet.toml")
-        from flows.config import load_config
-
         block_slug = load_config(config_path).notifications.block
         if not block_slug:
             return
@@ -78,8 +80,6 @@ def notify_hook(flow, flow_run, state) -> None:
         message = compose_message(flow.name, summary, state.name, state.message)
         if message is None:
             return
-        from prefect.blocks.core import Block
-
         block = Block.load(block_slug)
         subject, body = message
         block.notify(body=body, subject=subject)

@@ -43,7 +43,7 @@ from graybox.telemetry import list_dates
 from flows import progress
 from flows.alerts import AlertLog
 from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
-from flows.config import FleetConfig, load_config
+from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, discover, pending_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
@@ -165,7 +165,8 @@ def _progress_text(result: AssetResult) -> str:
 
 # -- Prefect ---------------------------------------------------------------------------------
 
-@task(name="nightly-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
+@task(name="nightly-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
+      retry_delay_seconds=NightlySettings().retry_delay_seconds,
       retry_condition_fn=retry_transient,
       task_run_name="nightly {label}")
 def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,

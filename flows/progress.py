@@ -13,6 +13,10 @@ import sys
 import threading
 from typing import Iterator
 
+from rich.console import Console
+from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                           TimeElapsedColumn)
+
 logger = logging.getLogger("flows.progress")
 
 
@@ -60,9 +64,6 @@ class RichReporter(Reporter):
     """A rich progress bar on a terminal."""
 
     def __init__(self, console):
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeElapsedColumn)
-
         self.console = console
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(),
                                  MofNCompleteColumn(), TimeElapsedColumn(),
@@ -129,7 +130,5 @@ def for_stream(stream=None) -> Reporter:
     """A rich bar when ``stream`` (default stderr) is a terminal, else plain lines."""
     stream = stream or sys.stderr
     if getattr(stream, "isatty", lambda: False)():
-        from rich.console import Console
-
         return RichReporter(Console(file=stream))
     return LineReporter(stream)

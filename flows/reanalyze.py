@@ -23,7 +23,7 @@ from graybox.stage_clock import StageClock, timed
 
 from flows import progress
 from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
-from flows.config import FleetConfig, load_config
+from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, discover, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
@@ -86,7 +86,8 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
     return [results[ref.asset_id] for ref in refs]
 
 
-@task(name="reanalysis-batch", cache_policy=NO_CACHE, retries=2, retry_delay_seconds=30,
+@task(name="reanalysis-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
+      retry_delay_seconds=NightlySettings().retry_delay_seconds,
       retry_condition_fn=retry_transient,
       task_run_name="reanalyze {label}")
 def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,

@@ -5,6 +5,8 @@ import math
 from typing import Sequence
 
 import pandas as pd
+from rich.markup import escape
+from rich.table import Table
 
 from flows.results import FAILED, RunSummary
 from registry.alert import Alert
@@ -60,6 +62,7 @@ def alert_rows(alerts: Sequence[Alert]) -> list[dict]:
 def flow_result(summary: RunSummary, config, failure: str):
     """A flow's return value: publish its artifacts, then the summary as a dict, wrapped in a
     Failed state with the message ``failure`` when an asset failed."""
+    # prefect loads only inside a flow: the command line prints these tables without it
     from prefect.runtime import flow_run
     from prefect.states import Failed
 
@@ -71,6 +74,7 @@ def flow_result(summary: RunSummary, config, failure: str):
 
 def publish_artifacts(summary: RunSummary, config=None) -> None:
     """The night's fleet table (and alert table) as Prefect table artifacts."""
+    # prefect loads only inside a flow: the command line prints these tables without it
     from prefect.artifacts import create_table_artifact
 
     counts = summary.counts()
@@ -92,8 +96,6 @@ def publish_artifacts(summary: RunSummary, config=None) -> None:
 # -- rich -----------------------------------------------------------------------------------
 
 def fleet_table(summary: RunSummary, title: str | None = None):
-    from rich.table import Table
-
     rows = fleet_rows(summary)
     table = Table(title=title or f"Fleet ({len(rows)} assets)", title_justify="left")
     for column in ("asset", "class", "status", "windows", "alarmed", "max ratio", "baseline",
@@ -117,8 +119,6 @@ def fleet_table(summary: RunSummary, title: str | None = None):
 
 
 def alert_table(alerts: Sequence[Alert], title: str | None = None):
-    from rich.table import Table
-
     rows = alert_rows(alerts)
     table = Table(title=title or f"Alerts ({len(rows)})", title_justify="left")
     for column in ("asset", "night", "tier", "channel", "zeta/epsilon", "severity",
@@ -135,6 +135,4 @@ def alert_table(alerts: Sequence[Alert], title: str | None = None):
 
 
 def _escape(text: str) -> str:
-    from rich.markup import escape
-
     return escape(text or "")

@@ -18,7 +18,10 @@ from dataclasses import asdict, dataclass, field
 
 import pandas as pd
 
+from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
+from registry.exceptions import RegistryError
+from registry.store import is_locked_error
 
 logger = logging.getLogger(__name__)
 
@@ -55,8 +58,6 @@ class ErrorInfo:
 
 def describe_error(error: BaseException, window_start=None) -> ErrorInfo:
     """An :class:`ErrorInfo` for an exception (TelemetryError keeps kind, file and row)."""
-    from graybox.exceptions import TelemetryError
-
     start = None if window_start is None else pd.Timestamp(window_start).isoformat()
     if isinstance(error, TelemetryError):
         return ErrorInfo(str(error), type(error).__name__, error.kind, error.file, error.row,
@@ -71,10 +72,6 @@ def is_transient(error: BaseException) -> bool:
     Data and configuration errors (GrayBoxError, RegistryError, ConfigError, ValueError) are
     never transient; neither are missing files or permissions.
     """
-    from graybox.exceptions import GrayBoxError
-    from registry.exceptions import RegistryError
-    from registry.store import is_locked_error
-
     if isinstance(error, TransientError):
         return True
     if isinstance(error, (GrayBoxError, RegistryError, ValueError, TypeError, KeyError)):
@@ -86,7 +83,7 @@ def is_transient(error: BaseException) -> bool:
     if isinstance(error, OSError):
         return error.errno not in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR,
                                    errno.ENOTDIR, errno.EROFS)
-    try:
+    try:  # mlflow loads only when an error may be its own: --help must not import it
         from mlflow.exceptions import MlflowException
         from mlflow.protos import databricks_pb2
     except ImportError:  # pragma: no cover

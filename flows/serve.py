@@ -12,18 +12,18 @@ declares the same deployments (``prefect deploy --all``), and a worker
 """
 from __future__ import annotations
 
+from prefect import serve
+from prefect.deployments.runner import EntrypointType
+from prefect.schedules import Cron
+
+from flows.baseline import baseline
 from flows.config import FleetConfig
+from flows.nightly import nightly
+from flows.reanalyze import reanalyze
 
 
 def build_deployments(config: FleetConfig, tracking_uri: str | None = None) -> list:
     """The three deployments for ``config`` (nightly scheduled on its cron)."""
-    from prefect.deployments.runner import EntrypointType
-    from prefect.schedules import Cron
-
-    from flows.baseline import baseline
-    from flows.nightly import nightly
-    from flows.reanalyze import reanalyze
-
     # module entrypoints (flows.nightly.nightly) load wherever the package is installed
     options = {"tags": ["fleet-health"], "entrypoint_type": EntrypointType.MODULE_PATH}
     common = {"config_path": str(config.path)}
@@ -46,6 +46,4 @@ def build_deployments(config: FleetConfig, tracking_uri: str | None = None) -> l
 
 def serve_deployments(deployments: list) -> None:
     """Serve until interrupted (schedules stay active on shutdown)."""
-    from prefect import serve
-
     serve(*deployments, pause_on_shutdown=False)

@@ -1,0 +1,59 @@
+"""``fleet-health alerts``: the alerts recorded (the JSON-lines file, or the registry)."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from flows.alerts import AlertLog
+from flows.commands.plumbing import config_options, guarded, load
+from flows.fleet import parse_time
+from flows.report import alert_table
+from graybox.exceptions import ArtifactError
+from registry.cli import EXIT_FAILED, EXIT_OK, _console, _error
+from registry.exceptions import RegistryError
+
+
+def add_alerts_command(subparsers) -> argparse.ArgumentParser:
+    """Add ``alerts`` to the top-level subparsers."""
+    parser = subparsers.add_parser("alerts", help="the alerts recorded",
+                                   description="The nightly alerts (from the alerts file, or "
+                                               "the registry with --from-registry).")
+    parser.add_argument("--since", metavar="DATE", help="windows ending at or after DATE (UTC)")
+    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
+                        help="only this asset (repeatable)")
+    parser.add_argument("--from-registry", action="store_true",
+                        help="read the alerts from the MLflow registry (the system of record) "
+                             "instead of the JSON-lines file")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    config_options(parser)
+    parser.set_defaults(handler=guarded(alerts))
+    return parser
+
+
+def alerts(args: argparse.Namespace) -> int:
+    """Print the alerts (a table, or JSON); return the exit status."""
+    config = load(args)
+    since = None if args.since is None else parse_time(args.since, "--since")
+    if args.from_registry:
+        try:
+            found = config.registry().alerts(since=since,
+                                             major_ratio=config.alerts.major_ratio,
+                                             critical_ratio=config.alerts.critical_ratio)
+        except (RegistryError, ArtifactError) as error:
+            _error(str(error))
+            return EXIT_FAILED
+        if args.assets:
+            found = [a for a in found if a.asset_id in set(args.assets)]
+    else:
+        found = AlertLog(config.alerts.jsonl).read(since=since, assets=args.assets)
+    if args.json:
+        print(json.dumps([a.to_dict() for a in found], indent=2, default=str))
+        return EXIT_OK
+    console = _console()
+    if not found:
+        where = "the registry" if args.from_registry else str(config.alerts.jsonl)
+        console.print(f"No alerts recorded in {where}" + (f" since {since:%Y-%m-%d}"
+                                                          if since is not None else "") + ".")
+        return EXIT_OK
+    console.print(alert_table(found))
+    return EXIT_OK

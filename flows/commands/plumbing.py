@@ -1,0 +1,135 @@
+"""What the commands share: Prefect's environment, errors as exit statuses, running a flow
+and printing its run summary, and argparse helpers."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from typing import Callable
+
+from flows import progress
+from flows.config import ConfigError, FleetConfig, load_config
+from flows.fleet import UsageError
+from flows.report import alert_table, fleet_table
+from flows.results import RunSummary
+from graybox.exceptions import InvalidAssetIdError
+from registry.cli import EXIT_USAGE, _console, _error
+
+#: seconds Prefect's temporary local server may take to start (Prefect's own default, 20 s,
+#: is missed on a loaded machine: a first run in a new PREFECT_HOME took 27.7 s on an idle one)
+EPHEMERAL_STARTUP_TIMEOUT = 180
+
+#: errors of the request or the configuration: exit status 2
+USAGE_ERRORS = (ConfigError, UsageError, InvalidAssetIdError)
+
+
+def prefect_environment(args: argparse.Namespace) -> None:
+    """Quiet Prefect's and MLflow's console logs unless -v (Prefect's logs still reach its
+    UI); no usage telemetry. Must run before prefect and mlflow are imported."""
+    level = "INFO" if getattr(args, "verbose", False) else "WARNING"
+    os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", level)
+    os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+    os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
+    os.environ.setdefault("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS",
+                          str(EPHEMERAL_STARTUP_TIMEOUT))
+    os.environ.setdefault("MLFLOW_LOGGING_LEVEL", level)
+
+
+def config_options(parser: argparse.ArgumentParser) -> None:
+    """``--config``/``--tracking-uri`` also after the command (SUPPRESS keeps the global)."""
+    parser.add_argument("--config", metavar="PATH", default=argparse.SUPPRESS,
+                        help="the fleet.toml (default: ./fleet.toml)")
+    parser.add_argument("--tracking-uri", metavar="URI", default=argparse.SUPPRESS,
+                        help="MLflow tracking URI (overrides [mlflow] tracking_uri)")
+
+
+def load(args: argparse.Namespace) -> FleetConfig:
+    """The configuration of ``--config``, with ``--tracking-uri`` applied."""
+    return load_config(args.config).with_tracking_uri(args.tracking_uri)
+
+
+def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    """Map errors to exit statuses: configuration and usage 2, anything else 1."""
+    def run(args: argparse.Namespace) -> int:
+        try:
+            return function(args)
+        except USAGE_ERRORS as error:
+            _error(str(error))
+            return EXIT_USAGE
+        except KeyboardInterrupt:
+            _error("interrupted; rerun the command: committed results are kept and nothing "
+                   "is duplicated")
+            return 130
+    run.__name__ = function.__name__
+    return run
+
+
+class FlowFailed(RuntimeError):
+    """The flow itself failed (not an asset): the message says why."""
+
+
+def state_summary(state) -> RunSummary:
+    """The run summary of a finished flow state, or raise its error."""
+    data = state.result(raise_on_failure=False)
+    if isinstance(data, BaseException):
+        raise data
+    if not isinstance(data, dict):
+        raise RuntimeError(f"the flow run ended {state.name}: {state.message}")
+    return RunSummary.from_dict(data)
+
+
+def run_flow(args: argparse.Namespace, call: Callable[[], object]) -> RunSummary:
+    """Run a flow with progress on stderr; return its RunSummary.
+
+    Raises
+    ------
+    FlowFailed
+        If the flow failed for another reason than a usage or configuration error.
+    """
+    with progress.reporting(progress.for_stream(sys.stderr)):
+        state = call()
+    try:
+        return state_summary(state)
+    except USAGE_ERRORS:
+        raise
+    except Exception as error:  # noqa: BLE001 - the flow itself failed: say why, exit 1
+        raise FlowFailed(f"{type(error).__name__}: {error}") from error
+
+
+def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) -> int:
+    """Print a run summary (tables, or JSON) and the failures; return its exit status."""
+    if args.json:
+        print(json.dumps(summary.to_dict(), indent=2, default=str))
+    else:
+        console = _console()
+        console.print(fleet_table(summary, title=title))
+        if summary.alerts:
+            console.print(alert_table(summary.alerts))
+        elif summary.flow != "baseline":
+            console.print("No alerts.")
+        counts = ", ".join(f"{n} {status}" for status, n in summary.counts().items() if n)
+        count = len(summary.assets)
+        console.print(f"{count} asset{'' if count == 1 else 's'}: {counts or 'none'}.")
+        if summary.unmatched:
+            console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
+                          f"class and were left alone: {', '.join(summary.unmatched[:20])}")
+    for asset in summary.failed:
+        print(f"fleet-health: {asset.asset_id} failed: {asset.reason()}", file=sys.stderr)
+    return summary.exit_status
+
+
+def int_at_least(low: int) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``low``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
+    return parse
+
+
+positive_int, nonnegative_int = int_at_least(1), int_at_least(0)

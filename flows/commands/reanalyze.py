@@ -1,0 +1,73 @@
+"""``fleet-health reanalyze``: ad-hoc reanalysis of assets and a time range."""
+from __future__ import annotations
+
+import argparse
+
+from rich.table import Table
+
+from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
+                                     prefect_environment, report_summary, run_flow)
+from flows.fleet import UsageError, parse_time, range_windows
+from flows.report import window_label
+from flows.results import RunSummary
+from registry.cli import EXIT_FAILED, _console, _error
+
+
+def add_reanalyze_command(subparsers) -> argparse.ArgumentParser:
+    """Add ``reanalyze`` to the top-level subparsers."""
+    parser = subparsers.add_parser(
+        "reanalyze", help="ad-hoc reanalysis of assets and a time range",
+        description="Refit and compare [--start, --end) against the baseline (or --version); "
+                    "moves no watermark and no alias.")
+    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
+                        help="asset to reanalyse (repeatable)")
+    parser.add_argument("--class", dest="vehicle_class", metavar="CLASS",
+                        help="every asset of this vehicle class")
+    parser.add_argument("--start", required=True, metavar="WHEN", help="start (UTC)")
+    parser.add_argument("--end", required=True, metavar="WHEN", help="end (UTC, exclusive)")
+    parser.add_argument("--version", metavar="N|ALIAS",
+                        help="compare with this version number or alias (default: baseline)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    config_options(parser)
+    parser.set_defaults(handler=guarded(reanalyze))
+    return parser
+
+
+def reanalyze(args: argparse.Namespace) -> int:
+    """Run the reanalysis flow; print its windows and summary; return the exit status."""
+    if not (args.assets or args.vehicle_class):
+        raise UsageError("name the assets (--asset A, repeatable) or a --class")
+    config = load(args)
+    start = parse_time(args.start, "--start")
+    end = parse_time(args.end, "--end")
+    range_windows(start, end, config.nightly.window_delta, whole_only=False)
+    prefect_environment(args)
+    # prefect loads only for commands that run flows, after prefect_environment
+    from flows.reanalyze import reanalyze as reanalyze_flow
+
+    try:
+        summary = run_flow(args, lambda: reanalyze_flow(
+            start=start.isoformat(), end=end.isoformat(), assets=args.assets,
+            config_path=str(config.path), vehicle_class=args.vehicle_class,
+            version=args.version, tracking_uri=args.tracking_uri, return_state=True))
+    except FlowFailed as error:
+        _error(f"the reanalysis failed: {error}")
+        return EXIT_FAILED
+    if not args.json:
+        _console().print(window_table(summary))
+    return report_summary(args, summary, f"Reanalysis {start:%Y-%m-%d %H:%M} → "
+                                         f"{end:%Y-%m-%d %H:%M}")
+
+
+def window_table(summary: RunSummary) -> Table:
+    """Every reanalysed window of every asset, with its ratio and alarm."""
+    table = Table(title="Reanalysed windows", title_justify="left")
+    for column in ("asset", "window", "against", "max zeta/epsilon", "alarm", "run"):
+        table.add_column(column, no_wrap=True)
+    for asset in summary.assets:
+        for w in asset.windows:
+            ratio = "" if w.max_ratio is None else f"{w.max_ratio:.2f}"
+            table.add_row(asset.asset_id, window_label(w.window_start, w.window_end),
+                          f"v{asset.baseline_version}", ratio,
+                          "[bold red]ALARM[/]" if w.alarm else "ok", w.run_id[:12])
+    return table

@@ -1,0 +1,46 @@
+"""``fleet-health run``: one nightly pass now."""
+from __future__ import annotations
+
+import argparse
+
+from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
+                                     prefect_environment, report_summary, run_flow)
+from flows.fleet import parse_time
+from registry.cli import EXIT_FAILED, _error
+
+
+def add_run_command(subparsers) -> argparse.ArgumentParser:
+    """Add ``run`` to the top-level subparsers."""
+    parser = subparsers.add_parser(
+        "run", help="one nightly pass now, over every asset with new telemetry",
+        description="One nightly pass: every asset's whole windows (UTC days) after its "
+                    "watermark and before --as-of, against its baseline.")
+    parser.add_argument("--as-of", metavar="WHEN",
+                        help="process windows ending by this date/time (UTC; default now)")
+    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
+                        help="only this asset (repeatable)")
+    parser.add_argument("--class", dest="vehicle_class", metavar="CLASS",
+                        help="only this vehicle class")
+    parser.add_argument("--json", action="store_true", help="print the run summary as JSON")
+    config_options(parser)
+    parser.set_defaults(handler=guarded(run))
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the nightly flow once; print its summary; return the exit status."""
+    config = load(args)
+    as_of = None if args.as_of is None else parse_time(args.as_of, "--as-of").isoformat()
+    prefect_environment(args)
+    # prefect loads only for commands that run flows, after prefect_environment
+    from flows.nightly import nightly
+
+    try:
+        summary = run_flow(args, lambda: nightly(
+            config_path=str(config.path), as_of=as_of, assets=args.assets,
+            vehicle_class=args.vehicle_class, tracking_uri=args.tracking_uri,
+            return_state=True))
+    except FlowFailed as error:
+        _error(f"the nightly run failed: {error}")
+        return EXIT_FAILED
+    return report_summary(args, summary, f"Nightly run as of {summary.as_of[:16]} UTC")

@@ -1,0 +1,262 @@
+"""Loading ``fleet.toml``: read the file, check every key, build a :class:`FleetConfig`.
+
+A key left out takes its dataclass default (:mod:`flows.config.settings`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import pathlib
+import re
+import tomllib
+import zoneinfo
+from typing import Any, Mapping
+
+import pandas as pd
+
+from flows.config.checker import Checker
+from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI,
+                                   PLOT_POLICIES, AlertSettings, ConfigError, FleetConfig,
+                                   NightlySettings, NotificationSettings, ScheduleSettings,
+                                   VehicleClass, resolve_tracking_uri)
+from flows.memory import parse_bytes
+from graybox.estimator import GrayBoxSettings
+from graybox.exceptions import ModelSpecError
+from graybox.models import load_model
+from graybox.nonlinear_tier import FitSettings
+from graybox.telemetry import GridPolicy
+
+_CLASS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+_CRON_FIELD = re.compile(r"[0-9A-Za-z*/,?LW#-]+")
+_ID_OR_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]{1,64}")
+
+#: method settings that counted samples, and the settings in seconds that replaced them
+RENAMED_SETTINGS = {"max_ar_order": "ar_span", "max_delay": "delay_span"}
+
+
+def load_config(path: str | os.PathLike = DEFAULT_CONFIG) -> FleetConfig:
+    """Read and check a ``fleet.toml``.
+
+    Parameters
+    ----------
+    path : path-like, default ``"fleet.toml"``
+
+    Returns
+    -------
+    FleetConfig
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing or unreadable, is not TOML, or a key is unknown, missing or
+        has a bad value; the message names the file and the dotted key.
+    """
+    path = pathlib.Path(path).expanduser()
+    try:
+        text = path.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such configuration file (pass --config PATH; "
+                          f"`fleet-health demo` writes an example)") from None
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read: {error.strerror or error}") from None
+    try:
+        data = tomllib.loads(text.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    return parse_config(data, path.resolve())
+
+
+def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
+    """Check a parsed ``fleet.toml`` (see :func:`load_config`)."""
+    path = pathlib.Path(path)
+    check = Checker(path.name)
+    base = path.parent
+    check.keys("", data, ("telemetry", "mlflow", "alerts", "nightly", "schedule",
+                          "notifications", "classes"))
+
+    telemetry = check.table("telemetry", data.get("telemetry", {}))
+    check.keys("telemetry", telemetry, ("root",))
+    root = base / check.string("telemetry.root", telemetry.get("root", DEFAULT_TELEMETRY_ROOT))
+
+    mlflow = check.table("mlflow", data.get("mlflow", {}))
+    check.keys("mlflow", mlflow, ("tracking_uri",))
+    uri = check.string("mlflow.tracking_uri", mlflow.get("tracking_uri", DEFAULT_TRACKING_URI))
+    try:
+        uri = resolve_tracking_uri(uri, base)
+    except ValueError as error:
+        raise check.error("mlflow.tracking_uri", str(error)) from None
+
+    alerts = _alerts(check, check.table("alerts", data.get("alerts", {})), base)
+    nightly = _nightly(check, check.table("nightly", data.get("nightly", {})))
+    schedule = _schedule(check, check.table("schedule", data.get("schedule", {})))
+    notes = check.table("notifications", data.get("notifications", {}))
+    check.keys("notifications", notes, ("block",))
+    block = notes.get("block")
+    if block is not None:
+        block = check.string("notifications.block", block)
+        if "/" not in block:
+            raise check.error("notifications.block", f"{block!r} is not a block slug "
+                                                     f"'<block-type>/<name>' "
+                                                     f"(e.g. 'slack-webhook/fleet-health')")
+
+    classes_table = check.table("classes", data.get("classes"), required=True)
+    if not classes_table:
+        raise check.error("classes", "define at least one vehicle class, e.g. [classes.turbine]")
+    classes = {name: _vehicle_class(check, name, check.table(f"classes.{name}", table))
+               for name, table in classes_table.items()}
+    return FleetConfig(path=path, telemetry_root=root.resolve(), tracking_uri=uri,
+                       classes=classes, alerts=alerts, nightly=nightly, schedule=schedule,
+                       notifications=NotificationSettings(block))
+
+
+def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings:
+    default = AlertSettings()
+    check.keys("alerts", table, ("false_alarm_rate", "jsonl", "major_ratio", "critical_ratio"))
+    rate = check.number("alerts.false_alarm_rate",
+                        table.get("false_alarm_rate", default.false_alarm_rate))
+    if not 0 < rate < 1:
+        raise check.error("alerts.false_alarm_rate",
+                          f"must be in (0, 1) (false alarms per asset-night), got {rate!r}")
+    jsonl = base / check.string("alerts.jsonl", table.get("jsonl", str(default.jsonl)))
+    major = check.number("alerts.major_ratio", table.get("major_ratio", default.major_ratio))
+    critical = check.number("alerts.critical_ratio", table.get("critical_ratio",
+                                                                 default.critical_ratio))
+    if not 1 <= major <= critical:
+        raise check.error("alerts", f"need 1 <= major_ratio <= critical_ratio, got "
+                                    f"major_ratio={major!r}, critical_ratio={critical!r}")
+    return AlertSettings(rate, jsonl.resolve(), major, critical)
+
+
+def _nightly(check: Checker, table: Mapping) -> NightlySettings:
+    check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
+                                  "retry_delay_seconds", "memory_budget"))
+    default = NightlySettings()
+    batch = check.integer("nightly.batch_size", table.get("batch_size", default.batch_size),
+                          low=1)
+    window = check.string("nightly.window", table.get("window", default.window))
+    try:
+        delta = pd.Timedelta(window)
+    except (ValueError, TypeError):
+        raise check.error("nightly.window", f"{window!r} is not a duration such as '1D' or "
+                                            f"'6h'") from None
+    day = pd.Timedelta(days=1)
+    if delta < pd.Timedelta(hours=1) or delta > day or (day % delta) != pd.Timedelta(0):
+        raise check.error("nightly.window", f"{window!r} must divide a day and be at least "
+                                            f"1 hour (e.g. '1D', '12h', '6h')")
+    plots = check.string("nightly.plots", table.get("plots", default.plots))
+    if plots not in PLOT_POLICIES:
+        raise check.error("nightly.plots", f"must be one of {', '.join(PLOT_POLICIES)}, "
+                                           f"got {plots!r}")
+    retries = check.integer("nightly.retries", table.get("retries", default.retries),
+                            low=0)
+    delay = check.number("nightly.retry_delay_seconds",
+                         table.get("retry_delay_seconds", default.retry_delay_seconds))
+    if delay < 0:
+        raise check.error("nightly.retry_delay_seconds", f"must be >= 0, got {delay!r}")
+    try:
+        budget = parse_bytes(table.get("memory_budget", default.memory_budget))
+    except ValueError as error:
+        raise check.error("nightly.memory_budget", str(error)) from None
+    return NightlySettings(batch, window, plots, retries, delay, budget)
+
+
+def _schedule(check: Checker, table: Mapping) -> ScheduleSettings:
+    default = ScheduleSettings()
+    check.keys("schedule", table, ("cron", "timezone"))
+    cron = check.string("schedule.cron", table.get("cron", default.cron))
+    if len(cron.split()) != 5:
+        raise check.error("schedule.cron", f"{cron!r} is not a 5-field cron expression "
+                                           f"(minute hour day month weekday)")
+    for part in cron.split():
+        if _CRON_FIELD.fullmatch(part) is None:
+            raise check.error("schedule.cron", f"{cron!r}: field {part!r} is not a cron field")
+    timezone = check.string("schedule.timezone", table.get("timezone", default.timezone))
+    try:
+        zoneinfo.ZoneInfo(timezone)
+    except (zoneinfo.ZoneInfoNotFoundError, ValueError):
+        raise check.error("schedule.timezone", f"unknown time zone {timezone!r}") from None
+    return ScheduleSettings(cron, timezone)
+
+
+def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
+    key = f"classes.{name}"
+    if _CLASS_NAME.fullmatch(name) is None or name in (".", ".."):
+        raise check.error(key, "a vehicle class name must match [A-Za-z0-9_.-]{1,64}")
+    check.keys(key, table, ("model", "parameters", "assets", "columns", "settings", "grid"))
+    if "model" not in table:
+        raise check.error(f"{key}.model", "missing: name the physics model, e.g. "
+                                          "\"graybox.models:GasTurbineShaft\"")
+    model = check.string(f"{key}.model", table["model"])
+    parameters = check.table(f"{key}.parameters", table.get("parameters", {}))
+    for pname, value in parameters.items():
+        check.number(f"{key}.parameters.{pname}", value)
+    columns = check.table(f"{key}.columns", table.get("columns", {}))
+    for cname, value in columns.items():
+        check.string(f"{key}.columns.{cname}", value)
+    if "assets" not in table:
+        raise check.error(f"{key}.assets", "missing: list the class's asset ids or glob "
+                                           "patterns, e.g. [\"T-*\"]")
+    assets = table["assets"]
+    if isinstance(assets, str):
+        assets = [assets]
+    if not isinstance(assets, list) or not assets:
+        raise check.error(f"{key}.assets", f"must be a non-empty list of asset ids or glob "
+                                           f"patterns, got {assets!r}")
+    for i, pattern in enumerate(assets):
+        if not isinstance(pattern, str) or _ID_OR_GLOB.fullmatch(pattern) is None:
+            raise check.error(f"{key}.assets[{i}]", f"{pattern!r} is neither an asset id "
+                                                    f"([A-Za-z0-9_.-]) nor a glob pattern of one")
+    # the model must load with these parameters and columns (errors name the key)
+    try:
+        load_model(model, dict(parameters), dict(columns))
+    except ModelSpecError as error:
+        message = str(error)
+        where = f"{key}.model"
+        if "parameter" in message:
+            where = f"{key}.parameters"
+        elif "column" in message:
+            where = f"{key}.columns"
+        raise check.error(where, message) from None
+
+    overrides = dict(check.table(f"{key}.settings", table.get("settings", {})))
+    for old, new in RENAMED_SETTINGS.items():
+        if old in overrides:
+            raise check.error(f"{key}.settings.{old}", f"replaced by {new}, in seconds so that it "
+                                                       f"holds at every sample rate (e.g. "
+                                                       f"{new} = 200.0)")
+    check.fields(f"{key}.settings", overrides, GrayBoxSettings)
+    if "network" in overrides:
+        network = check.table(f"{key}.settings.network", overrides["network"])
+        check.fields(f"{key}.settings.network", network, FitSettings)
+        overrides["network"] = check.build(f"{key}.settings.network", FitSettings, network)
+    settings = check.build(f"{key}.settings",
+                           lambda **values: dataclasses.replace(GrayBoxSettings(), **values),
+                           overrides)
+
+    grid = _grid(check, f"{key}.grid", check.table(f"{key}.grid", table.get("grid", {})))
+    return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
+                        grid)
+
+
+# GridPolicy keys counted in samples before its limits became durations
+_OLD_GRID_KEYS = {
+    "max_fill": ("max_gap", 'max_gap = "40s"', "the longest time between two rows that is "
+                 "filled by interpolation (max_fill = 3 at 10 s samples is 40 s)"),
+    "stuck_samples": ("stuck_after", 'stuck_after = "10min"', "how long a sensor may hold one "
+                      "value (stuck_samples = 60 at 10 s samples is 10 minutes)"),
+    "min_samples": ("min_duration", 'min_duration = "1h"', "the least time a window must "
+                    "cover (min_samples = 500 at 10 s samples is about 83 minutes)"),
+}
+
+
+def _grid(check: Checker, key: str, table: Mapping):
+    """The ``grid`` table of a vehicle class as a GridPolicy; old sample-count keys refused."""
+    for name, (new, example, meaning) in _OLD_GRID_KEYS.items():
+        if name in table:
+            raise check.error(f"{key}.{name}", f"counted samples and is replaced by the "
+                                               f"duration {new!r}, {meaning}; write e.g. "
+                                               f"grid = {{ {example} }}")
+    check.fields(key, table, GridPolicy)
+    for name, value in table.items():  # name the key of the first bad value
+        check.build(f"{key}.{name}", GridPolicy, {name: value})
+    return check.build(key, GridPolicy, table)

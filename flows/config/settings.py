@@ -1,0 +1,167 @@
+"""The settings of ``fleet.toml`` as frozen dataclasses; their field defaults are the
+configuration's defaults (the parser and the rendered template read them from here)."""
+from __future__ import annotations
+
+import dataclasses
+import fnmatch
+import pathlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from graybox.models import load_model
+from registry.store import resolve_store
+
+DEFAULT_CONFIG = "fleet.toml"
+DEFAULT_TELEMETRY_ROOT = "telemetry"
+DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
+PLOT_POLICIES = ("alarms", "all", "none")
+
+#: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
+DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
+
+
+class ConfigError(ValueError):
+    """``fleet.toml`` is missing, unreadable or wrong; the message names the file and key."""
+
+
+@dataclass(frozen=True)
+class VehicleClass:
+    """One ``[classes.<name>]`` table.
+
+    Attributes
+    ----------
+    name : str
+    model : str
+        ``package.module:ClassName`` of the physics model.
+    parameters : dict
+        Overrides of the model's ``default_parameters``.
+    assets : tuple of str
+        Asset ids or glob patterns (``fnmatch``).
+    columns : dict
+        Model variable -> telemetry column.
+    settings : GrayBoxSettings
+        The method's settings for new baselines of this class (candidates always use their
+        baseline's own settings).
+    grid : GridPolicy
+        How telemetry is checked and put on a grid.
+    """
+
+    name: str
+    model: str
+    parameters: dict
+    assets: tuple[str, ...]
+    columns: dict
+    settings: Any
+    grid: Any
+
+    def load_model(self):
+        """The class's physics model (a :class:`graybox.models.WhiteBoxModel`)."""
+        return load_model(self.model, self.parameters, self.columns)
+
+    def matches(self, asset_id: str) -> bool:
+        """Whether an asset id is one of the class's ids or matches one of its patterns."""
+        return any(fnmatch.fnmatchcase(asset_id, pattern) for pattern in self.assets)
+
+    def explicit_assets(self) -> tuple[str, ...]:
+        """The entries of ``assets`` that are plain ids (no glob characters)."""
+        return tuple(a for a in self.assets if not any(c in a for c in "*?[]!"))
+
+
+@dataclass(frozen=True)
+class AlertSettings:
+    false_alarm_rate: float = 0.01
+    jsonl: pathlib.Path = pathlib.Path("alerts.jsonl")
+    major_ratio: float = 2.0
+    critical_ratio: float = 5.0
+
+
+@dataclass(frozen=True)
+class NightlySettings:
+    batch_size: int = 64
+    window: str = "1D"
+    plots: str = "alarms"
+    retries: int = 2
+    retry_delay_seconds: float = 30.0
+    memory_budget: int = DEFAULT_MEMORY_BUDGET
+
+    @property
+    def window_delta(self) -> pd.Timedelta:
+        return pd.Timedelta(self.window)
+
+
+@dataclass(frozen=True)
+class ScheduleSettings:
+    cron: str = "30 2 * * *"
+    timezone: str = "UTC"
+
+
+@dataclass(frozen=True)
+class NotificationSettings:
+    block: str | None = None
+
+
+@dataclass(frozen=True)
+class FleetConfig:
+    """The whole ``fleet.toml``, with paths resolved against the file's directory.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file (absolute).
+    telemetry_root : pathlib.Path
+    tracking_uri : str
+        Absolute for SQLite stores.
+    classes : dict of str to VehicleClass
+        In file order.
+    alerts, nightly, schedule, notifications
+        The optional tables, with defaults.
+    """
+
+    path: pathlib.Path
+    telemetry_root: pathlib.Path
+    tracking_uri: str
+    classes: dict[str, VehicleClass]
+    alerts: AlertSettings = field(default_factory=AlertSettings)
+    nightly: NightlySettings = field(default_factory=NightlySettings)
+    schedule: ScheduleSettings = field(default_factory=ScheduleSettings)
+    notifications: NotificationSettings = field(default_factory=NotificationSettings)
+
+    @property
+    def base_dir(self) -> pathlib.Path:
+        return self.path.parent
+
+    def with_tracking_uri(self, tracking_uri: str | None) -> "FleetConfig":
+        """A copy using another tracking URI (``--tracking-uri``); None keeps this one."""
+        if not tracking_uri:
+            return self
+        return dataclasses.replace(self, tracking_uri=resolve_tracking_uri(tracking_uri,
+                                                                           pathlib.Path.cwd()))
+
+    def class_of(self, asset_id: str) -> VehicleClass | None:
+        """The vehicle class whose ``assets`` match the id (None if none does).
+
+        Raises
+        ------
+        ConfigError
+            If two classes claim the asset.
+        """
+        found = [c for c in self.classes.values() if c.matches(asset_id)]
+        if len(found) > 1:
+            raise ConfigError(f"{self.path.name}: classes: asset {asset_id!r} matches more than "
+                              f"one vehicle class ({', '.join(c.name for c in found)}); make the "
+                              f"'assets' patterns disjoint")
+        return found[0] if found else None
+
+    def registry(self):
+        """A :class:`registry.Registry` on this configuration's store."""
+        # mlflow loads on first use: a bad configuration or --help must not import it
+        from registry import Registry
+
+        return Registry(self.tracking_uri, workdir=self.base_dir)
+
+
+def resolve_tracking_uri(uri: str, base: pathlib.Path) -> str:
+    """Make a relative ``sqlite:///`` path absolute against ``base``; other URIs unchanged."""
+    return resolve_store(uri, base).tracking_uri

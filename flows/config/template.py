@@ -1,0 +1,87 @@
+"""A commented ``fleet.toml`` for one vehicle class (what ``demo`` and ``simulate
+--config-out`` write); its values default to the settings' dataclass defaults."""
+from __future__ import annotations
+
+import json
+import re
+from typing import Any, Mapping
+
+from flows.config.settings import (DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI, AlertSettings,
+                                   NightlySettings, ScheduleSettings)
+from graybox.telemetry import GridPolicy
+from graybox.telemetry.policy import format_duration
+
+
+def render_config(*, telemetry_root: str = DEFAULT_TELEMETRY_ROOT,
+                  tracking_uri: str = DEFAULT_TRACKING_URI,
+                  class_name: str = "turbine", model: str = "graybox.models:GasTurbineShaft",
+                  assets: tuple[str, ...] = ("T-*",),
+                  columns: Mapping[str, str] | None = None,
+                  false_alarm_rate: float = AlertSettings().false_alarm_rate,
+                  batch_size: int = NightlySettings().batch_size,
+                  plots: str = NightlySettings().plots, cron: str = ScheduleSettings().cron,
+                  retry_delay_seconds: float = NightlySettings().retry_delay_seconds,
+                  grid: Mapping[str, Any] | None = None) -> str:
+    """A commented ``fleet.toml`` for one vehicle class (what ``demo`` writes).
+
+    ``grid`` holds overrides of :class:`graybox.telemetry.GridPolicy` (durations as seconds
+    or strings such as ``"5s"``); the class's ``grid`` line shows every limit in effect.
+    """
+    columns = {"omega": "shaft_speed"} if columns is None else dict(columns)
+    column_text = ", ".join(f'{k} = "{v}"' for k, v in columns.items())
+    asset_text = ", ".join(f'"{a}"' for a in assets)
+    alerts, nightly, schedule = AlertSettings(), NightlySettings(), ScheduleSettings()
+    return f'''# fleet-health configuration (see README "Configuration reference")
+
+[telemetry]
+root = "{telemetry_root}"                  # <root>/asset_id=<id>/date=<YYYY-MM-DD>/*.parquet
+
+[mlflow]
+tracking_uri = "{tracking_uri}"     # relative SQLite paths resolve against this file
+
+[alerts]
+false_alarm_rate = {false_alarm_rate}             # per asset-night; sets epsilon when baselines are fitted
+jsonl = "{alerts.jsonl}"               # every alert, one JSON object per line
+major_ratio = {alerts.major_ratio}                    # zeta/epsilon from which an alert is "major"
+critical_ratio = {alerts.critical_ratio}                 # ... and "critical" (above 1: "minor")
+
+[nightly]
+batch_size = {batch_size}                      # assets per Prefect task (one batched network fit)
+window = "{nightly.window}"                        # the nightly window (whole UTC days)
+plots = "{plots}"                    # candidate plots: "alarms", "all" or "none"
+retries = {nightly.retries}                          # retries of a batch after a transient error
+retry_delay_seconds = {retry_delay_seconds:g}
+
+[schedule]
+cron = "{cron}"                  # nightly deployment (fleet-health serve)
+timezone = "{schedule.timezone}"
+
+[classes.{class_name}]
+model = "{model}"
+assets = [{asset_text}]
+columns = {{ {column_text} }}
+grid = {{ {_grid_text(grid)} }}
+# grid: max_gap = longest time between rows filled by interpolation, stuck_after = how long a
+# channel may hold one value, min_duration = least time a window must cover
+'''
+
+
+def _grid_text(overrides: Mapping[str, Any] | None) -> str:
+    """The inline-table body of a GridPolicy (defaults plus ``overrides``) as durations."""
+    policy = GridPolicy(**dict(overrides or {}))
+    parts = []
+    if policy.sample_interval is not None:
+        parts.append(f'sample_interval = "{format_duration(policy.sample_interval)}"')
+    parts.append(f'max_gap = "{format_duration(policy.max_gap)}"')
+    if isinstance(policy.stuck_after, tuple):
+        limits = ", ".join(f'{_toml_key(name)} = "{format_duration(limit)}"'
+                           for name, limit in policy.stuck_after)
+        parts.append(f"stuck_after = {{ {limits} }}")
+    else:
+        parts.append(f'stuck_after = "{format_duration(policy.stuck_after)}"')
+    parts.append(f'min_duration = "{format_duration(policy.min_duration)}"')
+    return ", ".join(parts)
+
+
+def _toml_key(name: str) -> str:
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name)
