@@ -17,7 +17,7 @@ from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import Differencing
-from graybox.tiers import TIER_KINDS, TIERS, tier_kind
+from graybox.tiers import TIER_KINDS, TIERS, tier_kind  # noqa: F401 - TIERS re-exported
 
 FORMAT_VERSION = 1
 
