@@ -19,7 +19,6 @@ file lock, and a key already in the file is not written again, so a rerun of the
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import json
 import os
 import pathlib
@@ -27,6 +26,10 @@ from typing import Iterable, Iterator
 
 from graybox.timestamps import utc
 from registry.alert import Alert, alerts_from_drift, severity
+from registry.store import file_lock
+
+#: seconds an append waits for the alerts file's lock before the run fails (never hangs)
+LOCK_TIMEOUT = 120.0
 
 __all__ = ["Alert", "AlertLog", "alerts_from_drift", "severity"]
 
@@ -45,14 +48,12 @@ class AlertLog:
         self.path = pathlib.Path(path)
 
     @contextlib.contextmanager
-    def _locked(self) -> Iterator[None]:
+    def _locked(self, timeout: float = LOCK_TIMEOUT) -> Iterator[None]:
+        # a stuck holder fails this run after ``timeout`` seconds instead of hanging it
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with open(self.path.with_name(self.path.name + ".lock"), "a+") as handle:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
-            try:
-                yield
-            finally:
-                fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+        with file_lock(self.path.with_name(self.path.name + ".lock"), timeout=timeout,
+                       what=f"the alerts file {self.path}"):
+            yield
 
     def _read_lines(self) -> list[dict]:
         if not self.path.exists():

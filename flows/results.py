@@ -20,6 +20,7 @@ import pandas as pd
 
 from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
+from registry.cli import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError
 from registry.store import is_locked_error
 
@@ -29,7 +30,6 @@ OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
 STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY)
 
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 class TransientError(RuntimeError):

@@ -88,3 +88,20 @@ def test_one_alert_type_with_an_exact_json_round_trip():
     assert isinstance(record.top_changes, tuple)
     assert Alert.from_dict(json.loads(json.dumps(record.to_dict()))) == record
     assert Alert.from_dict({**record.to_dict(), "unknown": 1}) == record
+
+
+def test_a_stuck_lock_holder_fails_the_append_instead_of_hanging_it(tmp_path):
+    import time
+
+    from registry.exceptions import RegistryError
+    from registry.store import file_lock
+
+    log = AlertLog(tmp_path / "alerts.jsonl")
+    with file_lock(tmp_path / "alerts.jsonl.lock"):          # another run holds the file
+        started = time.monotonic()
+        with pytest.raises(RegistryError, match="alerts file"):
+            with log._locked(timeout=0.3):
+                pass
+        assert time.monotonic() - started < 5
+    with log._locked(timeout=0.3):                           # free again
+        pass
