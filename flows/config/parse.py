@@ -28,6 +28,9 @@ from graybox.telemetry import GridPolicy
 
 _CLASS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _CRON_FIELD = re.compile(r"[0-9A-Za-z*/,?LW#-]+")
+#: (name, lowest, highest) of the five cron fields; numbers outside are refused at load
+_CRON_RANGES = (("minute", 0, 59), ("hour", 0, 23), ("day of month", 1, 31), ("month", 1, 12),
+                ("day of week", 0, 7))
 _ID_OR_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]{1,64}")
 
 #: method settings that counted samples, and the settings in seconds that replaced them
@@ -167,9 +170,13 @@ def _schedule(check: Checker, table: Mapping) -> ScheduleSettings:
     if len(cron.split()) != 5:
         raise check.error("schedule.cron", f"{cron!r} is not a 5-field cron expression "
                                            f"(minute hour day month weekday)")
-    for part in cron.split():
+    for part, (name, low, high) in zip(cron.split(), _CRON_RANGES):
         if _CRON_FIELD.fullmatch(part) is None:
             raise check.error("schedule.cron", f"{cron!r}: field {part!r} is not a cron field")
+        for number in re.split(r"[^0-9]+", part.split("/")[0]):
+            if number and not low <= int(number) <= high:
+                raise check.error("schedule.cron", f"{cron!r}: {name} {number} is outside "
+                                                   f"{low}-{high}")
     timezone = check.string("schedule.timezone", table.get("timezone", default.timezone))
     try:
         zoneinfo.ZoneInfo(timezone)
