@@ -28,14 +28,15 @@ from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.stage_clock import StageClock, timed
 
 from flows import progress
-from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
+from flows.batching import (batch_task_body, guard_asset_error, no_telemetry, retry_transient,
+                            run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
-from flows.fleet import AssetRef, UsageError, discover, range_windows, utc
+from flows.fleet import AssetRef, UsageError, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
 from flows.pipeline import PendingAsset, fit_baselines, memory_groups, read
 from flows.report import flow_result
-from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, WindowResult,
+from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)
 from registry.submission import FitSubmission
 
@@ -168,11 +169,8 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
 def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
                    end: str, promote: bool, reason: str | None, label: str) -> dict:
     """One batch of baseline fits (a Prefect task: retried on transient errors)."""
-    config = load_config(config_path).with_tracking_uri(tracking_uri)
-    clock = StageClock()
-    results = process_baseline_batch(config, [AssetRef(**r) for r in refs], start, end,
-                                     promote, reason, clock=clock)
-    return BatchOutput(results, clock.to_dict()).to_dict()
+    return batch_task_body(process_baseline_batch, config_path, tracking_uri, refs, start, end,
+                           promote, reason)
 
 
 def run_baseline(config: FleetConfig, config_path: str, start, end,
@@ -187,23 +185,15 @@ def run_baseline(config: FleetConfig, config_path: str, start, end,
                          tracking_uri=config.tracking_uri,
                          extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
                                 "promote": promote})
-    fleet = discover(config, assets, vehicle_class)
-    summary.unmatched = list(fleet.unmatched)
-    progress.start(f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
-                   len(fleet.assets))
-    clock = StageClock()
-    summary.assets = run_batches(baseline_batch, config, fleet.assets,
-                                 (config_path, tracking_uri, utc(start).isoformat(),
-                                  utc(end).isoformat(), promote, reason), clock)
-    summary.assets += [AssetResult(r.asset_id, r.vehicle_class,
-                                   FAILED if assets else NO_TELEMETRY,
-                                   error=describe_error(RuntimeError("no telemetry in the store"))
-                                   if assets else None,
-                                   note=None if assets else "no telemetry in the store")
-                       for r in fleet.without_telemetry]
-    summary.extra["stages"] = clock.to_dict()
-    summary.finished = now_iso()
-    return summary
+    # an asset asked for by name without telemetry cannot get its baseline: a failure
+    missing = no_telemetry if not assets else (lambda ref: AssetResult(
+        ref.asset_id, ref.vehicle_class, FAILED,
+        error=describe_error(RuntimeError("no telemetry in the store"))))
+    return run_over_fleet(summary, baseline_batch, config,
+                          (config_path, tracking_uri, utc(start).isoformat(),
+                           utc(end).isoformat(), promote, reason),
+                          f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
+                          assets, vehicle_class, missing)
 
 
 @flow(name="fleet-health-baseline", on_completion=[notify_hook], on_failure=[notify_hook],

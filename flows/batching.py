@@ -16,9 +16,10 @@ from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock
 
 from flows import progress
-from flows.config import FleetConfig
-from flows.fleet import AssetRef, batches
-from flows.results import AssetResult, FAILED, TransientError, describe_error, is_transient
+from flows.config import FleetConfig, load_config
+from flows.fleet import AssetRef, batches, discover
+from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, TransientError,
+                           describe_error, is_transient, now_iso)
 from registry.exceptions import RegistryError
 
 logger = logging.getLogger(__name__)
@@ -101,3 +102,37 @@ def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tu
                                                                      state.name)
             out += on_failure(batch, reason, config.nightly.retries + 1)
     return out
+
+
+def batch_task_body(process: Callable, config_path: str, tracking_uri: str | None,
+                    refs: list[dict], *args) -> dict:
+    """What every batch task does: load the configuration, ``process(config, refs, *args,
+    clock=...)`` the batch, and return its :class:`BatchOutput` as a dict."""
+    config = load_config(config_path).with_tracking_uri(tracking_uri)
+    clock = StageClock()
+    results = process(config, [AssetRef(**r) for r in refs], *args, clock=clock)
+    return BatchOutput(results, clock.to_dict()).to_dict()
+
+
+def no_telemetry(ref: AssetRef) -> AssetResult:
+    """The result of an asset listed in fleet.toml without any telemetry in the store."""
+    return AssetResult(ref.asset_id, ref.vehicle_class, NO_TELEMETRY,
+                       note="no telemetry in the store")
+
+
+def run_over_fleet(summary: RunSummary, task_fn, config: FleetConfig, args: tuple,
+                   description: str, assets: Sequence[str] | None = None,
+                   vehicle_class: str | None = None,
+                   without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
+                   ) -> RunSummary:
+    """A flow's body: discover the assets, run ``task_fn`` over their batches (see
+    :func:`run_batches`) with progress, and complete ``summary`` (assets, stage seconds)."""
+    fleet = discover(config, assets, vehicle_class)
+    summary.unmatched = list(fleet.unmatched)
+    progress.start(description, len(fleet.assets))
+    clock = StageClock()
+    summary.assets = run_batches(task_fn, config, fleet.assets, args, clock)
+    summary.assets += [without_telemetry(ref) for ref in fleet.without_telemetry]
+    summary.extra["stages"] = clock.to_dict()
+    summary.finished = now_iso()
+    return summary

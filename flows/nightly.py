@@ -42,15 +42,16 @@ from graybox.telemetry import list_dates
 
 from flows import progress
 from flows.alerts import AlertLog
-from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
+from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
+                            run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
-from flows.fleet import AssetRef, discover, pending_windows, utc
+from flows.fleet import AssetRef, pending_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
                             record_candidates)
 from flows.report import flow_result
-from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, UP_TO_DATE, AssetResult,
+from flows.results import (FAILED, NO_BASELINE, OK, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, describe_error, is_transient, now_iso)
 
 
@@ -172,10 +173,7 @@ def _progress_text(result: AssetResult) -> str:
 def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,
                   label: str) -> dict:
     """One batch of assets (a Prefect task: retried on transient errors)."""
-    config = load_config(config_path).with_tracking_uri(tracking_uri)
-    clock = StageClock()
-    results = process_batch(config, [AssetRef(**r) for r in refs], as_of, clock=clock)
-    return BatchOutput(results, clock.to_dict()).to_dict()
+    return batch_task_body(process_batch, config_path, tracking_uri, refs, as_of)
 
 
 def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
@@ -185,18 +183,10 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
     as_of_ts = utc(as_of) if as_of is not None else pd.Timestamp.now(tz="UTC")
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
-    fleet = discover(config, assets, vehicle_class)
-    summary.unmatched = list(fleet.unmatched)
-    progress.start(f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", len(fleet.assets))
-    clock = StageClock()
-    summary.assets = run_batches(nightly_batch, config, fleet.assets,
-                                 (config_path, tracking_uri, as_of_ts.isoformat()), clock)
-    summary.assets += [AssetResult(r.asset_id, r.vehicle_class, NO_TELEMETRY,
-                                   note="no telemetry in the store")
-                       for r in fleet.without_telemetry]
-    summary.extra["stages"] = clock.to_dict()
-    summary.finished = now_iso()
-    return summary
+    return run_over_fleet(summary, nightly_batch, config,
+                          (config_path, tracking_uri, as_of_ts.isoformat()),
+                          f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+                          vehicle_class)
 
 
 @flow(name="fleet-health-nightly", on_completion=[notify_hook], on_failure=[notify_hook],

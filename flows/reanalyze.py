@@ -22,15 +22,16 @@ from prefect.cache_policies import NO_CACHE
 from graybox.stage_clock import StageClock, timed
 
 from flows import progress
-from flows.batching import BatchOutput, guard_asset_error, retry_transient, run_batches
+from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
+                            run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
-from flows.fleet import AssetRef, discover, range_windows, utc
+from flows.fleet import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
                             record_candidates)
 from flows.report import flow_result
-from flows.results import (FAILED, NO_TELEMETRY, OK, AssetResult, RunSummary, describe_error,
+from flows.results import (FAILED, OK, AssetResult, RunSummary, describe_error,
                            now_iso)
 
 
@@ -93,11 +94,8 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
 def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
                      end: str, version: str | None, label: str) -> dict:
     """One batch of reanalyses (a Prefect task: retried on transient errors)."""
-    config = load_config(config_path).with_tracking_uri(tracking_uri)
-    clock = StageClock()
-    results = process_reanalysis_batch(config, [AssetRef(**r) for r in refs], start, end,
-                                       version, clock=clock)
-    return BatchOutput(results, clock.to_dict()).to_dict()
+    return batch_task_body(process_reanalysis_batch, config_path, tracking_uri, refs, start,
+                           end, version)
 
 
 def run_reanalysis(config: FleetConfig, config_path: str, start, end,
@@ -109,21 +107,11 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
                          tracking_uri=config.tracking_uri,
                          extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
                                 "version": str(_reference(version))})
-    fleet = discover(config, assets, vehicle_class)
-    summary.unmatched = list(fleet.unmatched)
-    progress.start(f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
-                   len(fleet.assets))
-    clock = StageClock()
-    summary.assets = run_batches(reanalysis_batch, config, fleet.assets,
-                                 (config_path, tracking_uri, utc(start).isoformat(),
-                                  utc(end).isoformat(),
-                                  None if version is None else str(version)), clock)
-    summary.assets += [AssetResult(r.asset_id, r.vehicle_class, NO_TELEMETRY,
-                                   note="no telemetry in the store")
-                       for r in fleet.without_telemetry]
-    summary.extra["stages"] = clock.to_dict()
-    summary.finished = now_iso()
-    return summary
+    return run_over_fleet(summary, reanalysis_batch, config,
+                          (config_path, tracking_uri, utc(start).isoformat(),
+                           utc(end).isoformat(), None if version is None else str(version)),
+                          f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
+                          assets, vehicle_class)
 
 
 @flow(name="fleet-health-reanalyze", on_completion=[notify_hook], on_failure=[notify_hook],
