@@ -148,7 +148,8 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     def load(ref: AssetRef) -> PendingAsset | None:
         results[ref.asset_id], pending = select(config, ref, windows, clock)
         if pending is None:
-            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}")
+            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}",
+                             failed=int(results[ref.asset_id].failed))
         return pending
 
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=True)
@@ -158,7 +159,8 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
         for pending in group:
             record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
                             clock)
-            progress.advance(1, f"{pending.asset_id} {pending.result.status}")
+            progress.advance(1, f"{pending.asset_id} {pending.result.status}",
+                             failed=int(pending.result.failed))
     return [results[ref.asset_id] for ref in refs]
 
 

@@ -72,7 +72,7 @@ def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
     for ref in refs:
         out.append(AssetResult(ref.asset_id, ref.vehicle_class, FAILED,
                                error=describe_error(RuntimeError(message))))
-        progress.advance(1, f"{ref.asset_id} FAILED")
+        progress.advance(1, f"{ref.asset_id} FAILED", failed=1)
     return out
 
 

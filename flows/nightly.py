@@ -121,7 +121,8 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     def load(ref: AssetRef) -> PendingAsset | None:
         results[ref.asset_id], pending = select(config, registry, ref, as_of, clock)
         if pending is None:
-            progress.advance(1, _progress_text(results[ref.asset_id]))
+            progress.advance(1, _progress_text(results[ref.asset_id]),
+                             failed=int(results[ref.asset_id].failed))
         return pending
 
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
@@ -139,7 +140,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
             raise
         for pending in group:
             _commit_watermark(registry, pending, clock)
-            progress.advance(1, _progress_text(pending.result))
+            progress.advance(1, _progress_text(pending.result), failed=int(pending.result.failed))
     return [results[ref.asset_id] for ref in refs]
 
 

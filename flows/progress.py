@@ -26,7 +26,7 @@ class Reporter:
     def start(self, description: str, total: int) -> None:
         logger.info("%s: %d to do", description, total)
 
-    def advance(self, count: int = 1, text: str | None = None) -> None:
+    def advance(self, count: int = 1, text: str | None = None, failed: int = 0) -> None:
         if text:
             logger.info("%s", text)
 
@@ -44,17 +44,21 @@ class LineReporter(Reporter):
         self.stream = stream or sys.stderr
         self.total = 0
         self.done = 0
+        self.failed = 0
         self.description = ""
 
     def start(self, description: str, total: int) -> None:
-        self.description, self.total, self.done = description, total, 0
+        self.description, self.total, self.done, self.failed = description, total, 0, 0
         print(f"{description}: {total} to do", file=self.stream, flush=True)
 
-    def advance(self, count: int = 1, text: str | None = None) -> None:
+    def advance(self, count: int = 1, text: str | None = None, failed: int = 0) -> None:
         self.done += count
+        self.failed += failed
+        # "8/8" alone would read as eight successes: the failures are counted beside it
+        failures = f", {self.failed} failed" if self.failed else ""
         suffix = f" ({text})" if text else ""
-        print(f"{self.description}: {self.done}/{self.total}{suffix}", file=self.stream,
-              flush=True)
+        print(f"{self.description}: {self.done}/{self.total} done{failures}{suffix}",
+              file=self.stream, flush=True)
 
     def note(self, text: str) -> None:
         print(text, file=self.stream, flush=True)
@@ -67,6 +71,7 @@ class RichReporter(Reporter):
         self.console = console
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(),
                                  MofNCompleteColumn(), TimeElapsedColumn(),
+                                 TextColumn("{task.fields[failures]}"),
                                  TextColumn("{task.fields[last]}"), console=console,
                                  transient=False)
         self.task = None
@@ -75,11 +80,15 @@ class RichReporter(Reporter):
     def start(self, description: str, total: int) -> None:
         if self.task is not None:
             self.progress.update(self.task, visible=True)
-        self.task = self.progress.add_task(description, total=max(total, 1), last="")
+        self.failed = 0
+        self.task = self.progress.add_task(description, total=max(total, 1), last="",
+                                           failures="")
 
-    def advance(self, count: int = 1, text: str | None = None) -> None:
+    def advance(self, count: int = 1, text: str | None = None, failed: int = 0) -> None:
         if self.task is not None:
-            self.progress.update(self.task, advance=count, last=text or "")
+            self.failed += failed
+            self.progress.update(self.task, advance=count, last=text or "",
+                                 failures=f"{self.failed} failed" if self.failed else "")
 
     def note(self, text: str) -> None:
         self.progress.console.print(text)
@@ -101,9 +110,10 @@ def start(description: str, total: int) -> None:
         _current.start(description, total)
 
 
-def advance(count: int = 1, text: str | None = None) -> None:
+def advance(count: int = 1, text: str | None = None, failed: int = 0) -> None:
+    """``count`` more done, ``failed`` of them failed; ``text`` says about the last."""
     with _lock:
-        _current.advance(count, text)
+        _current.advance(count, text, failed)
 
 
 def note(text: str) -> None:

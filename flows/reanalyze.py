@@ -74,7 +74,8 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
     def load(ref: AssetRef) -> PendingAsset | None:
         results[ref.asset_id], pending = select(config, registry, ref, windows, version, clock)
         if pending is None:
-            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}")
+            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}",
+                             failed=int(results[ref.asset_id].failed))
         return pending
 
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
@@ -83,7 +84,8 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
         for pending in group:
             record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
                               clock=clock)
-            progress.advance(1, f"{pending.asset_id} {pending.result.status}")
+            progress.advance(1, f"{pending.asset_id} {pending.result.status}",
+                             failed=int(pending.result.failed))
     return [results[ref.asset_id] for ref in refs]
 
 
