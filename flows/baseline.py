@@ -27,14 +27,14 @@ from prefect.cache_policies import NO_CACHE
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.stage_clock import StageClock, timed
 
-from flows import progress
 from flows.batching import (batch_task_body, guard_asset_error, no_telemetry, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, UsageError, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import PendingAsset, fit_baselines, memory_groups, read
+from flows.pipeline import (PendingAsset, asset_done, fit_baselines, loader, memory_groups,
+                            read)
 from flows.report import flow_result
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)
@@ -144,14 +144,7 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
     results: dict[str, AssetResult] = {}
-
-    def load(ref: AssetRef) -> PendingAsset | None:
-        results[ref.asset_id], pending = select(config, ref, windows, clock)
-        if pending is None:
-            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}",
-                             failed=int(results[ref.asset_id].failed))
-        return pending
-
+    load = loader(results, lambda ref: select(config, ref, windows, clock))
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=True)
     for group in memory_groups(refs, load, budget):
         fits = fit_baselines(group, lambda p: config.classes[p.ref.vehicle_class].settings,
@@ -159,8 +152,7 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
         for pending in group:
             record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
                             clock)
-            progress.advance(1, f"{pending.asset_id} {pending.result.status}",
-                             failed=int(pending.result.failed))
+            asset_done(pending.result)
     return [results[ref.asset_id] for ref in refs]
 
 

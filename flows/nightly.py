@@ -40,7 +40,6 @@ from prefect.cache_policies import NO_CACHE
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates
 
-from flows import progress
 from flows.alerts import AlertLog
 from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
@@ -48,8 +47,8 @@ from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, pending_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
-                            record_candidates)
+from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
+                            read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, describe_error, is_transient, now_iso)
@@ -117,14 +116,8 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     as_of = utc(as_of)
     results: dict[str, AssetResult] = {}
     log = AlertLog(config.alerts.jsonl)
-
-    def load(ref: AssetRef) -> PendingAsset | None:
-        results[ref.asset_id], pending = select(config, registry, ref, as_of, clock)
-        if pending is None:
-            progress.advance(1, _progress_text(results[ref.asset_id]),
-                             failed=int(results[ref.asset_id].failed))
-        return pending
-
+    load = loader(results, lambda ref: select(config, registry, ref, as_of, clock),
+                  _progress_text)
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
     for group in memory_groups(refs, load, budget):
         fit_candidates(group, clock)
@@ -140,7 +133,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
             raise
         for pending in group:
             _commit_watermark(registry, pending, clock)
-            progress.advance(1, _progress_text(pending.result), failed=int(pending.result.failed))
+            asset_done(pending.result, _progress_text)
     return [results[ref.asset_id] for ref in refs]
 
 

@@ -32,6 +32,7 @@ from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import GridPolicy, read_window
 
+from flows import progress
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig
 from flows.fleet import AssetRef
@@ -156,6 +157,27 @@ def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
         guard_asset_error(error, ref, "reading its telemetry")
         result.status, result.error = FAILED, describe_error(error)
         return None
+
+
+def asset_done(result: AssetResult, describe: Callable[[AssetResult], str] | None = None
+               ) -> None:
+    """Report an asset's final result on the progress line (its failure counted)."""
+    text = describe(result) if describe else f"{result.asset_id} {result.status}"
+    progress.advance(1, text, failed=int(result.failed))
+
+
+def loader(results: dict[str, AssetResult],
+           select: Callable[[AssetRef], tuple[AssetResult, PendingAsset | None]],
+           describe: Callable[[AssetResult], str] | None = None
+           ) -> Callable[[AssetRef], PendingAsset | None]:
+    """:func:`memory_groups`' ``load``: ``select`` an asset, keep its result in ``results``,
+    and report it at once when it has nothing to fit."""
+    def load(ref: AssetRef) -> PendingAsset | None:
+        results[ref.asset_id], pending = select(ref)
+        if pending is None:
+            asset_done(results[ref.asset_id], describe)
+        return pending
+    return load
 
 
 def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None],

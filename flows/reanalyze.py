@@ -21,15 +21,14 @@ from prefect.cache_policies import NO_CACHE
 
 from graybox.stage_clock import StageClock, timed
 
-from flows import progress
 from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, fit_candidates, memory_groups, read_against,
-                            record_candidates)
+from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
+                            read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, OK, AssetResult, RunSummary, describe_error,
                            now_iso)
@@ -70,22 +69,14 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
     registry = registry or config.registry()
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
     results: dict[str, AssetResult] = {}
-
-    def load(ref: AssetRef) -> PendingAsset | None:
-        results[ref.asset_id], pending = select(config, registry, ref, windows, version, clock)
-        if pending is None:
-            progress.advance(1, f"{ref.asset_id} {results[ref.asset_id].status}",
-                             failed=int(results[ref.asset_id].failed))
-        return pending
-
+    load = loader(results, lambda ref: select(config, registry, ref, windows, version, clock))
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
     for group in memory_groups(refs, load, budget):
         fit_candidates(group, clock)
         for pending in group:
             record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
                               clock=clock)
-            progress.advance(1, f"{pending.asset_id} {pending.result.status}",
-                             failed=int(pending.result.failed))
+            asset_done(pending.result)
     return [results[ref.asset_id] for ref in refs]
 
 

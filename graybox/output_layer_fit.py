@@ -47,27 +47,29 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         dim = X.shape[1]
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
-        W, iterations = _levenberg_marquardt(np.tanh(X @ w.T), y, np.asarray(
-            start[hidden * dim:], dtype=float), settings)
-        mse = float(np.mean((y - np.tanh(np.tanh(X @ w.T) @ W)) ** 2))
-        out.append(NetworkFit(w.copy(), W, mse, iterations))
+        W, prediction, iterations = _levenberg_marquardt(
+            np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
+        out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations))
     return out
 
 
-def _loss(H: np.ndarray, y: np.ndarray, W: np.ndarray, decay: float) -> float:
-    return float(np.mean((y - np.tanh(H @ W)) ** 2) + decay * (W @ W))
+def _loss(H: np.ndarray, y: np.ndarray, W: np.ndarray,
+          decay: float) -> tuple[float, np.ndarray]:
+    """The loss at ``W`` and the network's prediction there."""
+    prediction = np.tanh(H @ W)
+    return float(np.mean((y - prediction) ** 2) + decay * (W @ W)), prediction
 
 
-def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray,
-                         settings: FitSettings) -> tuple[np.ndarray, int]:
+def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: FitSettings
+                         ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The minimising ``W``, the prediction there and the iterations taken."""
     n = len(y)
     decay = settings.weight_decay
     identity = np.eye(H.shape[1])
-    loss = _loss(H, y, W, decay)
+    loss, prediction = _loss(H, y, W, decay)
     damping = 1e-3
     iterations = 0
     for _ in range(settings.max_iter):
-        prediction = np.tanh(H @ W)
         residual = y - prediction
         J = H * (1.0 - prediction ** 2)[:, None]              # d prediction / d W
         gradient = -2.0 * (J.T @ residual) / n + 2.0 * decay * W
@@ -79,7 +81,7 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray,
             step = np.linalg.solve(curvature + damping * np.diag(np.diag(curvature)) +
                                    damping * 1e-12 * identity, -gradient)
             trial = W + step
-            trial_loss = _loss(H, y, trial, decay)
+            trial_loss, trial_prediction = _loss(H, y, trial, decay)
             if trial_loss < loss:
                 improved = True
                 break
@@ -87,9 +89,9 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray,
         if not improved:
             break                                              # at the minimum to precision
         relative = (loss - trial_loss) / max(abs(loss), 1e-300)
-        W, loss = trial, trial_loss
+        W, loss, prediction = trial, trial_loss, trial_prediction
         damping = max(damping / 10.0, 1e-12)
         iterations += 1
         if relative <= settings.tolerance:
             break
-    return W, iterations
+    return W, prediction, iterations
