@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 import math
 import re
-from typing import ClassVar, Mapping
+from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -92,11 +92,40 @@ class WhiteBoxModel:
         Returns
         -------
         ndarray of shape (T, len(states))
+
+        Notes
+        -----
+        Written with ``x[..., i]`` and elementwise operations, the same code also serves a
+        :meth:`stacked` model (the simulator's fleet of plants).
         """
         raise NotImplementedError
 
     def check_parameters(self) -> None:
         """Raise :class:`ModelSpecError` if the parameters are physically invalid (hook)."""
+
+    @classmethod
+    def stacked(cls, models: Sequence["WhiteBoxModel"]) -> "WhiteBoxModel":
+        """One model of this class whose parameters are arrays over ``models`` (last axis).
+
+        For simulating many vehicles at once with the model's own :meth:`derivatives`: a
+        model written with elementwise operations on ``x[..., i]`` and its parameters
+        evaluates every vehicle in one call (``x`` of shape ``(..., n_vehicles, n_states)``).
+        Each model was checked when it was built; the stack is not checked again.
+        """
+        if not models or any(type(m) is not cls for m in models):
+            raise ModelSpecError(f"{cls.__name__}.stacked needs one or more {cls.__name__} models")
+        stack = cls.__new__(cls)
+        stack.parameters = {name: np.array([m.parameters[name] for m in models])
+                            for name in models[0].parameters}
+        stack.columns = dict(models[0].columns)
+        return stack
+
+    def subset(self, which) -> "WhiteBoxModel":
+        """The models selected by ``which`` (index or mask) of a :meth:`stacked` model."""
+        sub = type(self).__new__(type(self))
+        sub.parameters = {name: value[which] for name, value in self.parameters.items()}
+        sub.columns = dict(self.columns)
+        return sub
 
     # -- shared behaviour ----------------------------------------------------------------------
     @classmethod

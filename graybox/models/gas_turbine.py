@@ -60,9 +60,9 @@ class GasTurbineShaft(WhiteBoxModel):
         return p["compressor_linear"] * omega + p["compressor_quadratic"] * omega ** 2
 
     def derivatives(self, x, u):
-        omega, fuel_rate = x[:, 0], u[:, 0]
+        omega, fuel_rate = x[..., 0], u[..., 0]
         net = self.turbine_moment(omega, fuel_rate) - self.compressor_moment(omega)
-        return (net / self.parameters["inertia"])[:, None]
+        return (net / self.parameters["inertia"])[..., None]
 
     def damping_rate(self, omega):
         r"""``gamma = -(1/J) d(M1 - M2)/domega`` at ``omega`` (Eq. 9, positive when stable).
@@ -75,14 +75,15 @@ class GasTurbineShaft(WhiteBoxModel):
         return slope / p["inertia"]
 
     def equilibrium_speed(self, fuel_rate):
-        """The steady-state ``omega`` for a constant fuel rate (root of ``M1 = M2``)."""
+        """The steady-state ``omega`` for a constant fuel rate (root of ``M1 = M2``).
+
+        Written ``2 a mu / (b + c + sqrt((b + c)^2 + 4 d a mu))``, the root without
+        cancellation, which also holds for ``d = 0``.
+        """
         p = self.parameters
-        a, b, c, d = (p["turbine_gain"], p["turbine_slope"], p["compressor_linear"],
-                      p["compressor_quadratic"])
-        fuel_rate = np.asarray(fuel_rate, dtype=float)
-        if d == 0:
-            return a * fuel_rate / (b + c)
-        return (-(b + c) + np.sqrt((b + c) ** 2 + 4 * d * a * fuel_rate)) / (2 * d)
+        drive = p["turbine_gain"] * np.asarray(fuel_rate, dtype=float)
+        slope = p["turbine_slope"] + p["compressor_linear"]
+        return 2 * drive / (slope + np.sqrt(slope ** 2 + 4 * p["compressor_quadratic"] * drive))
 
 
 class LangevinShaft(WhiteBoxModel):
@@ -110,5 +111,5 @@ class LangevinShaft(WhiteBoxModel):
 
     def derivatives(self, x, u):
         p = self.parameters
-        drive = p["fuel_gain"] * (u[:, 0] - p["fuel_ref"])
-        return (-p["gamma"] * (x[:, 0] - p["omega_ref"]) + drive)[:, None]
+        drive = p["fuel_gain"] * (u[..., 0] - p["fuel_ref"])
+        return (-p["gamma"] * (x[..., 0] - p["omega_ref"]) + drive)[..., None]

@@ -1,7 +1,9 @@
 r"""The fleet simulator: gas-turbine vehicles with daily load cycles, a random moment and faults.
 
 The true plant of every vehicle is :class:`~graybox.models.gas_turbine.GasTurbineShaft`
-(Eq. 5 of the paper) driven by a random moment ``Gamma(t) = M_r(t) / J``:
+(Eq. 5 of the paper), integrated with the model's own ``derivatives`` (the vehicles' models
+stacked into one, see :meth:`~graybox.models.base.WhiteBoxModel.stacked`), plus what the
+model lacks: a random moment ``Gamma(t) = M_r(t) / J`` and the faults:
 
 .. math:: \dot\omega = [M_1(\omega, \mu) - M_2(\omega)] / J + \Gamma(t)
           + \text{(fault terms)}
@@ -31,7 +33,7 @@ So the random streams of the moment clock (the wander, the shocks ``e_i`` and th
 speed of one vehicle at 1 s, 10 s and 60 s agrees at the common instants up to integration
 error. The per-sample streams (sensor noise, its heavy tails, fuel-sensor noise, jitter,
 drops) are drawn per sample and differ between rates. At 10 s the output is the one of the
-earlier per-sample design, bit for bit.
+earlier per-sample design up to rounding (4.5e-13 rad/s on 1,000 rad/s).
 
 Faults (:class:`Fault`) act from their onset on; every random stream of a vehicle is drawn
 from its own seed independently of its faults, so a faulty vehicle and a healthy vehicle

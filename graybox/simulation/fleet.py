@@ -31,9 +31,8 @@ def _measure(plant: Plant, omega, draws: Draws, clock: Clock):
     moment, friction = draws.moment[q], draws.friction[q]
     with_friction = bool(np.any(friction != 0))
     w0, w1 = omega[q], omega[q + 1]
-    a0, b0 = plant.coefficients(fuel0, moment, friction, with_friction)
-    a1, b1 = plant.coefficients(fuel1, moment, friction, with_friction)
-    f0, f1 = plant.drift(w0, a0, b0) * h, plant.drift(w1, a1, b1) * h
+    f0 = plant.drift(w0, fuel0, *plant.forcing(fuel0, moment, friction, with_friction)) * h
+    f1 = plant.drift(w1, fuel1, *plant.forcing(fuel1, moment, friction, with_friction)) * h
     # cubic Hermite inside the step, with the drift of that step at both ends
     t2, t3 = theta ** 2, theta ** 3
     speed = ((2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + theta) * f0

@@ -17,45 +17,48 @@ SPLICE_TOLERANCE = 1e-9         # rad/s, largest accepted mismatch where chunks 
 
 
 class Plant:
-    """The true plants' parameters as arrays over vehicles (last axis).
+    """The true plants of a fleet: their white-box model, driven by its own dynamics.
 
-    The drift is written ``f = A - omega (B + D omega)`` with ``A = a mu / J + Gamma +
-    m gamma0 omega_eq`` and ``B = (b + c) / J + m gamma0`` (``m`` the friction magnitude).
+    The vehicles' models are stacked into one (:meth:`WhiteBoxModel.stacked`: parameters as
+    arrays over vehicles, last axis), so one call of the model's ``derivatives`` evaluates
+    every vehicle. What the model lacks is added here, as the simulator's truth: the random
+    moment ``M_r / J`` and the friction fault, an extra damping ``m gamma(omega_eq)`` around
+    the moving equilibrium ``omega_eq(mu)`` (``m`` the fault's relative magnitude), so
+
+    ``domega/dt = f(omega, mu) + M_r / J + m gamma(omega_eq) (omega_eq - omega)``.
+
+    Parameters
+    ----------
+    models : list of GasTurbineShaft
+        One per vehicle, all of one class (the friction fault needs its
+        ``equilibrium_speed`` and ``damping_rate``).
     """
 
     def __init__(self, models: list[GasTurbineShaft]):
-        def column(name):
-            return np.array([m.parameters[name] for m in models], dtype=float)
-
-        self.inertia = column("inertia")
-        self.gain = column("turbine_gain")
-        self.slope = column("turbine_slope") + column("compressor_linear")
-        self.quadratic = column("compressor_quadratic")
-        self.gain_j = self.gain / self.inertia
-        self.slope_j = self.slope / self.inertia
-        self.quadratic_j = self.quadratic / self.inertia
+        self.model = type(models[0]).stacked(models)
 
     def subset(self, which) -> "Plant":
         """The plants of the vehicles selected by ``which`` (index or mask)."""
         sub = Plant.__new__(Plant)
-        sub.__dict__ = {name: value[which] for name, value in self.__dict__.items()}
+        sub.model = self.model.subset(which)
         return sub
 
     def equilibrium(self, fuel):
-        # the root of M1 = M2 in the form without cancellation (also right for d = 0)
-        drive = self.gain * fuel
-        return 2 * drive / (self.slope + np.sqrt(self.slope ** 2 + 4 * self.quadratic * drive))
+        return self.model.equilibrium_speed(fuel)
 
-    def coefficients(self, fuel, moment, friction, with_friction: bool):
-        a = self.gain_j * fuel + moment
+    def forcing(self, fuel, moment, friction, with_friction: bool):
+        """The terms the model lacks, which depend on the step's inputs only:
+        ``(forcing, damping)`` with the drift's extra part ``forcing - damping * omega``."""
         if not with_friction:
-            return a, self.slope_j
+            return moment, 0.0
         omega_eq = self.equilibrium(fuel)
-        gamma0 = (self.slope + 2 * self.quadratic * omega_eq) / self.inertia
-        return a + friction * gamma0 * omega_eq, self.slope_j + friction * gamma0
+        damping = friction * self.model.damping_rate(omega_eq)
+        return moment + damping * omega_eq, damping
 
-    def drift(self, omega, a, b):
-        return a - omega * (b + self.quadratic_j * omega)
+    def drift(self, omega, fuel, forcing, damping):
+        """``domega/dt`` at ``omega`` for the fuel rate ``fuel``."""
+        return (self.model.derivatives(omega[..., None], fuel[..., None])[..., 0]
+                + forcing - damping * omega)
 
 
 def _rk4_step(plant: Plant, omega, fuel0, fuel1, moment, friction, dt, substeps,
@@ -64,12 +67,12 @@ def _rk4_step(plant: Plant, omega, fuel0, fuel1, moment, friction, dt, substeps,
     fractions = np.arange(2 * substeps + 1) / (2 * substeps)
     shape = (-1,) + (1,) * np.ndim(omega)
     fuel = fuel0 + (fuel1 - fuel0) * fractions.reshape(shape)
-    a, b = plant.coefficients(fuel, moment, friction, with_friction)
-    b = np.broadcast_to(b, a.shape)
-    d = plant.quadratic_j
+    forcing, damping = plant.forcing(fuel, moment, friction, with_friction)
+    forcing = np.broadcast_to(forcing, fuel.shape)
+    damping = np.broadcast_to(damping, fuel.shape)
 
     def derivative(x, j):
-        return a[j] - x * (b[j] + d * x)
+        return plant.drift(x, fuel[j], forcing[j], damping[j])
 
     h = dt / substeps
     for s in range(substeps):

@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 from graybox.embedding import (choose_delay, choose_dimension, delay_vectors,

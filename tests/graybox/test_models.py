@@ -103,3 +103,20 @@ def test_linear_state_space_parameters_and_derivatives():
             inputs = ()
             default_parameters = {"gain": 1.0}
     assert linear_parameters(("a",), ("u",), [[-1.0]], [[2.0]]) == {"A_a_a": -1.0, "B_a_u": 2.0}
+
+
+def test_stacked_models_evaluate_every_vehicle_in_one_call():
+    models = [GasTurbineShaft(), GasTurbineShaft({"inertia": 40.0, "compressor_quadratic": 0.0})]
+    stack = GasTurbineShaft.stacked(models)
+    np.testing.assert_array_equal(stack.parameters["inertia"], [50.0, 40.0])
+    x = np.array([[[900.0], [1100.0]], [[1000.0], [950.0]]])     # (time, vehicle, state)
+    u = np.array([[[0.9], [1.1]], [[1.0], [1.2]]])
+    together = stack.derivatives(x, u)
+    for i, model in enumerate(models):
+        np.testing.assert_allclose(together[:, i], model.derivatives(x[:, i], u[:, i]),
+                                   rtol=1e-15)
+        assert stack.subset(i).parameters == pytest.approx(model.parameters)
+    # d = 0 has the linear equilibrium a mu / (b + c); d > 0 the quadratic root
+    np.testing.assert_allclose(stack.equilibrium_speed(1.0), [1000.0, 2250.0 / 1.5])
+    with pytest.raises(ModelSpecError, match="stacked"):
+        GasTurbineShaft.stacked([GasTurbineShaft(), LangevinShaft()])

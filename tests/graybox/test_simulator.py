@@ -378,3 +378,23 @@ def test_simulate_langevin_force_forms():
     assert not np.allclose(noisy, simulate_langevin(n, dt, gamma, None, seed=5))
     with pytest.raises(ValueError):
         simulate_langevin(n, dt, gamma, np.zeros(n + 1))
+
+
+def test_plant_is_driven_by_the_models_own_derivatives():
+    # without moment and fault terms the plant's drift is GasTurbineShaft.derivatives
+    models = [GasTurbineShaft(), GasTurbineShaft({"inertia": 45.0})]
+    plant = Plant(models)
+    omega = np.array([[950.0, 1020.0], [1000.0, 990.0]])
+    fuel = np.array([[1.0, 0.95], [1.05, 1.0]])
+    forcing, damping = plant.forcing(fuel, np.zeros_like(fuel), np.zeros_like(fuel), False)
+    drift = plant.drift(omega, fuel, forcing, damping)
+    for i, model in enumerate(models):
+        np.testing.assert_array_equal(
+            drift[:, i], model.derivatives(omega[:, i, None], fuel[:, i, None])[:, 0])
+    # the friction fault adds m * gamma(omega_eq) * (omega_eq - omega)
+    friction = np.full_like(fuel, 0.3)
+    forcing, damping = plant.forcing(fuel, np.zeros_like(fuel), friction, True)
+    extra = plant.drift(omega, fuel, forcing, damping) - drift
+    eq = np.stack([m.equilibrium_speed(fuel[:, i]) for i, m in enumerate(models)], axis=1)
+    rate = np.stack([m.damping_rate(eq[:, i]) for i, m in enumerate(models)], axis=1)
+    np.testing.assert_allclose(extra, 0.3 * rate * (eq - omega), rtol=1e-9)
