@@ -33,7 +33,8 @@ So the random streams of the moment clock (the wander, the shocks ``e_i`` and th
 speed of one vehicle at 1 s, 10 s and 60 s agrees at the common instants up to integration
 error. The per-sample streams (sensor noise, its heavy tails, fuel-sensor noise, jitter,
 drops) are drawn per sample and differ between rates. At 10 s the output is the one of the
-earlier per-sample design up to rounding (4.5e-13 rad/s on 1,000 rad/s).
+earlier per-sample design to a relative 1e-12 (pinned in
+``tests/graybox/test_simulator_reference.py``).
 
 Faults (:class:`Fault`) act from their onset on; every random stream of a vehicle is drawn
 from its own seed independently of its faults, so a faulty vehicle and a healthy vehicle
