@@ -27,6 +27,8 @@ from graybox.exceptions import InvalidAssetIdError
 from graybox.telemetry import list_assets, validate_asset_id
 
 DAY = pd.Timedelta(days=1)
+#: how far past the machine's clock an --as-of or --start may lie (clock skew between hosts)
+CLOCK_SKEW = pd.Timedelta(minutes=5)
 
 
 class UsageError(ValueError):
@@ -83,6 +85,23 @@ def parse_time(text: str, what: str = "time") -> pd.Timestamp:
         return utc(text)
     except (ValueError, TypeError):
         raise UsageError(f"{what} {text!r} is not a date (YYYY-MM-DD) or ISO timestamp") from None
+
+
+def not_in_future(when: pd.Timestamp, what: str, now: pd.Timestamp | None = None
+                  ) -> pd.Timestamp:
+    """``when``, unless it lies more than :data:`CLOCK_SKEW` after ``now`` (default: the
+    clock): telemetry from the future cannot exist, so such a time is a mistake.
+
+    Raises
+    ------
+    UsageError
+    """
+    now = pd.Timestamp.now(tz="UTC") if now is None else utc(now)
+    when = utc(when)
+    if when > now + CLOCK_SKEW:
+        raise UsageError(f"{what} {when.isoformat()} is in the future (now is "
+                         f"{now.isoformat(timespec='seconds')}); give a time up to now")
+    return when
 
 
 def discover(config: FleetConfig, assets: Sequence[str] | None = None,

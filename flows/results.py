@@ -9,6 +9,8 @@ Statuses of an asset in a run:
                   failure)
 ``up to date``    no new whole window since the watermark
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
+``stale``         its newest telemetry is older than ``[alerts] stale_after`` before the
+                  run's as-of time (a ``stale`` alert is raised): not monitored, exit status 1
 """
 from __future__ import annotations
 
@@ -28,7 +30,8 @@ logger = logging.getLogger(__name__)
 
 OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
-STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY)
+STALE = "stale"
+STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE)
 
 
 
@@ -178,8 +181,10 @@ class RunSummary:
 
     @property
     def exit_status(self) -> int:
-        """0 when every asset was processed (or had nothing to do), 1 when some failed."""
-        return EXIT_FAILED if self.failed else EXIT_OK
+        """0 when every asset was processed (or had nothing to do), 1 when some failed or
+        went stale (not monitored)."""
+        stale = any(a.status == STALE for a in self.assets)
+        return EXIT_FAILED if self.failed or stale else EXIT_OK
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}

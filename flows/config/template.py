@@ -44,6 +44,7 @@ false_alarm_rate = {false_alarm_rate}             # per asset-night; sets epsilo
 jsonl = "{alerts.jsonl}"               # every alert, one JSON object per line
 major_ratio = {alerts.major_ratio}                    # zeta/epsilon from which an alert is "major"
 critical_ratio = {alerts.critical_ratio}                 # ... and "critical" (above 1: "minor")
+stale_after = "{alerts.stale_after}"                 # no telemetry for this long: a "stale" alert ("off": none)
 
 [nightly]
 batch_size = {batch_size}                      # assets per Prefect task (one batched network fit)
@@ -51,6 +52,7 @@ window = "{nightly.window}"                        # the nightly window (whole U
 plots = "{plots}"                    # candidate plots: "alarms", "all" or "none"
 retries = {nightly.retries}                          # retries of a batch after a transient error
 retry_delay_seconds = {retry_delay_seconds:g}
+lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
 
 [schedule]
 cron = "{cron}"                  # nightly deployment (fleet-health serve)
