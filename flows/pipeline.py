@@ -31,6 +31,7 @@ from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import GridPolicy, read_window
+from graybox.telemetry.layout import outside_links
 
 from flows import progress
 from flows.batching import guard_asset_error
@@ -141,6 +142,13 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                 asset.fail(error, start)
                 continue
             asset.windows.append(PendingWindow(start, end, telemetry))
+        links = outside_links(config.telemetry_root, asset.asset_id,
+                              {day.date() for start, end in bounds
+                               for day in pd.date_range(start.floor("D"), end, freq="D")})
+    if links:
+        note = (f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
+                f"{', '.join(links)}")
+        asset.result.note = note if not asset.result.note else f"{asset.result.note}; {note}"
     return asset
 
 

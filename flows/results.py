@@ -169,6 +169,8 @@ class RunSummary:
     tracking_uri: str | None = None
     flow_run_id: str | None = None
     extra: dict = field(default_factory=dict)
+    #: entries of the telemetry root not read: {"path", "reason"} (see flows.fleet)
+    skipped: list[dict] = field(default_factory=list)
 
     @property
     def failed(self) -> list[AssetResult]:
@@ -197,6 +199,7 @@ class RunSummary:
                 "as_of": self.as_of, "config": self.config, "tracking_uri": self.tracking_uri,
                 "flow_run_id": self.flow_run_id, "exit_status": self.exit_status,
                 "counts": self.counts(), "unmatched_assets": list(self.unmatched),
+                "skipped": [dict(s) for s in self.skipped],
                 "assets": [a.to_dict() for a in self.assets],
                 "alerts": [alert.to_dict() for alert in self.alerts],
                 **({"extra": self.extra} if self.extra else {})}
@@ -208,7 +211,8 @@ class RunSummary:
                    assets=[AssetResult.from_dict(a) for a in data.get("assets", [])],
                    unmatched=list(data.get("unmatched_assets", [])), config=data.get("config"),
                    tracking_uri=data.get("tracking_uri"), flow_run_id=data.get("flow_run_id"),
-                   extra=dict(data.get("extra", {})))
+                   extra=dict(data.get("extra", {})),
+                   skipped=[dict(s) for s in data.get("skipped", [])])
 
 
 def now_iso() -> str:

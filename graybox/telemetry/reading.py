@@ -82,7 +82,7 @@ def read_rows(root, asset_id: str, columns: Sequence[str], start=None, end=None)
         first = day_ns(day)
         if first >= hi or first + NS_PER_DAY <= lo:
             continue
-        for path in parquet_files(directory):
+        for path in parquet_files(directory, root):
             ts, values, kept = _read_file(path, day, asset_id, channels, lo, hi)
             if len(ts):
                 stamps.append(ts)
@@ -178,7 +178,7 @@ def newest_timestamp(root, asset_id: str) -> pd.Timestamp | None:
     validate_asset_id(asset_id)
     for day, directory in reversed(partitions(root, asset_id)):
         newest = None
-        for path in parquet_files(directory):
+        for path in parquet_files(directory, root):
             try:
                 ts, _, _ = _read_file(path, day, asset_id, [], _INT64.min, _INT64.max)
             except TelemetryError:
