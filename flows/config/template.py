@@ -64,7 +64,9 @@ assets = [{asset_text}]
 columns = {{ {column_text} }}
 grid = {{ {_grid_text(grid)} }}
 # grid: max_gap = longest time between rows filled by interpolation, stuck_after = how long a
-# channel may hold one value, min_duration = least time a window must cover
+# channel may hold one value, min_duration = least time a window must cover,
+# plausible_spread = how many 1-99 % spans from the median a value may lie (0: off), and
+# ranges = {{ <column> = [low, high] }} = plausible values per channel (instead)
 '''
 
 
@@ -82,6 +84,12 @@ def _grid_text(overrides: Mapping[str, Any] | None) -> str:
     else:
         parts.append(f'stuck_after = "{format_duration(policy.stuck_after)}"')
     parts.append(f'min_duration = "{format_duration(policy.min_duration)}"')
+    if policy.plausible_spread != GridPolicy().plausible_spread:
+        parts.append(f"plausible_spread = {policy.plausible_spread:g}")
+    if policy.ranges:
+        bounds = ", ".join(f"{_toml_key(name)} = [{low!r}, {high!r}]"
+                           for name, low, high in policy.ranges)
+        parts.append(f"ranges = {{ {bounds} }}")
     return ", ".join(parts)
 
 
