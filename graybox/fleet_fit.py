@@ -364,19 +364,27 @@ def _fit_networks_isolated(prepared: list[_Prepared], settings: GrayBoxSettings,
                            chunk_size: int) -> dict[int, GrayBoxError]:
     """:func:`_fit_networks` of everything at once; if that raises, of each request alone
     (a request's fit does not depend on the others), so only the request that causes the
-    error fails. Returns the errors by ``id`` of the prepared request."""
+    error fails. A request whose network came out non-finite fails too (never a NaN
+    signature). Returns the errors by ``id`` of the prepared request."""
+    failed = {}
     try:
         _fit_networks(prepared, settings, chunk_size)
-        return {}
     except Exception as error:  # noqa: BLE001 - found and reported per request below
         if len(prepared) == 1:
             return {id(prepared[0]): _as_graybox_error(error, prepared[0].request)}
-    failed = {}
+        for item in prepared:
+            try:
+                _fit_networks([item], settings, chunk_size)
+            except Exception as alone:  # noqa: BLE001
+                failed[id(item)] = _as_graybox_error(alone, item.request)
     for item in prepared:
-        try:
-            _fit_networks([item], settings, chunk_size)
-        except Exception as error:  # noqa: BLE001
-            failed[id(item)] = _as_graybox_error(error, item.request)
+        bad = [c.name for c in item.channels if id(item) not in failed and c.nonlinear is not None
+               and not (np.isfinite(c.nonlinear.train_mse)
+                        and all(np.isfinite(a).all() for a in c.nonlinear.weight_arrays()))]
+        if bad:
+            failed[id(item)] = GrayBoxError(
+                f"asset {item.asset_id!r}: the network of channel(s) {', '.join(bad)} came out "
+                f"non-finite (the residual holds values the network cannot fit)")
     return failed
 
 
