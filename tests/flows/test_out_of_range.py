@@ -7,6 +7,7 @@ import shutil
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+import pytest
 
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 
@@ -77,6 +78,7 @@ def test_fault_huge_sample_past_the_checks_is_isolated_in_the_batched_fit(worksp
         assert registry.watermark(asset) == day(DAYS)
 
 
+@pytest.mark.slow
 def test_fault_huge_sample_in_baseline_days_fails_only_that_asset(harness, fleet, tmp_path,
                                                                   capsys):
     """`baseline fit --all`: T-002's second healthy day holds a 1e10; T-002 fails naming the
@@ -106,8 +108,6 @@ def test_fault_huge_sample_in_baseline_days_fails_only_that_asset(harness, fleet
 
 
 def test_ranges_per_vehicle_class_load_from_fleet_toml(tmp_path):
-    import pytest
-
     from conftest import write_config
     from flows.config import ConfigError, load_config
 
