@@ -129,6 +129,7 @@ def run_over_fleet(summary: RunSummary, task_fn, config: FleetConfig, args: tupl
     :func:`run_batches`) with progress, and complete ``summary`` (assets, stage seconds)."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
+    summary.skipped = [s.to_dict() for s in fleet.skipped]
     progress.start(description, len(fleet.assets))
     clock = StageClock()
     summary.assets = run_batches(task_fn, config, fleet.assets, args, clock)

@@ -5,6 +5,13 @@ Assets
     whose ``assets`` ids or patterns match it (two matching classes are a configuration
     error). Assets in the telemetry that no class claims are reported and left alone. An id
     listed explicitly in a class but without telemetry is reported as "no telemetry".
+    Nothing in the root is skipped silently: a folder whose id is invalid (``asset_id=T 007``),
+    a directory or Parquet file outside the layout, and a symbolic link resolving outside the
+    root (never followed) are listed in ``Fleet.skipped`` with why, and so in the run summary
+    and the command's output. A root that holds Parquet files but no asset in the layout is a
+    configuration error (exit status 2) naming the layout expected and the files found: a
+    run over "0 assets" that exits 0 would hide a fleet that is not monitored at all. An
+    empty root (no Parquet file at all) is an empty fleet.
 
 Windows
     Consecutive periods of ``[nightly] window`` (default one UTC day) aligned to UTC midnight.
@@ -16,7 +23,7 @@ Windows
 from __future__ import annotations
 
 import datetime
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 import pandas as pd
@@ -24,9 +31,12 @@ import pandas as pd
 from flows.config import ConfigError, FleetConfig
 from graybox import timestamps
 from graybox.exceptions import InvalidAssetIdError
-from graybox.telemetry import list_assets, validate_asset_id
+from graybox.telemetry import validate_asset_id
+from graybox.telemetry.layout import EXPECTED_LAYOUT, Skipped, scan
 
 DAY = pd.Timedelta(days=1)
+#: how far past the machine's clock an --as-of or --start may lie (clock skew between hosts)
+CLOCK_SKEW = pd.Timedelta(minutes=5)
 
 
 class UsageError(ValueError):
@@ -53,11 +63,14 @@ class Fleet:
         Listed explicitly (in fleet.toml or on the command line) but with no telemetry.
     unmatched : list of str
         In the telemetry but claimed by no vehicle class.
+    skipped : list of Skipped
+        Entries of the telemetry root not read, with why.
     """
 
     assets: list[AssetRef]
     without_telemetry: list[AssetRef]
     unmatched: list[str]
+    skipped: list[Skipped] = field(default_factory=list)
 
 
 def utc(value) -> pd.Timestamp:
@@ -85,6 +98,23 @@ def parse_time(text: str, what: str = "time") -> pd.Timestamp:
         raise UsageError(f"{what} {text!r} is not a date (YYYY-MM-DD) or ISO timestamp") from None
 
 
+def not_in_future(when: pd.Timestamp, what: str, now: pd.Timestamp | None = None
+                  ) -> pd.Timestamp:
+    """``when``, unless it lies more than :data:`CLOCK_SKEW` after ``now`` (default: the
+    clock): telemetry from the future cannot exist, so such a time is a mistake.
+
+    Raises
+    ------
+    UsageError
+    """
+    now = pd.Timestamp.now(tz="UTC") if now is None else utc(now)
+    when = utc(when)
+    if when > now + CLOCK_SKEW:
+        raise UsageError(f"{what} {when.isoformat()} is in the future (now is "
+                         f"{now.isoformat(timespec='seconds')}); give a time up to now")
+    return when
+
+
 def discover(config: FleetConfig, assets: Sequence[str] | None = None,
              vehicle_class: str | None = None) -> Fleet:
     """The assets of the fleet, optionally only some ids or one class.
@@ -100,7 +130,8 @@ def discover(config: FleetConfig, assets: Sequence[str] | None = None,
     Raises
     ------
     ConfigError
-        If the telemetry root is not a directory or an asset matches two classes.
+        If the telemetry root is not a directory, holds Parquet files but no asset in the
+        layout, or an asset matches two classes.
     UsageError
         If a requested id is invalid or belongs to no class, or the class is unknown.
     """
@@ -108,9 +139,16 @@ def discover(config: FleetConfig, assets: Sequence[str] | None = None,
         raise UsageError(f"unknown vehicle class {vehicle_class!r}; {config.path.name} defines "
                          f"{', '.join(config.classes)}")
     try:
-        present = list_assets(config.telemetry_root)
+        found = scan(config.telemetry_root)
     except FileNotFoundError as error:
         raise ConfigError(f"{config.path.name}: telemetry.root: {error}") from None
+    if found.stray_parquet:
+        raise ConfigError(
+            f"{config.path.name}: telemetry.root {str(config.telemetry_root)!r} holds Parquet "
+            f"files but no asset in the expected layout {EXPECTED_LAYOUT}; found e.g. "
+            f"{', '.join(found.stray_parquet)}. Move the files into that layout (one "
+            f"asset_id=<ID> directory per asset, one date=<YYYY-MM-DD> directory per UTC day)")
+    present, skipped = found.assets, found.skipped
     present_set = set(present)
     if assets is not None:
         wanted = []
@@ -130,7 +168,8 @@ def discover(config: FleetConfig, assets: Sequence[str] | None = None,
                 wanted.append(AssetRef(asset_id, found.name))
         with_data = sorted((r for r in wanted if r.asset_id in present_set),
                            key=lambda r: r.asset_id)
-        return Fleet(with_data, [r for r in wanted if r.asset_id not in present_set], [])
+        return Fleet(with_data, [r for r in wanted if r.asset_id not in present_set], [],
+                     skipped)
     refs, unmatched = [], []
     for asset_id in present:
         found = config.class_of(asset_id)
@@ -145,7 +184,7 @@ def discover(config: FleetConfig, assets: Sequence[str] | None = None,
         for asset_id in cls.explicit_assets():
             if asset_id not in present_set:
                 missing.append(AssetRef(asset_id, cls.name))
-    return Fleet(refs, missing, unmatched)
+    return Fleet(refs, missing, unmatched, skipped)
 
 
 def batches(items: Sequence, size: int) -> list[list]:

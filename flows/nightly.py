@@ -13,6 +13,22 @@ write the alerts, then advance the watermark. Per group of assets the order is
 so an interruption anywhere leaves the watermark before anything not fully committed, and the
 rerun repeats it without duplicates.
 
+The watermark means "every window before it that had telemetry when a run passed it was
+analysed"; it only moves forward. Telemetry that arrives later (a day's partition uploaded
+after the run over the days around it) is found by the look-back: each run also takes the
+whole windows starting in ``[watermark - [nightly] lookback, watermark)`` (default 7 days,
+never before the baseline's window) that have a date partition but no recorded candidate,
+and analyses them first, against the same baseline, with their alerts. Recording is
+idempotent, so a rerun finds them recorded and adds nothing; a window arriving later than
+the look-back is left alone (``fleet-health reanalyze`` covers any range). This costs one
+registry query per asset and run (the asset's newest recorded windows).
+
+Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
+stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
+monitored: the run exits 1) and a ``stale`` alert (:func:`registry.alert.stale_alert`) in its
+result and the alerts file, one per (asset, newest sample), so it is not repeated nightly
+while no new data arrives.
+
 Failures: an asset whose telemetry is bad (:class:`graybox.exceptions.TelemetryError`) or
 whose fit fails stops at that window: the windows before it are committed, the watermark
 stays at the start of the bad window, the error (asset, file, row) is in the run summary,
@@ -38,26 +54,33 @@ from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
 
 from graybox.stage_clock import StageClock, timed
-from graybox.telemetry import list_dates
+from graybox.telemetry import list_dates, newest_timestamp
+from registry.alert import STALE as STALE_KIND
+from registry.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog
 from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
-from flows.fleet import AssetRef, pending_windows, utc
+from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
                             read_against, record_candidates)
 from flows.report import flow_result
-from flows.results import (FAILED, NO_BASELINE, OK, UP_TO_DATE, AssetResult,
+from flows.results import (FAILED, NO_BASELINE, OK, STALE, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, describe_error, is_transient, now_iso)
 
 
 def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
            clock: StageClock | None = None) -> tuple[AssetResult, PendingAsset | None]:
-    """An asset's result so far and, when it has whole windows past its watermark, those
-    windows read against its baseline (None when there is nothing to fit)."""
+    """An asset's result so far and, when it has windows to process, those windows read
+    against its baseline (None when there is nothing to fit).
+
+    The windows are the whole windows past its watermark and the late ones (see
+    :func:`late_windows`); an asset whose newest telemetry is older than ``stale_after`` gets
+    a stale alert (see :func:`staleness`).
+    """
     asset = ref.asset_id
     window = config.nightly.window_delta
     before = None
@@ -66,10 +89,15 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
             watermark = registry.watermark(asset)
         before = None if watermark is None else watermark.isoformat()
         dates = list_dates(config.telemetry_root, asset)
-        if watermark is not None and not pending_windows(dates, watermark, as_of, window):
+        stale = staleness(config, ref, as_of)
+        late = [] if watermark is None else late_windows(config, registry, asset, dates,
+                                                         watermark, as_of, clock)
+        if watermark is not None and not late and not pending_windows(dates, watermark, as_of,
+                                                                      window):
             # nothing new: no need to load the baseline
-            return AssetResult(asset, ref.vehicle_class, UP_TO_DATE, watermark_before=before,
-                               watermark_after=before), None
+            return _stale(AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
+                                      watermark_before=before, watermark_after=before),
+                          stale), None
         with timed(clock, "registry"):
             loaded = registry.baseline(asset)
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
@@ -77,14 +105,21 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
         return AssetResult(asset, ref.vehicle_class, FAILED, watermark_before=before,
                            watermark_after=before, error=describe_error(error)), None
     if loaded is None:
-        return AssetResult(asset, ref.vehicle_class, NO_BASELINE, watermark_before=before,
-                           watermark_after=before,
-                           note="no baseline: fit and promote one "
-                                "(fleet-health baseline fit ... --promote)"), None
+        return _stale(AssetResult(asset, ref.vehicle_class, NO_BASELINE,
+                                  watermark_before=before, watermark_after=before,
+                                  note="no baseline: fit and promote one "
+                                       "(fleet-health baseline fit ... --promote)"),
+                      stale), None
     result = AssetResult(asset, ref.vehicle_class, OK, watermark_before=before,
                          watermark_after=before, baseline_version=loaded.version)
-    start_after = watermark if watermark is not None else utc(loaded.info.window_end)
-    bounds = pending_windows(dates, start_after, as_of, window)
+    _stale(result, stale)
+    baseline_end = utc(loaded.info.window_end)
+    late = [(s, e) for s, e in late if s >= baseline_end]
+    if late:
+        result.note = (f"{len(late)} late window(s) before the watermark analysed: "
+                       f"{', '.join(f'{s:%Y-%m-%d %H:%M}' for s, _ in late)}")
+    start_after = watermark if watermark is not None else baseline_end
+    bounds = late + pending_windows(dates, start_after, as_of, window)
     pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock)
     if pending is None:
         return result, None
@@ -92,9 +127,59 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
         if pending.stop is not None:
             pending.fail(pending.stop, pending.stop_start)
         else:
-            result.status = UP_TO_DATE
+            result.status = STALE if stale else UP_TO_DATE
         return result, None
     return result, pending
+
+
+def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark: pd.Timestamp,
+                 as_of: pd.Timestamp, clock: StageClock | None = None
+                 ) -> list[tuple[pd.Timestamp, pd.Timestamp]]:
+    """Whole windows starting in ``[watermark - lookback, watermark)`` that have a date
+    partition but no recorded candidate: telemetry that arrived after the run that moved the
+    watermark past it. One registry query, only when such partitions exist."""
+    lookback = config.nightly.lookback_delta
+    if lookback <= pd.Timedelta(0):
+        return []
+    window = config.nightly.window_delta
+    earliest = watermark - lookback
+    bounds = [(s, e) for s, e in windows_in_dates(dates, window)
+              if earliest <= s and e <= watermark]
+    if not bounds:
+        return []
+    # every candidate recorded in the look-back is among the newest this many windows
+    newest = int(-(-(utc(as_of) - earliest) // window)) + 1
+    with timed(clock, "registry"):
+        history = registry.zeta_history(asset_id, last=newest)
+    recorded = {(utc(s), utc(e)) for s, e in zip(history["window_start"],
+                                                 history["window_end"])}
+    return [(s, e) for s, e in bounds if (s, e) not in recorded]
+
+
+def staleness(config: FleetConfig, ref: AssetRef, as_of: pd.Timestamp) -> Alert | None:
+    """A ``stale`` alert when the asset's newest sample is older than ``as_of`` minus
+    ``[alerts] stale_after`` (None when it is recent, the check is off, or it has no rows)."""
+    limit = config.alerts.stale_after_delta
+    if limit is None:
+        return None
+    newest = newest_timestamp(config.telemetry_root, ref.asset_id)
+    if newest is None or newest >= utc(as_of) - limit:
+        return None
+    day = pd.Timedelta(days=1)
+    return stale_alert(asset_id=ref.asset_id, vehicle_class=ref.vehicle_class,
+                       last_data=newest.isoformat(), age_days=(utc(as_of) - newest) / day,
+                       stale_after_days=limit / day)
+
+
+def _stale(result: AssetResult, alert: Alert | None) -> AssetResult:
+    """Attach a stale alert to the result; an asset otherwise fine becomes ``stale``."""
+    if alert is not None:
+        result.alerts.append(alert)
+        if result.status in (OK, UP_TO_DATE):
+            result.status = STALE
+        note = f"stale: {alert.hint()}"
+        result.note = note if not result.note else f"{result.note}; {note}"
+    return result
 
 
 def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
@@ -124,17 +209,23 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
         # 1. every candidate recorded, 2. the group's alerts in the file, 3. watermarks
         alerts = [alert for pending in group for alert in record_candidates(
             config, registry, pending, reanalysis=False, stop_at_error=True, clock=clock)]
-        try:
-            with timed(clock, "alerts"):
-                log.append(alerts)
-        except Exception as error:  # noqa: BLE001
-            if is_transient(error):
-                raise TransientError(f"alerts file {log.path}: {error}") from error
-            raise
+        _append(log, alerts, clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
             asset_done(pending.result, _progress_text)
+    # the stale alerts of assets with nothing to fit (the groups' appends carry the others)
+    _append(log, [a for r in results.values() for a in r.alerts if a.kind == STALE_KIND], clock)
     return [results[ref.asset_id] for ref in refs]
+
+
+def _append(log: AlertLog, alerts: list[Alert], clock: StageClock | None) -> None:
+    try:
+        with timed(clock, "alerts"):
+            log.append(alerts)
+    except Exception as error:  # noqa: BLE001
+        if is_transient(error):
+            raise TransientError(f"alerts file {log.path}: {error}") from error
+        raise
 
 
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
@@ -149,6 +240,8 @@ def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None)
             pending.fail(error)
     if result.status == OK and not result.windows:
         result.status = UP_TO_DATE
+    if result.status in (OK, UP_TO_DATE) and any(a.kind == STALE_KIND for a in result.alerts):
+        result.status = STALE
 
 
 def _progress_text(result: AssetResult) -> str:
@@ -174,7 +267,8 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
                 as_of=None, assets: Sequence[str] | None = None,
                 vehicle_class: str | None = None) -> RunSummary:
     """The nightly pass as plain Python calling the batch task (the flow's body)."""
-    as_of_ts = utc(as_of) if as_of is not None else pd.Timestamp.now(tz="UTC")
+    as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
+                else pd.Timestamp.now(tz="UTC"))
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
     return run_over_fleet(summary, nightly_batch, config,

@@ -31,13 +31,14 @@ from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import GridPolicy, read_window
+from graybox.telemetry.layout import outside_links
 
 from flows import progress
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig
 from flows.fleet import AssetRef
 from flows.memory import MemoryBudget
-from flows.results import FAILED, AssetResult, WindowResult, describe_error
+from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
 from registry.entities import LoadedVersion
 from registry.submission import FitSubmission
@@ -141,6 +142,13 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                 asset.fail(error, start)
                 continue
             asset.windows.append(PendingWindow(start, end, telemetry))
+        links = outside_links(config.telemetry_root, asset.asset_id,
+                              {day.date() for start, end in bounds
+                               for day in pd.date_range(start.floor("D"), end, freq="D")})
+    if links:
+        note = (f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
+                f"{', '.join(links)}")
+        asset.result.note = note if not asset.result.note else f"{asset.result.note}; {note}"
     return asset
 
 
@@ -230,9 +238,28 @@ def fit_baselines(assets: Sequence[PendingAsset], settings_of: Callable[[Pending
     for settings, members in groups.items():
         requests = [FitRequest(a.model, [w.telemetry for w in a.windows], asset_id=a.asset_id)
                     for a in members]
-        results = fit_calibrated_baselines(requests, settings, false_alarm_rate, clock=clock)
+        try:
+            results = fit_calibrated_baselines(requests, settings, false_alarm_rate,
+                                               clock=clock)
+        except Exception as error:  # noqa: BLE001 - isolated to its asset(s) below
+            if is_transient(error):
+                raise
+            # an asset's fit does not depend on the others': alone, only the culprit fails
+            results = [_fit_alone(request, settings, false_alarm_rate, clock)
+                       for request in requests]
         out.update({a.asset_id: result for a, result in zip(members, results)})
     return out
+
+
+def _fit_alone(request: FitRequest, settings, false_alarm_rate: float,
+               clock: StageClock | None):
+    try:
+        return fit_calibrated_baselines([request], settings, false_alarm_rate, clock=clock)[0]
+    except Exception as error:  # noqa: BLE001
+        if is_transient(error):
+            raise
+        return GrayBoxError(f"asset {request.asset_id!r}: the baseline fit failed: "
+                            f"{type(error).__name__}: {error}")
 
 
 def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,

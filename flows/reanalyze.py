@@ -59,6 +59,10 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
                        f"epsilon (no alarms)")
     pending = read_against(config, ref, result, loaded, windows, stop_at_error=False,
                            clock=clock)
+    if pending is not None and not pending.windows and not result.failed:
+        note = (f"0 windows: no telemetry in [{windows[0][0]:%Y-%m-%d %H:%M}, "
+                f"{windows[-1][1]:%Y-%m-%d %H:%M}) UTC")
+        result.note = note if not result.note else f"{result.note}; {note}"
     return result, (pending if pending is not None and pending.windows else None)
 
 

@@ -9,6 +9,8 @@ Statuses of an asset in a run:
                   failure)
 ``up to date``    no new whole window since the watermark
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
+``stale``         its newest telemetry is older than ``[alerts] stale_after`` before the
+                  run's as-of time (a ``stale`` alert is raised): not monitored, exit status 1
 """
 from __future__ import annotations
 
@@ -28,7 +30,8 @@ logger = logging.getLogger(__name__)
 
 OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
-STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY)
+STALE = "stale"
+STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE)
 
 
 
@@ -166,6 +169,8 @@ class RunSummary:
     tracking_uri: str | None = None
     flow_run_id: str | None = None
     extra: dict = field(default_factory=dict)
+    #: entries of the telemetry root not read: {"path", "reason"} (see flows.fleet)
+    skipped: list[dict] = field(default_factory=list)
 
     @property
     def failed(self) -> list[AssetResult]:
@@ -178,8 +183,10 @@ class RunSummary:
 
     @property
     def exit_status(self) -> int:
-        """0 when every asset was processed (or had nothing to do), 1 when some failed."""
-        return EXIT_FAILED if self.failed else EXIT_OK
+        """0 when every asset was processed (or had nothing to do), 1 when some failed or
+        went stale (not monitored)."""
+        stale = any(a.status == STALE for a in self.assets)
+        return EXIT_FAILED if self.failed or stale else EXIT_OK
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}
@@ -192,6 +199,7 @@ class RunSummary:
                 "as_of": self.as_of, "config": self.config, "tracking_uri": self.tracking_uri,
                 "flow_run_id": self.flow_run_id, "exit_status": self.exit_status,
                 "counts": self.counts(), "unmatched_assets": list(self.unmatched),
+                "skipped": [dict(s) for s in self.skipped],
                 "assets": [a.to_dict() for a in self.assets],
                 "alerts": [alert.to_dict() for alert in self.alerts],
                 **({"extra": self.extra} if self.extra else {})}
@@ -203,7 +211,8 @@ class RunSummary:
                    assets=[AssetResult.from_dict(a) for a in data.get("assets", [])],
                    unmatched=list(data.get("unmatched_assets", [])), config=data.get("config"),
                    tracking_uri=data.get("tracking_uri"), flow_run_id=data.get("flow_run_id"),
-                   extra=dict(data.get("extra", {})))
+                   extra=dict(data.get("extra", {})),
+                   skipped=[dict(s) for s in data.get("skipped", [])])
 
 
 def now_iso() -> str:

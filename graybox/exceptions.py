@@ -22,8 +22,8 @@ class TelemetryError(GrayBoxError):
     asset_id : str
         The asset whose telemetry is bad.
     kind : str
-        A short machine-readable reason: ``"schema"``, ``"non_finite"``, ``"duplicate_timestamp"``,
-        ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``, ``"too_few_samples"``,
+        A short machine-readable reason: ``"schema"``, ``"non_finite"``, ``"out_of_range"``,
+        ``"duplicate_timestamp"``, ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``, ``"too_few_samples"``,
         ``"no_data"``, ``"unreadable"`` (not valid Parquet) or ``"io_error"`` (the file system
         failed to deliver the file: worth a retry).
     message : str

@@ -4,7 +4,10 @@ assets at once.
 :func:`fit_signatures` prepares every request (residual at the telemetry's rate, decimated to
 the analysis interval, stationarized, AR tier), then fits all their networks in batched
 computations grouped by network shape, then describes the noise. A request's result never
-depends on the other requests of the call, and one asset's bad data never stops the others.
+depends on the other requests of the call, and one asset's bad data never stops the others:
+an error in a request's own preparation or noise tier is its result, and when a batched
+network computation raises, each of its requests is fitted again alone, so the error is the
+result of the request that causes it and the others are unaffected.
 """
 from __future__ import annotations
 
@@ -341,17 +344,48 @@ def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
         try:
             prepared.append(_prepare(request, settings, clock))
             positions.append(position)
-        except (GrayBoxError, np.linalg.LinAlgError) as error:
+        except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
             results[position] = _as_graybox_error(error, request)
     with timed(clock, "network"):
-        _fit_networks(prepared, settings, chunk_size)
+        failed = _fit_networks_isolated(prepared, settings, chunk_size)
     for position, item in zip(positions, prepared):
+        if id(item) in failed:
+            results[position] = failed[id(item)]
+            continue
         try:
             with timed(clock, "noise"):
                 results[position] = _finish(item, settings)
-        except (GrayBoxError, np.linalg.LinAlgError) as error:
+        except Exception as error:  # noqa: BLE001
             results[position] = _as_graybox_error(error, item.request)
     return results
+
+
+def _fit_networks_isolated(prepared: list[_Prepared], settings: GrayBoxSettings,
+                           chunk_size: int) -> dict[int, GrayBoxError]:
+    """:func:`_fit_networks` of everything at once; if that raises, of each request alone
+    (a request's fit does not depend on the others), so only the request that causes the
+    error fails. A request whose network came out non-finite fails too (never a NaN
+    signature). Returns the errors by ``id`` of the prepared request."""
+    failed = {}
+    try:
+        _fit_networks(prepared, settings, chunk_size)
+    except Exception as error:  # noqa: BLE001 - found and reported per request below
+        if len(prepared) == 1:
+            return {id(prepared[0]): _as_graybox_error(error, prepared[0].request)}
+        for item in prepared:
+            try:
+                _fit_networks([item], settings, chunk_size)
+            except Exception as alone:  # noqa: BLE001
+                failed[id(item)] = _as_graybox_error(alone, item.request)
+    for item in prepared:
+        bad = [c.name for c in item.channels if id(item) not in failed and c.nonlinear is not None
+               and not (np.isfinite(c.nonlinear.train_mse)
+                        and all(np.isfinite(a).all() for a in c.nonlinear.weight_arrays()))]
+        if bad:
+            failed[id(item)] = GrayBoxError(
+                f"asset {item.asset_id!r}: the network of channel(s) {', '.join(bad)} came out "
+                f"non-finite (the residual holds values the network cannot fit)")
+    return failed
 
 
 def _as_graybox_error(error: Exception, request: FitRequest) -> GrayBoxError:

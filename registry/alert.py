@@ -21,6 +21,8 @@ if TYPE_CHECKING:  # pragma: no cover
 SEVERITIES = ("minor", "major", "critical")
 NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
+DRIFT, STALE = "drift", "stale"
+KINDS = (DRIFT, STALE)    #: a drift over its threshold; an asset whose telemetry stopped
 MAJOR_RATIO = 2.0        #: default zeta/epsilon from which an alert is ``major``
 CRITICAL_RATIO = 5.0     #: default zeta/epsilon from which an alert is ``critical``
 
@@ -76,6 +78,10 @@ class Alert:
         The candidate's MLflow run.
     source : str
         ``nightly`` or ``reanalysis``.
+    kind : str
+        ``drift`` (the fields above), or ``stale``: the asset's telemetry stopped arriving
+        (:func:`stale_alert`: ``window_start`` and ``window_end`` are both the time of its
+        newest sample, ``zeta`` its age and ``epsilon`` the ``stale_after`` limit, in days).
     """
 
     asset_id: str
@@ -93,6 +99,7 @@ class Alert:
     baseline_version: int | None = None
     run_id: str | None = None
     source: str = NIGHTLY
+    kind: str = DRIFT
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "top_changes", tuple(dict(c) for c in self.top_changes))
@@ -104,6 +111,8 @@ class Alert:
 
     def hint(self, count: int = 3) -> str:
         """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``."""
+        if self.kind == STALE:
+            return f"no telemetry since {self.window_end} ({self.zeta:.1f} days)"
         return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
                          for c in self.top_changes[:count])
 
@@ -164,3 +173,25 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
             version=version, baseline_version=baseline_version, run_id=run_id, source=source))
     out.sort(key=lambda a: -a.ratio)
     return out
+
+
+def stale_alert(*, asset_id: str, vehicle_class: str, last_data: str, age_days: float,
+                stale_after_days: float) -> Alert:
+    """The alert of an asset whose newest telemetry is older than ``stale_after``.
+
+    One per (asset, newest sample): its key's window is ``[last_data, last_data]`` and its
+    channel and tier ``"*"`` and ``"stale"``, so later runs with no new data add no duplicate.
+
+    Parameters
+    ----------
+    asset_id, vehicle_class : str
+    last_data : str
+        ISO UTC time of the asset's newest sample.
+    age_days, stale_after_days : float
+        How old that sample is at the run's as-of time, and the limit, in days.
+    """
+    ratio = age_days / stale_after_days
+    return Alert(asset_id=asset_id, vehicle_class=vehicle_class, window_start=last_data,
+                 window_end=last_data, channel="*", tier=STALE, zeta=float(age_days),
+                 epsilon=float(stale_after_days), ratio=float(ratio), severity="major",
+                 source=NIGHTLY, kind=STALE)

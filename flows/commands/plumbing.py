@@ -114,6 +114,8 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         if summary.unmatched:
             console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                           f"class and were left alone: {', '.join(summary.unmatched[:20])}")
+    for entry in summary.skipped:
+        print(f"fleet-health: skipped {entry['path']}: {entry['reason']}", file=sys.stderr)
     for asset in summary.failed:
         print(f"fleet-health: {asset.asset_id} failed: {asset.reason()}", file=sys.stderr)
     return summary.exit_status

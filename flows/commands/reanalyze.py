@@ -7,7 +7,7 @@ from rich.table import Table
 
 from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
                                      prefect_environment, report_summary, run_flow)
-from flows.fleet import UsageError, parse_time, range_windows
+from flows.fleet import UsageError, not_in_future, parse_time, range_windows
 from flows.report import window_label
 from flows.results import RunSummary
 from registry.cli import EXIT_FAILED, _console, _error
@@ -38,7 +38,7 @@ def reanalyze(args: argparse.Namespace) -> int:
     if not (args.assets or args.vehicle_class):
         raise UsageError("name the assets (--asset A, repeatable) or a --class")
     config = load(args)
-    start = parse_time(args.start, "--start")
+    start = not_in_future(parse_time(args.start, "--start"), "--start")
     end = parse_time(args.end, "--end")
     range_windows(start, end, config.nightly.window_delta, whole_only=False)
     prefect_environment(args)

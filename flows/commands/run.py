@@ -5,7 +5,7 @@ import argparse
 
 from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
                                      prefect_environment, report_summary, run_flow)
-from flows.fleet import parse_time
+from flows.fleet import not_in_future, parse_time
 from registry.cli import EXIT_FAILED, _error
 
 
@@ -30,7 +30,8 @@ def add_run_command(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Run the nightly flow once; print its summary; return the exit status."""
     config = load(args)
-    as_of = None if args.as_of is None else parse_time(args.as_of, "--as-of").isoformat()
+    as_of = None if args.as_of is None else not_in_future(
+        parse_time(args.as_of, "--as-of"), "--as-of").isoformat()
     prefect_environment(args)
     # prefect loads only for commands that run flows, after prefect_environment
     from flows.nightly import nightly

@@ -114,7 +114,8 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
 
 def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings:
     default = AlertSettings()
-    check.keys("alerts", table, ("false_alarm_rate", "jsonl", "major_ratio", "critical_ratio"))
+    check.keys("alerts", table, ("false_alarm_rate", "jsonl", "major_ratio", "critical_ratio",
+                                 "stale_after"))
     rate = check.number("alerts.false_alarm_rate",
                         table.get("false_alarm_rate", default.false_alarm_rate))
     if not 0 < rate < 1:
@@ -127,12 +128,33 @@ def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings
     if not 1 <= major <= critical:
         raise check.error("alerts", f"need 1 <= major_ratio <= critical_ratio, got "
                                     f"major_ratio={major!r}, critical_ratio={critical!r}")
-    return AlertSettings(rate, jsonl.resolve(), major, critical)
+    stale = check.string("alerts.stale_after", table.get("stale_after", default.stale_after))
+    if stale.strip().lower() in ("off", "none"):
+        stale = None
+    else:
+        _positive_duration(check, "alerts.stale_after", stale, "'2D', '36h' or \"off\"")
+    return AlertSettings(rate, jsonl.resolve(), major, critical, stale)
+
+
+def _positive_duration(check: Checker, key: str, text: str, example: str,
+                       allow_zero: bool = False) -> pd.Timedelta:
+    """A duration key such as "2D" (a bare number is refused: pandas reads it as ns)."""
+    try:
+        if not any(c.isalpha() for c in text):
+            raise ValueError
+        delta = pd.Timedelta(text)
+    except (ValueError, TypeError):
+        raise check.error(key, f"{text!r} is not a duration such as {example}") from None
+    if delta is pd.NaT or delta < pd.Timedelta(0) or (delta == pd.Timedelta(0)
+                                                       and not allow_zero):
+        raise check.error(key, f"{text!r} must be a {'non-negative' if allow_zero else 'positive'}"
+                               f" duration such as {example}")
+    return delta
 
 
 def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
-                                  "retry_delay_seconds", "memory_budget"))
+                                  "retry_delay_seconds", "memory_budget", "lookback"))
     default = NightlySettings()
     batch = check.integer("nightly.batch_size", table.get("batch_size", default.batch_size),
                           low=1)
@@ -160,7 +182,10 @@ def _nightly(check: Checker, table: Mapping) -> NightlySettings:
         budget = parse_bytes(table.get("memory_budget", default.memory_budget))
     except ValueError as error:
         raise check.error("nightly.memory_budget", str(error)) from None
-    return NightlySettings(batch, window, plots, retries, delay, budget)
+    lookback = check.string("nightly.lookback", table.get("lookback", default.lookback))
+    _positive_duration(check, "nightly.lookback", lookback, "'7D' (or '0D': no look-back)",
+                       allow_zero=True)
+    return NightlySettings(batch, window, plots, retries, delay, budget, lookback)
 
 
 def _schedule(check: Checker, table: Mapping) -> ScheduleSettings:

@@ -75,6 +75,12 @@ class AlertSettings:
     jsonl: pathlib.Path = pathlib.Path("alerts.jsonl")
     major_ratio: float = 2.0
     critical_ratio: float = 5.0
+    #: an asset whose newest telemetry is older than as-of minus this is stale (None: off)
+    stale_after: str | None = "2D"
+
+    @property
+    def stale_after_delta(self) -> pd.Timedelta | None:
+        return None if self.stale_after is None else pd.Timedelta(self.stale_after)
 
 
 @dataclass(frozen=True)
@@ -85,10 +91,16 @@ class NightlySettings:
     retries: int = 2
     retry_delay_seconds: float = 30.0
     memory_budget: int = DEFAULT_MEMORY_BUDGET
+    #: how far before the watermark a run looks for late-arriving windows ("0D": not at all)
+    lookback: str = "7D"
 
     @property
     def window_delta(self) -> pd.Timedelta:
         return pd.Timedelta(self.window)
+
+    @property
+    def lookback_delta(self) -> pd.Timedelta:
+        return pd.Timedelta(self.lookback)
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ false_alarm_rate = {false_alarm_rate}             # per asset-night; sets epsilo
 jsonl = "{alerts.jsonl}"               # every alert, one JSON object per line
 major_ratio = {alerts.major_ratio}                    # zeta/epsilon from which an alert is "major"
 critical_ratio = {alerts.critical_ratio}                 # ... and "critical" (above 1: "minor")
+stale_after = "{alerts.stale_after}"                 # no telemetry for this long: a "stale" alert ("off": none)
 
 [nightly]
 batch_size = {batch_size}                      # assets per Prefect task (one batched network fit)
@@ -51,6 +52,7 @@ window = "{nightly.window}"                        # the nightly window (whole U
 plots = "{plots}"                    # candidate plots: "alarms", "all" or "none"
 retries = {nightly.retries}                          # retries of a batch after a transient error
 retry_delay_seconds = {retry_delay_seconds:g}
+lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
 
 [schedule]
 cron = "{cron}"                  # nightly deployment (fleet-health serve)
@@ -62,7 +64,9 @@ assets = [{asset_text}]
 columns = {{ {column_text} }}
 grid = {{ {_grid_text(grid)} }}
 # grid: max_gap = longest time between rows filled by interpolation, stuck_after = how long a
-# channel may hold one value, min_duration = least time a window must cover
+# channel may hold one value, min_duration = least time a window must cover,
+# plausible_spread = how many 1-99 % spans from the median a value may lie (0: off), and
+# ranges = {{ <column> = [low, high] }} = plausible values per channel (instead)
 '''
 
 
@@ -80,6 +84,12 @@ def _grid_text(overrides: Mapping[str, Any] | None) -> str:
     else:
         parts.append(f'stuck_after = "{format_duration(policy.stuck_after)}"')
     parts.append(f'min_duration = "{format_duration(policy.min_duration)}"')
+    if policy.plausible_spread != GridPolicy().plausible_spread:
+        parts.append(f"plausible_spread = {policy.plausible_spread:g}")
+    if policy.ranges:
+        bounds = ", ".join(f"{_toml_key(name)} = [{low!r}, {high!r}]"
+                           for name, low, high in policy.ranges)
+        parts.append(f"ranges = {{ {bounds} }}")
     return ", ".join(parts)
 
 

@@ -32,14 +32,14 @@ from graybox.telemetry.gridding import grid_rows, to_grid
 from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
                                       validate_asset_id)
 from graybox.telemetry.policy import GridPolicy, duration_seconds
-from graybox.telemetry.reading import read_raw, read_rows
+from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
 from graybox.telemetry.validation import validate, validate_rows
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
 __all__ = ["ASSET_ID_PATTERN", "validate_asset_id", "GridPolicy", "TelemetryWindow",
            "list_assets", "list_dates", "read_raw", "validate", "to_grid", "read_window",
-           "write_telemetry", "duration_seconds"]
+           "write_telemetry", "duration_seconds", "newest_timestamp"]
 
 
 def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=None,

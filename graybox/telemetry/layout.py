@@ -5,13 +5,16 @@ Layout (hive-partitioned Parquet)::
     <root>/asset_id=<id>/date=<YYYY-MM-DD>/<any>.parquet
 
 Files whose name starts with ``.`` or does not end in ``.parquet`` are ignored (temporary and
-hidden files).
+hidden files). Symbolic links are followed only when they resolve inside the telemetry root;
+a link out of it is skipped (:func:`scan` and :func:`outside_links` name it).
 """
 from __future__ import annotations
 
 import datetime
+import os
 import pathlib
 import re
+from dataclasses import dataclass, field
 
 import pandas as pd
 
@@ -59,6 +62,124 @@ def validate_asset_id(asset_id: str) -> str:
 
 
 
+@dataclass(frozen=True)
+class Skipped:
+    """An entry of the telemetry root that is not read, and why."""
+
+    path: str
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {"path": self.path, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class Scan:
+    """What the telemetry root holds.
+
+    Attributes
+    ----------
+    assets : list of str
+        Sorted ids of the valid ``asset_id=<id>`` directories.
+    skipped : list of Skipped
+        Entries not read: an invalid id, a symbolic link out of the root, a directory or
+        Parquet file outside the layout (in the root or in an asset's directory).
+    stray_parquet : list of str
+        Without any asset: up to a few Parquet files found anywhere under the root (the
+        telemetry is there, in another layout).
+    """
+
+    assets: list[str]
+    skipped: list[Skipped] = field(default_factory=list)
+    stray_parquet: list[str] = field(default_factory=list)
+
+
+EXPECTED_LAYOUT = f"<root>/{ASSET_PREFIX}<ID>/{DATE_PREFIX}<YYYY-MM-DD>/<file>.parquet"
+
+
+def is_outside(path: pathlib.Path, root: pathlib.Path) -> bool:
+    """Whether ``path`` (a symbolic link, or under one) resolves outside ``root``."""
+    try:
+        path.resolve().relative_to(pathlib.Path(root).resolve())
+    except ValueError:
+        return True
+    return False
+
+
+def scan(root, stray_limit: int = 5) -> Scan:
+    """The assets of the store and every entry skipped, with why (nothing skipped silently).
+
+    Parameters
+    ----------
+    root : str or path-like
+        The telemetry root.
+    stray_limit : int, default 5
+        Parquet files to name when the root holds no asset.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``root`` is not a directory (a misconfigured root should not look like an empty
+        fleet).
+    """
+    root = pathlib.Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"telemetry root {str(root)!r} is not a directory")
+    ids, skipped = [], []
+    for entry in sorted(root.iterdir()):
+        name = entry.name
+        if name.startswith("."):
+            continue
+        if entry.is_symlink() and is_outside(entry, root):
+            skipped.append(Skipped(str(entry), f"symbolic link to {os.readlink(entry)} outside "
+                                               f"the telemetry root: not followed"))
+            continue
+        if not name.startswith(ASSET_PREFIX):
+            if entry.is_dir() or name.endswith(".parquet"):
+                skipped.append(Skipped(str(entry), f"not in the layout {EXPECTED_LAYOUT}"))
+            continue
+        asset_id = name[len(ASSET_PREFIX):]
+        try:
+            validate_asset_id(asset_id)
+        except InvalidAssetIdError as error:
+            skipped.append(Skipped(str(entry), str(error)))
+            continue
+        if not entry.is_dir():
+            skipped.append(Skipped(str(entry), "not a directory"))
+            continue
+        ids.append(asset_id)
+        skipped += _asset_entries(root, entry)
+    stray = [] if ids else _parquet_under(root, stray_limit)
+    return Scan(sorted(ids), skipped, stray)
+
+
+def _asset_entries(root: pathlib.Path, asset_dir: pathlib.Path) -> list[Skipped]:
+    """What an asset's directory holds besides ``date=`` partitions (not read)."""
+    out = []
+    for entry in sorted(asset_dir.iterdir()):
+        if entry.name.startswith("."):
+            continue
+        if entry.is_symlink() and is_outside(entry, root):
+            out.append(Skipped(str(entry), f"symbolic link to {os.readlink(entry)} outside "
+                                           f"the telemetry root: not followed"))
+        elif not entry.name.startswith(DATE_PREFIX) and (entry.is_dir()
+                                                         or entry.name.endswith(".parquet")):
+            out.append(Skipped(str(entry), f"not in the layout {EXPECTED_LAYOUT}"))
+    return out
+
+
+def _parquet_under(root: pathlib.Path, limit: int) -> list[str]:
+    found = []
+    for directory, subdirs, files in os.walk(root):
+        subdirs[:] = sorted(d for d in subdirs if not d.startswith("."))
+        for name in sorted(files):
+            if name.endswith(".parquet") and not name.startswith("."):
+                found.append(str(pathlib.Path(directory, name).relative_to(root)))
+                if len(found) >= limit:
+                    return found
+    return found
+
+
 def list_assets(root) -> list[str]:
     """Ids of the assets in the store.
 
@@ -71,7 +192,7 @@ def list_assets(root) -> list[str]:
     -------
     list of str
         Sorted ids of the ``asset_id=<id>`` directories. Directories whose id is not a valid
-        asset id are skipped.
+        asset id, and links out of the root, are skipped (:func:`scan` says which and why).
 
     Raises
     ------
@@ -79,19 +200,7 @@ def list_assets(root) -> list[str]:
         If ``root`` is not a directory (a misconfigured root should not look like an empty
         fleet).
     """
-    root = pathlib.Path(root)
-    if not root.is_dir():
-        raise FileNotFoundError(f"telemetry root {str(root)!r} is not a directory")
-    ids = []
-    for entry in root.iterdir():
-        if not entry.name.startswith(ASSET_PREFIX) or not entry.is_dir():
-            continue
-        asset_id = entry.name[len(ASSET_PREFIX):]
-        try:
-            ids.append(validate_asset_id(asset_id))
-        except InvalidAssetIdError:
-            continue
-    return sorted(ids)
+    return scan(root).assets
 
 
 def list_dates(root, asset_id: str) -> list[datetime.date]:
@@ -124,12 +233,14 @@ def partitions(root, asset_id: str) -> list[tuple[datetime.date, pathlib.Path]]:
     """Sorted (date, directory) of an asset's ``date=`` partitions (see :func:`list_dates`)."""
     validate_asset_id(asset_id)
     asset_dir = pathlib.Path(root) / f"{ASSET_PREFIX}{asset_id}"
-    if not asset_dir.is_dir():
+    if not asset_dir.is_dir() or is_outside(asset_dir, root):
         return []
     found = []
     for entry in asset_dir.iterdir():
         if not entry.name.startswith(DATE_PREFIX) or not entry.is_dir():
             continue
+        if entry.is_symlink() and is_outside(entry, root):
+            continue  # a link out of the root (scan names it)
         text = entry.name[len(DATE_PREFIX):]
         try:
             if _DATE_RE.fullmatch(text) is None:
@@ -143,11 +254,25 @@ def partitions(root, asset_id: str) -> list[tuple[datetime.date, pathlib.Path]]:
     return sorted(found)
 
 
-def parquet_files(directory: pathlib.Path) -> list[pathlib.Path]:
-    """A partition's Parquet files by name, hidden and temporary files left out."""
+def parquet_files(directory: pathlib.Path, root=None) -> list[pathlib.Path]:
+    """A partition's Parquet files by name, hidden and temporary files left out, and links
+    resolving outside ``root`` when it is given (see :func:`outside_links`)."""
     return sorted((p for p in directory.iterdir()
-                   if p.name.endswith(".parquet") and not p.name.startswith(".") and p.is_file()),
+                   if p.name.endswith(".parquet") and not p.name.startswith(".") and p.is_file()
+                   and not (root is not None and p.is_symlink() and is_outside(p, root))),
                   key=lambda p: p.name)
+
+
+def outside_links(root, asset_id: str, dates) -> list[str]:
+    """The Parquet files of the asset's partitions ``dates`` that are symbolic links out of
+    the telemetry root (skipped by the reading)."""
+    wanted = set(dates)
+    out = []
+    for day, directory in partitions(root, asset_id):
+        if day in wanted:
+            out += [str(p) for p in sorted(directory.iterdir())
+                    if p.name.endswith(".parquet") and p.is_symlink() and is_outside(p, root)]
+    return out
 
 
 def utc_ns(value, what: str) -> int:

@@ -114,6 +114,16 @@ class GridPolicy:
         coverage at every rate (500 samples would be 8 minutes at 1 s and more than 8 hours
         at 60 s); whether the samples are enough for the fits is the estimator's check
         (``GrayBoxSettings.min_samples``).
+    ranges : mapping of str to (low, high), optional
+        Plausible values per channel (telemetry column), e.g. ``{"shaft_speed": [0, 2000]}``:
+        a finite value outside ``[low, high]`` is an error (kind ``"out_of_range"``).
+    plausible_spread : float, default 1000
+        Channels without ``ranges``: a value farther from the channel's median in the window
+        than ``plausible_spread`` times its 1st-to-99th percentile span (or, when that span
+        is 0, times the median's magnitude) is an error (kind ``"out_of_range"``). The span
+        of 98 % of the samples is the channel's own scale, unaffected by a few wild samples;
+        a thousand times it is far beyond any physical excursion of a monitored process, but
+        a corrupt sample (1e10) would dominate every least-squares fit. ``0`` disables it.
 
     Raises
     ------
@@ -125,6 +135,8 @@ class GridPolicy:
     max_gap: float = 240.0
     stuck_after: float | tuple[tuple[str, float], ...] = _DEFAULT_STUCK_AFTER
     min_duration: float = 3600.0
+    ranges: tuple[tuple[str, float, float], ...] = ()
+    plausible_spread: float = 1000.0
 
     def __post_init__(self):
         if self.sample_interval is not None:
@@ -139,6 +151,19 @@ class GridPolicy:
             raise ValueError(f"min_duration must be a positive duration, got {self.min_duration!r}")
         object.__setattr__(self, "min_duration", minimum)
         object.__setattr__(self, "stuck_after", _stuck_limits(self.stuck_after))
+        object.__setattr__(self, "ranges", _ranges(self.ranges))
+        spread = self.plausible_spread
+        if isinstance(spread, bool) or not isinstance(spread, (int, float)) or \
+                not math.isfinite(spread) or spread < 0:
+            raise ValueError(f"plausible_spread must be a number >= 0 (0: off), got {spread!r}")
+        object.__setattr__(self, "plausible_spread", float(spread))
+
+    def value_range(self, channel: str) -> tuple[float, float] | None:
+        """The configured ``(low, high)`` of a channel, or None."""
+        for name, low, high in self.ranges:
+            if name == channel:
+                return low, high
+        return None
 
     def stuck_limit(self, channel: str) -> float:
         """The ``stuck_after`` limit of one channel in seconds (0: not checked)."""
@@ -160,3 +185,24 @@ def _stuck_limits(value) -> float | tuple[tuple[str, float], ...]:
             raise ValueError(f"stuck_after keys must be channel names or '*', got {channel!r}")
         limits[channel] = duration_seconds(limit, f"stuck_after[{channel!r}]")
     return tuple(sorted(limits.items()))
+
+
+def _ranges(value) -> tuple[tuple[str, float, float], ...]:
+    """A mapping channel -> (low, high) (or its stored tuple of triples) as sorted triples."""
+    if isinstance(value, tuple) and all(isinstance(t, tuple) and len(t) == 3 for t in value):
+        value = {name: (low, high) for name, low, high in value}
+    if not isinstance(value, Mapping):
+        raise ValueError(f"ranges must map channel names to [low, high], got {value!r}")
+    out = []
+    for channel, bounds in value.items():
+        if not isinstance(channel, str) or not channel:
+            raise ValueError(f"ranges keys must be channel names, got {channel!r}")
+        try:
+            low, high = (float(b) for b in bounds)
+        except (TypeError, ValueError):
+            raise ValueError(f"ranges[{channel!r}] must be [low, high], got {bounds!r}") from None
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise ValueError(f"ranges[{channel!r}] must be finite with low < high, got "
+                             f"{bounds!r}")
+        out.append((channel, low, high))
+    return tuple(sorted(out))

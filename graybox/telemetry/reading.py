@@ -82,7 +82,7 @@ def read_rows(root, asset_id: str, columns: Sequence[str], start=None, end=None)
         first = day_ns(day)
         if first >= hi or first + NS_PER_DAY <= lo:
             continue
-        for path in parquet_files(directory):
+        for path in parquet_files(directory, root):
             ts, values, kept = _read_file(path, day, asset_id, channels, lo, hi)
             if len(ts):
                 stamps.append(ts)
@@ -166,3 +166,25 @@ def _read_file(path: pathlib.Path, day: datetime.date, asset_id: str, channels: 
         return ts, values, np.arange(n, dtype=np.int64)
     rows = np.flatnonzero((ts >= lo) & (ts < hi))
     return ts[rows], values[:, rows], rows
+
+
+def newest_timestamp(root, asset_id: str) -> pd.Timestamp | None:
+    """The time of the asset's newest sample (UTC), or None when it has no rows at all.
+
+    Only the timestamps of the newest partition holding rows are read. A partition that
+    cannot be read counts as data up to its date's midnight (a lower bound: reading its
+    windows reports the error itself).
+    """
+    validate_asset_id(asset_id)
+    for day, directory in reversed(partitions(root, asset_id)):
+        newest = None
+        for path in parquet_files(directory, root):
+            try:
+                ts, _, _ = _read_file(path, day, asset_id, [], _INT64.min, _INT64.max)
+            except TelemetryError:
+                return pd.Timestamp(day_ns(day), unit="ns", tz="UTC")
+            if len(ts):
+                newest = max(int(ts.max()), newest or _INT64.min)
+        if newest is not None:
+            return pd.Timestamp(newest, unit="ns", tz="UTC")
+    return None

@@ -28,6 +28,8 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     :class:`GridPolicy`).
 
     1. ``"non_finite"``: NaN or Inf in a channel (or a missing timestamp);
+       ``"out_of_range"``: a value outside the channel's ``policy.ranges``, or (channels
+       without ranges) implausibly far from the window's median (``policy.plausible_spread``);
     2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
        than the previous row's (which may be in the previous file);
     3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
@@ -64,6 +66,7 @@ def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collect
                   ) -> int:
     """:func:`validate` on :class:`Rows`; returns the sample interval in ns (for gridding)."""
     _check_finite(rows, asset_id)
+    _check_ranges(rows, asset_id, policy)
     check_order(rows, asset_id)
     if len(rows) < 2 and policy.sample_interval is None:
         raise TelemetryError(asset_id, "too_few_samples",
@@ -130,6 +133,38 @@ def _check_finite(rows: Rows, asset_id: str) -> None:
     names = [f"{rows.channels[j]!r}={float(values[j, i])!r}"
              for j in np.flatnonzero(~finite[:, i])]
     _fail(rows, asset_id, "non_finite", f"non-finite value in column {', '.join(names)}", i)
+
+
+def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
+    """``"out_of_range"`` at the first row (over all channels) with an implausible value."""
+    first = None  # (row, channel index, message)
+    for j, name in enumerate(rows.channels):
+        v = rows.values[j]
+        if not len(v):
+            continue
+        bounds = policy.value_range(name)
+        if bounds is not None:
+            low, high = bounds
+            bad = (v < low) | (v > high)
+            why = f"outside its range [{low:g}, {high:g}] (grid ranges)"
+        elif policy.plausible_spread > 0:
+            p1, median, p99 = np.percentile(v, [1, 50, 99])
+            scale = (p99 - p1) or abs(median)
+            if scale == 0:
+                continue  # a channel all zero but for a few samples: only ranges can judge it
+            limit = policy.plausible_spread * scale
+            bad = np.abs(v - median) > limit
+            why = (f"implausibly far from the window's median {median:.6g} (more than "
+                   f"plausible_spread={policy.plausible_spread:g} x its 1-99 % span "
+                   f"{scale:.6g}; set the class's grid ranges to accept it)")
+        else:
+            continue
+        if bad.any():
+            i = int(np.argmax(bad))
+            if first is None or i < first[0]:
+                first = (i, j, f"value {float(v[i])!r} of channel {name!r} is {why}")
+    if first is not None:
+        _fail(rows, asset_id, "out_of_range", first[2], first[0])
 
 
 def check_order(rows: Rows, asset_id: str) -> None:
