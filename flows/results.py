@@ -9,6 +9,9 @@ Statuses of an asset in a run:
                   failure)
 ``up to date``    no new whole window since the watermark
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
+``unusable baseline``  the version to compare with cannot be used (no calibration, artifacts
+                  that fail verification, another model than the configured one): not
+                  monitored, exit status 1; its note names the version and the fix
 """
 from __future__ import annotations
 
@@ -29,6 +32,8 @@ logger = logging.getLogger(__name__)
 OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
 STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY)
+UNUSABLE_BASELINE = "unusable baseline"
+STATUSES += (UNUSABLE_BASELINE,)
 
 
 
@@ -178,8 +183,10 @@ class RunSummary:
 
     @property
     def exit_status(self) -> int:
-        """0 when every asset was processed (or had nothing to do), 1 when some failed."""
-        return EXIT_FAILED if self.failed else EXIT_OK
+        """0 when every asset was processed (or had nothing to do), 1 when some failed or
+        had an unusable baseline."""
+        unusable = any(a.status == UNUSABLE_BASELINE for a in self.assets)
+        return EXIT_FAILED if self.failed or unusable else EXIT_OK
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}
