@@ -136,9 +136,10 @@ class Calibration:
     @classmethod
     def from_json(cls, text: str | bytes) -> "Calibration":
         try:
-            return cls.from_dict(json.loads(text))
-        except json.JSONDecodeError as error:
+            data = json.loads(text)
+        except (json.JSONDecodeError, UnicodeDecodeError) as error:
             raise ArtifactError(f"calibration is not valid JSON: {error}") from None
+        return cls.from_dict(data)
 
 
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[float, float, float]:

@@ -37,12 +37,13 @@ def _reason(reason: str | None, what: str) -> str:
 
 # -- changes ---------------------------------------------------------------------------------
 
-def _newest_promotable(backend: Backend, asset_id: str) -> int | None:
+def _newest_promotable(backend: Backend, asset_id: str, but: int | None = None) -> int | None:
     name = naming.model_name(asset_id)
     versions = backend.paged(backend.client.search_model_versions,
                              f"name = {naming.quote(name)} and "
                              f"tags.`{naming.TAG_CALIBRATED}` = 'true'", max_results=200)
-    numbers = [int(v.version) for v in versions if (v.tags or {}).get(naming.TAG_REJECTED) != "true"]
+    numbers = [int(v.version) for v in versions
+               if (v.tags or {}).get(naming.TAG_REJECTED) != "true" and int(v.version) != but]
     return max(numbers) if numbers else None
 
 
@@ -172,13 +173,13 @@ def rollback(backend: Backend, asset_id: str, *, reason: str, user: str | None =
 
 def fix_hint(backend: Backend, asset_id: str, refused: int) -> str:
     """The commands that give the asset a usable baseline again."""
-    newest = _newest_promotable(backend, asset_id)
+    newest = _newest_promotable(backend, asset_id, but=refused)
     fit = (f"fleet-health baseline fit {asset_id} --start DATE --end DATE --promote "
            f"--reason TEXT (a healthy range)")
-    if newest is None or newest == refused:
+    if newest is None:
         return f"fix: {fit}"
     return (f"fix: fleet-health baseline promote {asset_id} --version {newest} --reason TEXT "
-            f"(its newest calibrated version), or {fit}")
+            f"(its newest other calibrated version), or {fit}")
 
 
 def reference(backend: Backend, asset_id: str, version: int | str | None = None,

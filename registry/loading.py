@@ -157,7 +157,7 @@ def check_model(loaded: LoadedVersion, models: Collection[str], where: str) -> N
     stored = loaded.signature.model.spec
     if stored not in models:
         raise ArtifactError(f"{where}: signature.json: model {stored!r} is not the asset's "
-                            f"configured model ({' or '.join(sorted(models))}); refusing to "
+                            f"configured model ({' or '.join(map(repr, sorted(models)))}); refusing to "
                             f"import it (fit a new baseline if the class's model changed)")
 
 

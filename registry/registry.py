@@ -135,9 +135,11 @@ class Registry:
         backwards); returns the watermark in place."""
         return watermarks.commit_watermark(self._backend, asset_id, end)
 
-    def load_version(self, asset_id: str, version: int | str | None = None) -> LoadedVersion:
-        """Load and verify a version by number or alias (default ``baseline``)."""
-        return loading.load_version(self._backend, asset_id, version)
+    def load_version(self, asset_id: str, version: int | str | None = None, *,
+                     models: Collection[str] | None = None) -> LoadedVersion:
+        """Load and verify a version by number or alias (default ``baseline``); given
+        ``models``, its signature must name one of these model specs."""
+        return loading.load_version(self._backend, asset_id, version, models)
 
     def load_pyfunc(self, asset_id: str, version: int | str | None = None, *,
                     models: Collection[str] | None = None):
