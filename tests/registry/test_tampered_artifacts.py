@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import pickle
+import shutil
+import sqlite3
 import subprocess
 import sys
 import urllib.parse
@@ -27,6 +29,7 @@ from tampering import (edit_json, model_path, move_alias, snapshot, tampered_ver
 MODELS = frozenset({"graybox.models:LangevinShaft", LangevinShaft.spec()})
 ASSETS = ("T-01", "T-02")
 ZEN = "Beautiful is better than ugly"
+WATERMARK = pd.Timestamp("2026-01-06", tz="UTC")
 
 
 class Boom:
@@ -39,16 +42,41 @@ class Boom:
         return (open, (str(self.marker), "w"))
 
 
-@pytest.fixture
-def fleet(rec, registry):
-    """T-01 and T-02 with a promoted calibrated baseline (v1) and a nightly candidate (v2),
-    and a watermark each."""
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory, template_db, fits):
+    """A store (recorded once) where T-01 and T-02 have a promoted calibrated baseline (v1),
+    a nightly candidate (v2) and a watermark each."""
+    from registry import Registry
+
+    directory = tmp_path_factory.mktemp("tampered-fleet")
+    shutil.copy(template_db, directory / "mlflow.db")
+    registry = Registry(f"sqlite:///{directory / 'mlflow.db'}", user="tester")
+    day0 = pd.Timestamp("2026-01-01", tz="UTC")
     for asset in ASSETS:
-        rec.baseline(asset)
+        registry.record_fit(asset, "turbine", fits.baseline, role="baseline",
+                            calibration=fits.calibration, window_start=day0,
+                            window_end=day0 + pd.Timedelta(days=4), data_hash="healthy",
+                            plots=False)
         registry.promote(asset, 1, reason="initial")
-        rec.candidate(asset)
-        registry.commit_watermark(asset, pd.Timestamp("2026-01-06", tz="UTC"))
-    return registry
+        registry.record_fit(asset, "turbine", fits.candidate, role="candidate", drift=fits.drift,
+                            window_start=day0 + pd.Timedelta(days=5),
+                            window_end=day0 + pd.Timedelta(days=6), data_hash="night",
+                            plots=False)
+        registry.commit_watermark(asset, WATERMARK)
+    connection = sqlite3.connect(directory / "mlflow.db")
+    connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    connection.close()
+    return directory / "mlflow.db"
+
+
+@pytest.fixture
+def fleet(recorded, tmp_path):
+    """A fresh copy of the recorded store (its artifacts are shared and never edited)."""
+    from registry import Registry
+
+    (tmp_path / "store").mkdir()
+    shutil.copy(recorded, tmp_path / "store" / "mlflow.db")
+    return Registry(f"sqlite:///{tmp_path / 'store' / 'mlflow.db'}", user="tester")
 
 
 def tamper_baseline(registry, tmp_path, edit, asset="T-01") -> int:
@@ -67,7 +95,7 @@ def assert_refused(registry, fits, match: str, version=None) -> UnusableBaseline
     assert other.version == 1 and other.signature == fits.baseline
     assert other.calibration == fits.calibration
     assert snapshot(registry, ASSETS) == before
-    assert registry.watermark("T-01") == pd.Timestamp("2026-01-06", tz="UTC")
+    assert registry.watermark("T-01") == registry.watermark("T-02") == WATERMARK
     return refused.value
 
 
