@@ -22,8 +22,8 @@ aside as ``.<name>``: dot-files are ignored). An asset without a baseline is ski
 by hand to a nightly candidate; artifacts that fail verification; another model than its
 class's configured one, refused before anything is imported) is "unusable baseline": not
 monitored, its watermark kept, the run's exit status 1, and its note names the version and
-the command that fixes it. Transient errors (registry locked or unreachable, I/O) stop the batch, which
-Prefect retries (``[nightly] retries``); after the last retry its unfinished assets are
+the command that fixes it. Transient errors (registry locked or unreachable, I/O) stop the
+batch, which Prefect retries (``[nightly] retries``); after the last retry its unfinished assets are
 reported failed and the other batches go on.
 
 The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batch_size``

@@ -203,7 +203,8 @@ def read_bundle(directory: str | pathlib.Path, where: str | None = None,
         if given != needed:
             raise fail(CALIBRATION_FILE, f"thresholds must cover exactly the signature's "
                                          f"channels and tiers: missing "
-                                         f"{sorted(needed - given)}, extra {sorted(given - needed)}")
+                                         f"{sorted(needed - given)}, extra "
+                                         f"{sorted(given - needed)}")
     if expected_asset_id is not None and signature.asset_id not in (None, expected_asset_id):
         raise fail(SIGNATURE_FILE, f"is the signature of asset {signature.asset_id!r}, "
                                    f"not {expected_asset_id!r}")

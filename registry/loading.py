@@ -156,9 +156,10 @@ def check_model(loaded: LoadedVersion, models: Collection[str], where: str) -> N
     is imported)."""
     stored = loaded.signature.model.spec
     if stored not in models:
+        configured = " or ".join(map(repr, sorted(models)))
         raise ArtifactError(f"{where}: signature.json: model {stored!r} is not the asset's "
-                            f"configured model ({' or '.join(map(repr, sorted(models)))}); refusing to "
-                            f"import it (fit a new baseline if the class's model changed)")
+                            f"configured model ({configured}); refusing to import it (fit a "
+                            f"new baseline if the class's model changed)")
 
 
 def load(backend: Backend, asset_id: str, mv, model=None,
