@@ -139,6 +139,36 @@ def test_fault_pickle_file_added_beside_the_json(fleet, fits, tmp_path):
     assert not marker.exists()
 
 
+def test_fault_pickled_python_model_mlflow_unpickles_the_registry_refuses(fleet, fits,
+                                                                          tmp_path):
+    """What the README says: MLflow's own loader runs a pickled model a tampered store holds;
+    the registry's loader refuses it before MLflow sees it."""
+    import cloudpickle
+    import yaml
+
+    marker = tmp_path / "executed"
+
+    def pickled_model(bundle):
+        root = bundle.parents[1]
+        (root / "python_model.pkl").write_bytes(pickle.dumps(Boom(marker)))
+        description = yaml.safe_load((root / "MLmodel").read_text())
+        flavor = description["flavors"]["python_function"]
+        flavor.update(loader_module="mlflow.pyfunc.model", python_model="python_model.pkl",
+                      cloudpickle_version=cloudpickle.__version__)
+        flavor.pop("data", None)
+        (root / "MLmodel").write_text(yaml.safe_dump(description))
+    version = tamper_baseline(fleet, tmp_path, pickled_model)
+    assert_refused(fleet, fits, rf"asset 'T-01' version {version}: python_model\.pkl: "
+                                r"unexpected file in the model")
+    with pytest.raises(ArtifactError, match="python_model.pkl: unexpected file"):
+        fleet.load_pyfunc("T-01", version)
+    assert not marker.exists()
+    # the object it unpickled (the file Boom opened) is no PythonModel...
+    with pytest.raises(AttributeError, match="load_context"):
+        mlflow.pyfunc.load_model(str(model_path(fleet, "T-01", version)))
+    assert marker.exists()                  # ...but its code already ran
+
+
 # -- shapes ----------------------------------------------------------------------------------
 
 def test_fault_input_weights_shape_disagrees_with_structure(fleet, fits, tmp_path):
