@@ -34,8 +34,12 @@ whose fit fails stops at that window: the windows before it are committed, the w
 stays at the start of the bad window, the error (asset, file, row) is in the run summary,
 and the other assets go on. The next run retries the same window (fix the file, or move it
 aside as ``.<name>``: dot-files are ignored). An asset without a baseline is skipped as
-"no baseline". Transient errors (registry locked or unreachable, I/O) stop the batch, which
-Prefect retries (``[nightly] retries``); after the last retry its unfinished assets are
+"no baseline". An asset whose baseline cannot be used (no calibration, e.g. the alias moved
+by hand to a nightly candidate; artifacts that fail verification; another model than its
+class's configured one, refused before anything is imported) is "unusable baseline": not
+monitored, its watermark kept, the run's exit status 1, and its note names the version and
+the command that fixes it. Transient errors (registry locked or unreachable, I/O) stop the
+batch, which Prefect retries (``[nightly] retries``); after the last retry its unfinished assets are
 reported failed and the other batches go on.
 
 The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batch_size``
@@ -65,11 +69,13 @@ from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
-                            read_against, record_candidates)
+from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_candidates,
+                            loader, memory_groups, read_against, record_candidates)
 from flows.report import flow_result
-from flows.results import (FAILED, NO_BASELINE, OK, STALE, UP_TO_DATE, AssetResult,
-                           RunSummary, TransientError, describe_error, is_transient, now_iso)
+from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
+                           AssetResult, RunSummary, TransientError, describe_error,
+                           is_transient, now_iso)
+from registry.exceptions import UnusableBaselineError
 
 
 def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
@@ -99,7 +105,10 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
                                       watermark_before=before, watermark_after=before),
                           stale), None
         with timed(clock, "registry"):
-            loaded = registry.baseline(asset)
+            loaded = registry.reference(asset, models=configured_models(config, ref))
+    except UnusableBaselineError as error:
+        return AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE, watermark_before=before,
+                           watermark_after=before, note=str(error)), None
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
         guard_asset_error(error, ref, "looking up its watermark, telemetry and baseline")
         return AssetResult(asset, ref.vehicle_class, FAILED, watermark_before=before,
@@ -245,8 +254,8 @@ def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None)
 
 
 def _progress_text(result: AssetResult) -> str:
-    if result.status == FAILED:
-        return f"{result.asset_id} FAILED"
+    if result.status in (FAILED, UNUSABLE_BASELINE):
+        return f"{result.asset_id} {result.status.upper()}"
     alarms = sum(1 for w in result.windows if w.alarm)
     return f"{result.asset_id} {result.status}" + (f", {alarms} alarmed" if alarms else "")
 
@@ -305,6 +314,9 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     summary = run_nightly(config, config_path, tracking_uri, as_of, assets, vehicle_class)
+    unusable = [a.asset_id for a in summary.assets if a.status == UNUSABLE_BASELINE]
     names = ", ".join(a.asset_id for a in summary.failed[:10])
     return flow_result(summary, config, f"{len(summary.failed)} of {len(summary.assets)} assets "
-                                        f"failed: {names}")
+                                        f"failed: {names}" + (
+                                            f"; {len(unusable)} with an unusable baseline: "
+                                            f"{', '.join(unusable[:10])}" if unusable else ""))

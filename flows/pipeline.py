@@ -106,9 +106,18 @@ class PendingAsset:
             self.result.error = describe_error(error, window_start)
 
 
-def reference_model(reference: LoadedVersion) -> WhiteBoxModel:
-    """The white box a version was fitted with (its candidates must use the same)."""
-    return reference.signature.model.load()
+def configured_models(config: FleetConfig, ref: AssetRef) -> frozenset[str]:
+    """The model specs a version of the asset may name: its class's ``model`` from fleet.toml,
+    as written and as the class's own spec (``graybox.models:X`` is
+    ``graybox.models.gas_turbine:X``)."""
+    vehicle_class = config.classes[ref.vehicle_class]
+    return frozenset({vehicle_class.model, vehicle_class.load_model().spec()})
+
+
+def reference_model(reference: LoadedVersion, allowed: frozenset[str]) -> WhiteBoxModel:
+    """The white box a version was fitted with (its candidates must use the same); its spec
+    must be ``allowed`` before anything is imported."""
+    return reference.signature.model.load(allowed)
 
 
 def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:
@@ -158,7 +167,9 @@ def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
     """The asset's windows read with ``reference``'s white box and grid (see :func:`read`);
     None, with ``result`` failed, when reading raised something other than bad telemetry."""
     try:
-        pending = PendingAsset(ref, result, reference_model(reference), reference)
+        pending = PendingAsset(ref, result,
+                               reference_model(reference, configured_models(config, ref)),
+                               reference)
         grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
         return read(config, pending, grid, bounds, stop_at_error, clock)
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch

@@ -10,7 +10,10 @@ alert file nor :meth:`registry.Registry.alerts` sees it. Running the same reanal
 finds the same runs.
 
 A bad window (bad telemetry, failed fit) is reported with its reason and the other windows
-go on; the asset then counts as failed (exit status 1).
+go on; the asset then counts as failed (exit status 1). A reference version that cannot be
+used (no calibration, so nothing could alarm; artifacts that fail verification; another model
+than the class's configured one) makes the asset "unusable baseline" (exit status 1), with
+the version and the fix in its note.
 """
 from __future__ import annotations
 
@@ -27,11 +30,12 @@ from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
-                            read_against, record_candidates)
+from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_candidates,
+                            loader, memory_groups, read_against, record_candidates)
 from flows.report import flow_result
-from flows.results import (FAILED, OK, AssetResult, RunSummary, describe_error,
-                           now_iso)
+from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
+                           describe_error, now_iso)
+from registry.exceptions import NotFoundError, UnusableBaselineError
 
 
 def _reference(version):
@@ -49,14 +53,16 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
     asset = ref.asset_id
     try:
         with timed(clock, "registry"):
-            loaded = registry.load_version(asset, _reference(version))
+            loaded = registry.reference(asset, _reference(version),
+                                        models=configured_models(config, ref))
+        if loaded is None:
+            raise NotFoundError(f"asset {asset!r} has no baseline version")
+    except UnusableBaselineError as error:
+        return AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE, note=str(error)), None
     except Exception as error:  # noqa: BLE001
         guard_asset_error(error, ref, f"loading version {version}")
         return AssetResult(asset, ref.vehicle_class, FAILED, error=describe_error(error)), None
     result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
-    if loaded.calibration is None:
-        result.note = (f"v{loaded.version} has no calibration: zeta is reported without "
-                       f"epsilon (no alarms)")
     pending = read_against(config, ref, result, loaded, windows, stop_at_error=False,
                            clock=clock)
     if pending is not None and not pending.windows and not result.failed:
@@ -138,5 +144,7 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     summary = run_reanalysis(config, config_path, start, end, tracking_uri, assets,
                              vehicle_class, version)
+    unusable = sum(1 for a in summary.assets if a.status == UNUSABLE_BASELINE)
     return flow_result(summary, config,
-                       f"{len(summary.failed)} of {len(summary.assets)} assets failed")
+                       f"{len(summary.failed)} of {len(summary.assets)} assets failed"
+                       + (f", {unusable} with an unusable baseline" if unusable else ""))

@@ -8,7 +8,7 @@ import pandas as pd
 from rich.markup import escape
 from rich.table import Table
 
-from flows.results import FAILED, RunSummary
+from flows.results import FAILED, UNUSABLE_BASELINE, RunSummary
 from registry.alert import Alert
 
 
@@ -61,7 +61,8 @@ def alert_rows(alerts: Sequence[Alert]) -> list[dict]:
 
 def flow_result(summary: RunSummary, config, failure: str):
     """A flow's return value: publish its artifacts, then the summary as a dict, wrapped in a
-    Failed state with the message ``failure`` when an asset failed."""
+    Failed state with the message ``failure`` when an asset failed or had an unusable
+    baseline (exit status 1)."""
     # prefect loads only inside a flow: the command line prints these tables without it
     from prefect.runtime import flow_run
     from prefect.states import Failed
@@ -69,7 +70,7 @@ def flow_result(summary: RunSummary, config, failure: str):
     summary.flow_run_id = str(flow_run.id) if flow_run.id else None
     publish_artifacts(summary, config)
     data = summary.to_dict()
-    return Failed(message=failure, data=data) if summary.failed else data
+    return Failed(message=failure, data=data) if summary.exit_status else data
 
 
 def publish_artifacts(summary: RunSummary, config=None) -> None:
@@ -103,7 +104,8 @@ def fleet_table(summary: RunSummary, title: str | None = None):
         table.add_column(column, no_wrap=column != "reason",
                          justify="right" if column in ("windows", "alarmed", "max ratio")
                          else "left")
-    styles = {"ok": "green", FAILED: "bold red", "no baseline": "yellow"}
+    styles = {"ok": "green", FAILED: "bold red", "no baseline": "yellow",
+              UNUSABLE_BASELINE: "bold red"}
     for row in rows:
         status = row["status"]
         style = styles.get(status)

@@ -11,6 +11,9 @@ Statuses of an asset in a run:
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
 ``stale``         its newest telemetry is older than ``[alerts] stale_after`` before the
                   run's as-of time (a ``stale`` alert is raised): not monitored, exit status 1
+``unusable baseline``  the version to compare with cannot be used (no calibration, artifacts
+                  that fail verification, another model than the configured one): not
+                  monitored, exit status 1; its note names the version and the fix
 """
 from __future__ import annotations
 
@@ -31,7 +34,10 @@ logger = logging.getLogger(__name__)
 OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
 STALE = "stale"
-STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE)
+UNUSABLE_BASELINE = "unusable baseline"
+STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE)
+#: statuses of an asset that should be monitored and was not (besides failed): exit status 1
+NOT_MONITORED = (STALE, UNUSABLE_BASELINE)
 
 
 
@@ -184,9 +190,9 @@ class RunSummary:
     @property
     def exit_status(self) -> int:
         """0 when every asset was processed (or had nothing to do), 1 when some failed or
-        went stale (not monitored)."""
-        stale = any(a.status == STALE for a in self.assets)
-        return EXIT_FAILED if self.failed or stale else EXIT_OK
+        went stale or had an unusable baseline (not monitored)."""
+        unmonitored = any(a.status in NOT_MONITORED for a in self.assets)
+        return EXIT_FAILED if self.failed or unmonitored else EXIT_OK
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}

@@ -51,7 +51,7 @@ from graybox.fleet_fit import FitRequest, fit_signatures
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock
-from graybox.tiers import TIER_KINDS
+from graybox.tiers import TIER_KINDS, TIERS
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
@@ -115,15 +115,31 @@ class Calibration:
 
     @classmethod
     def from_dict(cls, data) -> "Calibration":
-        """Rebuild from :meth:`to_dict`; anything malformed raises ArtifactError."""
-        return records.from_dict(cls, data)
+        """Rebuild from :meth:`to_dict`; anything malformed raises ArtifactError (every
+        number must be finite, every epsilon >= 0, one threshold per channel and tier)."""
+        calibration = records.from_dict(cls, data)
+        seen = set()
+        for entry in calibration.thresholds:
+            where = f"Calibration threshold of channel {entry.channel!r}, tier {entry.tier!r}"
+            if entry.tier not in TIERS:
+                raise ArtifactError(f"{where}: tier must be one of {list(TIERS)}")
+            if entry.epsilon < 0:
+                raise ArtifactError(f"{where}: epsilon must be >= 0, got {entry.epsilon!r}")
+            if (entry.channel, entry.tier) in seen:
+                raise ArtifactError(f"{where}: listed twice")
+            seen.add((entry.channel, entry.tier))
+        if not 0 < calibration.false_alarm_rate < 1:
+            raise ArtifactError(f"Calibration.false_alarm_rate must be in (0, 1), got "
+                                f"{calibration.false_alarm_rate!r}")
+        return calibration
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Calibration":
         try:
-            return cls.from_dict(json.loads(text))
-        except json.JSONDecodeError as error:
+            data = json.loads(text)
+        except (json.JSONDecodeError, UnicodeDecodeError) as error:
             raise ArtifactError(f"calibration is not valid JSON: {error}") from None
+        return cls.from_dict(data)
 
 
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[float, float, float]:

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 from scipy import stats
@@ -40,6 +40,10 @@ class NoiseTier:
     ljung_box_pvalue: float
     ljung_box_lags: int
     n_obs: int
+
+    #: the whiteness test's diagnostics (never compared): a constant residual gives NaN
+    non_finite_fields: ClassVar[frozenset[str]] = frozenset(
+        {"ljung_box_statistic", "ljung_box_pvalue"})
 
     @property
     def moments(self) -> tuple[float, float, float, float]:

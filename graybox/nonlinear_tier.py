@@ -12,7 +12,7 @@ instead of thousands of small ones.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
@@ -52,6 +52,9 @@ class NonlinearTier:
     train_mse: float
     heldout_gain: float | None
     iterations: int
+
+    #: how well the fit did (never compared): a zero-variance target gives NaN or infinity
+    non_finite_fields: ClassVar[frozenset[str]] = frozenset({"train_mse", "heldout_gain"})
 
     @property
     def hidden_units(self) -> int:

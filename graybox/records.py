@@ -14,6 +14,10 @@ the field. Supported field types:
 - unions such as ``float | None`` or ``float | str``: ``None`` where allowed, otherwise the
   first member the value fits.
 
+A ``float`` must be finite (JSON's ``NaN`` and ``Infinity`` are refused: a NaN epsilon or
+weight would silently disable alarms or break a fit), except in the fields a record names
+in its class attribute ``non_finite_fields`` (diagnostics such as a test statistic).
+
 A record that reads dicts stored by older code defines a classmethod ``migrate(data) ->
 dict`` that turns such a dict into today's fields; :func:`from_dict` applies it first,
 wherever the record is nested. (The pattern follows the ``to_dict`` / ``from_dict`` of
@@ -22,6 +26,7 @@ Merlion's ``PostRuleBase``: a config is its constructor's arguments.)
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from collections.abc import Mapping
@@ -81,7 +86,9 @@ def from_dict(cls: type, data: Any):
     if missing:
         raise ArtifactError(f"{name}: missing field(s) {sorted(missing)}")
     hints = get_type_hints(cls)
-    values = {f.name: _decode(hints[f.name], data[f.name], f"{name}.{f.name}")
+    non_finite = getattr(cls, "non_finite_fields", frozenset())
+    values = {f.name: _decode(hints[f.name], data[f.name], f"{name}.{f.name}",
+                              f.name not in non_finite)
               for f in fields if f.name in data}
     try:
         return cls(**values)
@@ -99,10 +106,10 @@ def _encode(value: Any) -> Any:
     return value
 
 
-def _decode(hint: Any, value: Any, where: str) -> Any:
+def _decode(hint: Any, value: Any, where: str, finite: bool = True) -> Any:
     origin, args = get_origin(hint), get_args(hint)
     if origin is Union or origin is types.UnionType:
-        return _decode_union(args, value, where)
+        return _decode_union(args, value, where, finite)
     if hint is Any:
         return value
     if value is None:
@@ -110,15 +117,15 @@ def _decode(hint: Any, value: Any, where: str) -> Any:
     if dataclasses.is_dataclass(hint):
         return from_dict(hint, value)
     if hint in _KINDS:
-        return _decode_scalar(hint, value, where)
+        return _decode_scalar(hint, value, where, finite)
     if hint is tuple or origin is tuple:
-        return _decode_tuple(args, value, where)
+        return _decode_tuple(args, value, where, finite)
     if hint is dict or origin in (dict, FrozenMap, Mapping, typing.Mapping) or hint is FrozenMap:
-        return _decode_mapping(hint, origin, args, value, where)
+        return _decode_mapping(hint, origin, args, value, where, finite)
     raise TypeError(f"{where}: records cannot read a field of type {hint!r}")
 
 
-def _decode_union(args: tuple, value: Any, where: str) -> Any:
+def _decode_union(args: tuple, value: Any, where: str, finite: bool) -> Any:
     if value is None:
         if type(None) in args:
             return None
@@ -127,7 +134,7 @@ def _decode_union(args: tuple, value: Any, where: str) -> Any:
     errors = []
     for member in members:
         try:
-            return _decode(member, value, where)
+            return _decode(member, value, where, finite)
         except ArtifactError as error:
             errors.append(str(error))
     if len(errors) == 1:
@@ -136,34 +143,39 @@ def _decode_union(args: tuple, value: Any, where: str) -> Any:
                         f"got {value!r}")
 
 
-def _decode_scalar(kind: type, value: Any, where: str) -> Any:
+def _decode_scalar(kind: type, value: Any, where: str, finite: bool) -> Any:
     description, accepted = _KINDS[kind]
     if not isinstance(value, accepted) or (kind is not bool and isinstance(value, bool)):
         raise ArtifactError(f"{where} must be {description}")
+    if kind is float and finite and not math.isfinite(value):
+        raise ArtifactError(f"{where} must be a finite number, got {value!r}")
     return kind(value)
 
 
-def _decode_tuple(args: tuple, value: Any, where: str) -> tuple:
+def _decode_tuple(args: tuple, value: Any, where: str, finite: bool) -> tuple:
     if not isinstance(value, (list, tuple)):
         raise ArtifactError(f"{where} must be an array, got {type(value).__name__}")
     if not args:
         return tuple(value)
     if len(args) == 2 and args[1] is Ellipsis:
-        return tuple(_decode(args[0], item, f"{where}[{i}]") for i, item in enumerate(value))
+        return tuple(_decode(args[0], item, f"{where}[{i}]", finite)
+                     for i, item in enumerate(value))
     if len(value) != len(args):
         raise ArtifactError(f"{where} must have {len(args)} items, got {len(value)}")
-    return tuple(_decode(arg, item, f"{where}[{i}]")
+    return tuple(_decode(arg, item, f"{where}[{i}]", finite)
                  for i, (arg, item) in enumerate(zip(args, value)))
 
 
-def _decode_mapping(hint: Any, origin: Any, args: tuple, value: Any, where: str) -> Any:
+def _decode_mapping(hint: Any, origin: Any, args: tuple, value: Any, where: str,
+                    finite: bool) -> Any:
     if not isinstance(value, Mapping):
         raise ArtifactError(f"{where} must be an object, got {type(value).__name__}")
     if args:
         key_type, value_type = args
         if key_type is not str:
             raise TypeError(f"{where}: JSON objects have string keys, not {key_type!r}")
-        value = {key: _decode(value_type, item, f"{where}[{key!r}]") for key, item in value.items()}
+        value = {key: _decode(value_type, item, f"{where}[{key!r}]", finite)
+                 for key, item in value.items()}
     return dict(value) if dict in (hint, origin) else FrozenMap(value)
 
 

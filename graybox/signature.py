@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -75,6 +75,10 @@ class Selection:
     adf_statistic: float
     candidate_period: int
     ar_criterion: str
+
+    #: diagnostics only (never compared): a degenerate series may give NaN
+    non_finite_fields: ClassVar[frozenset[str]] = frozenset(
+        {"acf_area", "raw_acf_area", "adf_statistic"})
 
 
 @dataclass(frozen=True)
@@ -181,7 +185,9 @@ class Signature:
         if version is not None and version != FORMAT_VERSION:
             raise ArtifactError(f"signature format {version!r} is not supported "
                                 f"(this code reads {FORMAT_VERSION})")
-        return records.from_dict(cls, data)
+        signature = records.from_dict(cls, data)
+        check_consistent(signature)
+        return signature
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Signature":
@@ -207,3 +213,54 @@ def tier_parameters(channel: ChannelSignature, tier: str) -> tuple[list[str], np
     values : ndarray
     """
     return tier_kind(tier).parameters(channel)
+
+
+def check_consistent(signature: Signature) -> None:
+    """Check that every tier's parameters have the shapes its frozen structure says.
+
+    A stored signature whose weights disagree with its structure would be accepted and
+    then break the batched fit of every asset it is fitted with; it is refused on load.
+
+    Raises
+    ------
+    ArtifactError
+        Naming the channel and the field that is wrong.
+    """
+    if not signature.channels:
+        raise ArtifactError("Signature.channels: must name at least one channel")
+    if len(set(signature.channel_names)) != len(signature.channel_names):
+        raise ArtifactError(f"Signature.channels: repeated channel in {signature.channel_names}")
+    for name in ("sample_interval", "analysis_interval"):
+        value = getattr(signature, name)
+        if value is not None and not value > 0:
+            raise ArtifactError(f"Signature.{name} must be > 0, got {value!r}")
+    for channel in signature.channels:
+        where = f"Signature channel {channel.channel!r}"
+        s = channel.structure
+        for name in ("period", "seasonal_order", "diff_order", "ar_order"):
+            if getattr(s, name) < 0:
+                raise ArtifactError(f"{where}: structure.{name} must be >= 0, got "
+                                    f"{getattr(s, name)}")
+        for name in ("tau", "embedding_dim", "hidden_units"):
+            if getattr(s, name) < 1:
+                raise ArtifactError(f"{where}: structure.{name} must be >= 1, got "
+                                    f"{getattr(s, name)}")
+        for name in ("scale", "nn_scale"):
+            if not getattr(s, name) > 0:
+                raise ArtifactError(f"{where}: structure.{name} must be > 0, got "
+                                    f"{getattr(s, name)}")
+        linear, network = channel.linear, channel.nonlinear
+        if len(linear.coefficients) != s.ar_order or len(linear.standard_errors) != s.ar_order:
+            raise ArtifactError(f"{where}: linear.coefficients and standard_errors must have "
+                                f"ar_order = {s.ar_order} items, got "
+                                f"{len(linear.coefficients)} and {len(linear.standard_errors)}")
+        if len(network.output_weights) != s.hidden_units:
+            raise ArtifactError(f"{where}: nonlinear.output_weights must have hidden_units = "
+                                f"{s.hidden_units} items, got {len(network.output_weights)}")
+        shape = (len(network.input_weights),
+                 *sorted({len(row) for row in network.input_weights}))
+        if shape != (s.hidden_units, s.embedding_dim):
+            raise ArtifactError(f"{where}: nonlinear.input_weights must have shape "
+                                f"(hidden_units, embedding_dim) = ({s.hidden_units}, "
+                                f"{s.embedding_dim}), got rows of lengths "
+                                f"{[len(row) for row in network.input_weights]}")

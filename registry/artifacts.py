@@ -14,7 +14,9 @@ Reading a bundle (:func:`read_bundle`) trusts nothing in it:
 * every file must match its manifest entry (sha256 and size), and the manifest itself may be
   pinned by a digest kept elsewhere (the registry keeps it in a model-version tag, so
   rewriting the artifact store alone is detected);
-* JSON is parsed strictly by :meth:`Signature.from_json` / :meth:`Calibration.from_json`;
+* JSON is parsed strictly by :meth:`Signature.from_json` / :meth:`Calibration.from_json`:
+  every number finite, every weight shape that of the frozen structure, one threshold per
+  channel and tier of the signature;
 * the safetensors tensors must equal the parameters inside the signature JSON, exactly.
 
 Any failure raises :class:`graybox.exceptions.ArtifactError` naming the bundle (asset and
@@ -195,6 +197,14 @@ def read_bundle(directory: str | pathlib.Path, where: str | None = None,
             calibration = Calibration.from_json(contents[CALIBRATION_FILE])
         except ArtifactError as error:
             raise fail(CALIBRATION_FILE, str(error)) from None
+    if calibration is not None:
+        needed = {(c, t) for c in signature.channel_names for t in TIERS}
+        given = {(t.channel, t.tier) for t in calibration.thresholds}
+        if given != needed:
+            raise fail(CALIBRATION_FILE, f"thresholds must cover exactly the signature's "
+                                         f"channels and tiers: missing "
+                                         f"{sorted(needed - given)}, extra "
+                                         f"{sorted(given - needed)}")
     if expected_asset_id is not None and signature.asset_id not in (None, expected_asset_id):
         raise fail(SIGNATURE_FILE, f"is the signature of asset {signature.asset_id!r}, "
                                    f"not {expected_asset_id!r}")

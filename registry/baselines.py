@@ -7,18 +7,23 @@ recorded as tags on the version concerned (who, when, why, and the baseline it r
 that :func:`rollback` can restore it).
 
 Promotion and rollback load the version first (:func:`registry.loading.load`, which
-verifies it and never unpickles) and refuse it if that fails.
+verifies it and never unpickles) and refuse it if that fails. The runs load the version they
+compare with through :func:`reference`, which also refuses a version without calibration
+(the ``baseline`` alias can be moved by hand, e.g. in the MLflow UI): its zeta would have no
+epsilon and nothing could alarm.
 """
 from __future__ import annotations
+
+from typing import Collection
 
 import pandas as pd
 
 from graybox.exceptions import ArtifactError
 from registry import naming
 from registry.backend import Backend
-from registry.entities import AssetSummary, VersionInfo
-from registry.exceptions import NotFoundError, PromotionError
-from registry.loading import load, version_info
+from registry.entities import AssetSummary, LoadedVersion, VersionInfo
+from registry.exceptions import NotFoundError, PromotionError, UnusableBaselineError
+from registry.loading import load, resolve, version_info
 
 def _now() -> str:
     return pd.Timestamp.now(tz="UTC").isoformat(timespec="seconds")
@@ -32,12 +37,13 @@ def _reason(reason: str | None, what: str) -> str:
 
 # -- changes ---------------------------------------------------------------------------------
 
-def _newest_promotable(backend: Backend, asset_id: str) -> int | None:
+def _newest_promotable(backend: Backend, asset_id: str, but: int | None = None) -> int | None:
     name = naming.model_name(asset_id)
     versions = backend.paged(backend.client.search_model_versions,
                              f"name = {naming.quote(name)} and "
                              f"tags.`{naming.TAG_CALIBRATED}` = 'true'", max_results=200)
-    numbers = [int(v.version) for v in versions if (v.tags or {}).get(naming.TAG_REJECTED) != "true"]
+    numbers = [int(v.version) for v in versions
+               if (v.tags or {}).get(naming.TAG_REJECTED) != "true" and int(v.version) != but]
     return max(numbers) if numbers else None
 
 
@@ -163,6 +169,64 @@ def rollback(backend: Backend, asset_id: str, *, reason: str, user: str | None =
                      backend.require_registered_model(asset_id))
 
 
+# -- the reference of a run ------------------------------------------------------------------
+
+def fix_hint(backend: Backend, asset_id: str, refused: int) -> str:
+    """The commands that give the asset a usable baseline again."""
+    newest = _newest_promotable(backend, asset_id, but=refused)
+    fit = (f"fleet-health baseline fit {asset_id} --start DATE --end DATE --promote "
+           f"--reason TEXT (a healthy range)")
+    if newest is None:
+        return f"fix: {fit}"
+    return (f"fix: fleet-health baseline promote {asset_id} --version {newest} --reason TEXT "
+            f"(its newest other calibrated version), or {fit}")
+
+
+def reference(backend: Backend, asset_id: str, version: int | str | None = None,
+              models: Collection[str] | None = None) -> LoadedVersion | None:
+    """The version a run compares the asset with (default its baseline), verified and usable.
+
+    Parameters
+    ----------
+    version : int or str, optional
+        A number or alias; None is the ``baseline`` alias.
+    models : collection of str, optional
+        The model specs its signature may name (the asset's configured model).
+
+    Returns
+    -------
+    LoadedVersion or None
+        None when ``version`` is None and the asset has no baseline.
+
+    Raises
+    ------
+    UnusableBaselineError
+        If the version has no calibration (nothing could alarm against it), its artifacts
+        fail verification, or it names another model; the message names the asset, the
+        version, why, and the command that fixes it.
+    NotFoundError
+        If a named version or alias does not exist.
+    """
+    if version is None:
+        mv = backend.version_by_alias(asset_id, naming.BASELINE)
+        if mv is None:
+            return None
+    else:
+        mv = resolve(backend, asset_id, version)
+    try:
+        loaded = load(backend, asset_id, mv, models=models)
+    except ArtifactError as error:
+        raise UnusableBaselineError(f"{error}; {fix_hint(backend, asset_id, int(mv.version))}"
+                                    ) from error
+    if loaded.calibration is None:
+        role = (mv.tags or {}).get(naming.TAG_ROLE) or "uncalibrated"
+        raise UnusableBaselineError(
+            f"asset {asset_id!r} version {mv.version} has no calibration (a {role} fit): its "
+            f"zeta has no epsilon, so nothing could alarm; refusing to compare with it; "
+            f"{fix_hint(backend, asset_id, int(mv.version))}")
+    return loaded
+
+
 # -- views -----------------------------------------------------------------------------------
 
 def history(backend: Backend, asset_id: str) -> list[VersionInfo]:
@@ -200,4 +264,5 @@ def list_baselines(backend: Backend, vehicle_class: str | None = None) -> list[A
     return sorted(out, key=lambda s: ((s.vehicle_class or ""), s.asset_id))
 
 
-__all__ = ["promote", "reject", "rollback", "history", "list_baselines"]
+__all__ = ["promote", "reject", "rollback", "reference", "fix_hint", "history",
+           "list_baselines"]

@@ -17,3 +17,8 @@ class NotFoundError(RegistryError):
 
 class PromotionError(RegistryError):
     """A promotion, rejection or rollback was refused; the message says why."""
+
+
+class UnusableBaselineError(RegistryError):
+    """The version a run compares with cannot be used (uncalibrated, tampered, or another
+    model than the asset's configured one); the message names the version and the fix."""

@@ -4,13 +4,19 @@ A version's artifacts are read (in place from a local artifact store, else downl
 ``MLmodel`` file must describe the loader-module pyfunc of :mod:`registry.pyfunc` (a pickled
 ``python_model`` is refused), no file outside the expected set may be present, and the
 signature bundle is verified against the manifest digest recorded in the registry when the
-fit was recorded (:func:`registry.artifacts.read_bundle`).
+fit was recorded (:func:`registry.artifacts.read_bundle`). A version whose ``source`` has a
+``..`` segment (a path out of the artifact store) is refused before anything is read. Given
+``models`` (the asset's configured model specs), the signature's model spec must be one of
+them; nothing the artifact names is imported before that check (see
+:mod:`graybox.models.spec`).
 """
 from __future__ import annotations
 
 import dataclasses
 import pathlib
 import tempfile
+import urllib.parse
+from typing import Collection
 
 import yaml
 from mlflow.exceptions import MlflowException
@@ -136,9 +142,33 @@ def _in_place(source: str) -> pathlib.Path | None:
     return path if path.is_dir() else None
 
 
+def check_source(source: str, where: str) -> None:
+    """Refuse a version ``source`` with a ``..`` segment (even percent-encoded): it would
+    read a directory outside the artifact store."""
+    path = urllib.parse.unquote(urllib.parse.urlparse(str(source)).path)
+    if ".." in pathlib.PurePosixPath(path.replace("\\", "/")).parts:
+        raise ArtifactError(f"{where}: source {source!r} leaves the artifact store ('..'); "
+                            f"refusing to read it")
+
+
+def check_model(loaded: LoadedVersion, models: Collection[str], where: str) -> None:
+    """Refuse a version whose signature names another model than ``models`` (nothing of it
+    is imported)."""
+    stored = loaded.signature.model.spec
+    if stored not in models:
+        configured = " or ".join(map(repr, sorted(models)))
+        raise ArtifactError(f"{where}: signature.json: model {stored!r} is not the asset's "
+                            f"configured model ({configured}); refusing to import it (fit a "
+                            f"new baseline if the class's model changed)")
+
+
 def load(backend: Backend, asset_id: str, mv, model=None,
-          keep: pathlib.Path | None = None) -> LoadedVersion:
+          keep: pathlib.Path | None = None,
+          models: Collection[str] | None = None) -> LoadedVersion:
+    """Load and verify one ModelVersion (see the module docstring); ``models``: the model
+    specs its signature may name."""
     where = f"asset {asset_id!r} version {mv.version}"
+    check_source(mv.source, where)
     tags = mv.tags or {}
     if tags.get(naming.TAG_ASSET_ID) not in (None, asset_id):
         raise ArtifactError(f"{where}: recorded for asset {tags.get(naming.TAG_ASSET_ID)!r}")
@@ -154,24 +184,33 @@ def load(backend: Backend, asset_id: str, mv, model=None,
         bundle_dir = verify_model_dir(local, where)
         bundle = read_bundle(bundle_dir, where=where, expected_manifest_sha256=expected,
                              expected_asset_id=asset_id)
-    return LoadedVersion(version_info(backend, asset_id, mv, model), bundle.signature,
-                         bundle.calibration, bundle.manifest_sha256)
+    loaded = LoadedVersion(version_info(backend, asset_id, mv, model), bundle.signature,
+                           bundle.calibration, bundle.manifest_sha256)
+    if models is not None:
+        check_model(loaded, models, where)
+    return loaded
 
 
-def load_version(backend: Backend, asset_id: str, version: int | str | None = None) -> LoadedVersion:
+def load_version(backend: Backend, asset_id: str, version: int | str | None = None,
+                 models: Collection[str] | None = None) -> LoadedVersion:
     """Load and verify one version (a number or an alias; default the baseline)."""
     return load(backend, asset_id, resolve(backend, asset_id, version),
-                 backend.registered_model(asset_id))
+                backend.registered_model(asset_id), models=models)
 
 
-def baseline(backend: Backend, asset_id: str) -> LoadedVersion | None:
+def baseline(backend: Backend, asset_id: str,
+             models: Collection[str] | None = None) -> LoadedVersion | None:
     """The asset's baseline, verified, or None if it has none."""
     mv = backend.version_by_alias(asset_id, naming.BASELINE)
-    return None if mv is None else load(backend, asset_id, mv)
+    return None if mv is None else load(backend, asset_id, mv, models=models)
 
 
-def load_pyfunc(backend: Backend, asset_id: str, version: int | str | None = None):
+def load_pyfunc(backend: Backend, asset_id: str, version: int | str | None = None,
+                models: Collection[str] | None = None):
     """The version as an MLflow pyfunc model, loaded only after its artifacts are verified.
+
+    ``models``: the model specs the version may name; without it, the signature's model
+    module must already be imported (a stored record never chooses what is imported).
 
     Returns
     -------
@@ -179,16 +218,22 @@ def load_pyfunc(backend: Backend, asset_id: str, version: int | str | None = Non
         ``predict(telemetry_frame)`` returns zeta per tier and channel (see
         :class:`registry.pyfunc.SignatureModel`).
     """
+    import importlib
+
     import mlflow.pyfunc
 
     mv = resolve(backend, asset_id, version)
     with tempfile.TemporaryDirectory(prefix="fleet-health-pyfunc-") as scratch:
         root = pathlib.Path(scratch)
-        load(backend, asset_id, mv, keep=root)
+        loaded = load(backend, asset_id, mv, keep=root, models=models)
+        if models is not None:
+            # the caller trusts these: the model's module may be imported now
+            importlib.import_module(loaded.signature.model.spec.partition(":")[0])
         local = next(p.parent for p in root.rglob("MLmodel"))
         # the model reads everything it needs in its constructor; the copy can go afterwards
         return mlflow.pyfunc.load_model(str(local))
 
 
-__all__ = ["MODEL_FILES", "verify_model_dir", "version_info", "load", "resolve",
+__all__ = ["MODEL_FILES", "verify_model_dir", "version_info", "check_source", "check_model",
+           "load", "resolve",
            "load_version", "baseline", "load_pyfunc"]

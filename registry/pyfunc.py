@@ -13,14 +13,19 @@ to be "built from JSON + tensors in ``load_context``": ``load_context`` belongs 
 ``mlflow.pyfunc.PythonModel`` subclass, and MLflow stores such a class with cloudpickle,
 which executes code when loaded. The loader-module form stores no Python object at all, and
 the constructor of :class:`SignatureModel` plays the part of ``load_context``: it verifies
-the bundle (manifest digests, no unexpected files, strict JSON, tensors equal to the JSON)
-and rebuilds the signature and calibration from it.
+the bundle (manifest digests, no unexpected files, strict JSON with finite numbers and
+shapes matching the frozen structure, tensors equal to the JSON) and rebuilds the signature
+and calibration from it. It builds the white box only if the signature's model module is
+already imported (:meth:`graybox.models.spec.ModelSpec.load`): a stored record never
+chooses what is imported.
 
-The registry's own loader (``Registry.load_version``) goes further: it also checks the
-``MLmodel`` file and pins the manifest to the digest recorded in the registry, so a version
-whose ``MLmodel`` was rewritten to point at a pickled model is refused before MLflow could
-unpickle anything. Prefer ``Registry.load_pyfunc`` to calling ``mlflow.pyfunc.load_model``
-on a version nobody has promoted.
+This module runs only when ``MLmodel`` names it. ``mlflow.pyfunc.load_model`` reads
+``MLmodel`` as it finds it, so if the artifact store was rewritten to describe a pickled
+``python_model``, MLflow unpickles it (running its code) and nothing here runs; and the
+bundle's own manifest can be rewritten to match. The registry's own loader
+(``Registry.load_pyfunc``, ``Registry.load_version``) checks the ``MLmodel`` file and pins
+the manifest to the digest recorded in the registry before MLflow sees anything, so use it,
+never ``mlflow.pyfunc.load_model``, on a store others can write.
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import os
-from typing import Sequence
+from typing import Collection, Sequence
 
 import pandas as pd
 
@@ -113,6 +113,19 @@ class Registry:
         """
         return loading.baseline(self._backend, asset_id)
 
+    def reference(self, asset_id: str, version: int | str | None = None, *,
+                  models: Collection[str] | None = None) -> LoadedVersion | None:
+        """The version a run compares the asset with (default its baseline; None if it has
+        none), verified, calibrated and naming one of ``models``.
+
+        Raises
+        ------
+        registry.exceptions.UnusableBaselineError
+            If it cannot be used; the message names the version and the command that fixes
+            it (see :func:`registry.baselines.reference`).
+        """
+        return baselines.reference(self._backend, asset_id, version, models)
+
     def watermark(self, asset_id: str) -> pd.Timestamp | None:
         """End (exclusive, UTC) of the asset's last committed window: one registry call."""
         return watermarks.watermark(self._backend, asset_id)
@@ -122,14 +135,18 @@ class Registry:
         backwards); returns the watermark in place."""
         return watermarks.commit_watermark(self._backend, asset_id, end)
 
-    def load_version(self, asset_id: str, version: int | str | None = None) -> LoadedVersion:
-        """Load and verify a version by number or alias (default ``baseline``)."""
-        return loading.load_version(self._backend, asset_id, version)
+    def load_version(self, asset_id: str, version: int | str | None = None, *,
+                     models: Collection[str] | None = None) -> LoadedVersion:
+        """Load and verify a version by number or alias (default ``baseline``); given
+        ``models``, its signature must name one of these model specs."""
+        return loading.load_version(self._backend, asset_id, version, models)
 
-    def load_pyfunc(self, asset_id: str, version: int | str | None = None):
+    def load_pyfunc(self, asset_id: str, version: int | str | None = None, *,
+                    models: Collection[str] | None = None):
         """The version (default ``baseline``) as a verified ``mlflow.pyfunc`` model whose
-        ``predict(telemetry_frame)`` returns zeta per tier and channel."""
-        return loading.load_pyfunc(self._backend, asset_id, version)
+        ``predict(telemetry_frame)`` returns zeta per tier and channel. ``models``: the
+        model specs it may name (else its model's module must already be imported)."""
+        return loading.load_pyfunc(self._backend, asset_id, version, models)
 
     # -- review --------------------------------------------------------------------------------
     def promote(self, asset_id: str, version: int | None = None, *, reason: str,

@@ -12,7 +12,7 @@ from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
-from flows.results import RunSummary
+from flows.results import UNUSABLE_BASELINE, RunSummary
 from graybox.exceptions import InvalidAssetIdError
 from registry.cli import EXIT_USAGE, _console, _error
 
@@ -118,6 +118,10 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         print(f"fleet-health: skipped {entry['path']}: {entry['reason']}", file=sys.stderr)
     for asset in summary.failed:
         print(f"fleet-health: {asset.asset_id} failed: {asset.reason()}", file=sys.stderr)
+    for asset in summary.assets:
+        if asset.status == UNUSABLE_BASELINE:
+            print(f"fleet-health: {asset.asset_id} {UNUSABLE_BASELINE} (not monitored): "
+                  f"{asset.reason()}", file=sys.stderr)
     return summary.exit_status
 
 

@@ -1,10 +1,19 @@
-"""The white box a signature was fitted with, as a frozen record: spec, parameters, columns."""
+"""The white box a signature was fitted with, as a frozen record: spec, parameters, columns.
+
+A stored record names a Python class, and importing its module runs that module's code, so
+:meth:`ModelSpec.load` never imports a module a record chose: given ``allowed`` (the specs
+the caller trusts, e.g. the vehicle class's ``model`` from fleet.toml) the record's spec must
+be one of them before anything is imported; without it, the spec's module must already be
+imported (a record made in this process, or a built-in model).
+"""
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Collection, Mapping
 
 from graybox import records
+from graybox.exceptions import ModelSpecError
 from graybox.frozen_map import FrozenMap
 from graybox.models.base import WhiteBoxModel, load_model
 
@@ -47,8 +56,30 @@ class ModelSpec:
         """The record of a white box instance."""
         return cls(model.spec(), model.parameters, model.columns)
 
-    def load(self) -> WhiteBoxModel:
-        """The white box (raises :class:`~graybox.exceptions.ModelSpecError` if it cannot)."""
+    def load(self, allowed: Collection[str] | None = None) -> WhiteBoxModel:
+        """The white box, built without importing a module the record alone chose.
+
+        Parameters
+        ----------
+        allowed : collection of str, optional
+            The ``package.module:ClassName`` specs the caller trusts; the record's spec must
+            be one of them (checked before anything is imported). None: the spec's module
+            must already be imported.
+
+        Raises
+        ------
+        graybox.exceptions.ModelSpecError
+            If the spec is not allowed, or the white box cannot be built.
+        """
+        if allowed is not None:
+            if self.spec not in allowed:
+                raise ModelSpecError(f"model spec {self.spec!r} is not an allowed model "
+                                     f"({', '.join(sorted(allowed)) or 'none'}); it was not "
+                                     f"imported")
+        elif self.spec.partition(":")[0] not in sys.modules:
+            raise ModelSpecError(f"model spec {self.spec!r}: its module is not imported and a "
+                                 f"stored record may not choose what is imported; import it "
+                                 f"first or name the spec in allowed")
         return load_model(self.spec, self.parameters, self.columns)
 
     def to_dict(self) -> dict:

@@ -62,17 +62,22 @@ def test_reanalysis_against_a_named_version(workspace, capsys):
     registry = workspace.registry()
     versions = _state(registry.history("T-002"))
     assert versions == [(1, ("baseline",)), (2, ("candidate",))]
-    status = main(["--config", str(workspace.config), "reanalyze", "--asset", "T-002",
-                   "--start", day(BASELINE_DAYS + 1).isoformat(),
-                   "--end", (day(BASELINE_DAYS + 1) + pd.Timedelta(hours=12)).isoformat(),
-                   "--version", "2", "--json"])
+    argv = ["--config", str(workspace.config), "reanalyze", "--asset", "T-002",
+            "--start", day(BASELINE_DAYS + 1).isoformat(),
+            "--end", (day(BASELINE_DAYS + 1) + pd.Timedelta(hours=12)).isoformat(), "--json"]
+    # a nightly candidate has no calibration: nothing could alarm against it, so it is refused
+    assert main(argv + ["--version", "2"]) == 1
+    (asset,) = json.loads(capsys.readouterr().out)["assets"]
+    assert asset["status"] == "unusable baseline" and asset["windows"] == []
+    assert "version 2 has no calibration" in asset["note"]
+    assert "fleet-health baseline promote T-002 --version 1" in asset["note"]
+    status = main(argv + ["--version", "1"])
     assert status == 0
     (asset,) = json.loads(capsys.readouterr().out)["assets"]
-    assert asset["baseline_version"] == 2
-    assert "no calibration" in asset["note"]              # a nightly candidate: zeta only
+    assert asset["baseline_version"] == 1 and asset["status"] == "ok"
     (window,) = asset["windows"]                           # half a day: a partial window
     assert window["window_end"].startswith(f"{day(BASELINE_DAYS + 1):%Y-%m-%d}T12:00")
-    assert not window["alarm"]
+    assert window["alarm"] and window["max_ratio"] > 1     # the noise fault, named version
     assert _state(registry.history("T-002")) == versions
 
 
