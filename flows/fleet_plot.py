@@ -94,9 +94,10 @@ def fleet_heatmap_figure(view: FleetView, top: int = DEFAULT_TOP, title: str = "
 
 def _title(view: FleetView, shown: int, band) -> str:
     flagged = sum(row.flagged for row in view.rows)
-    text = (f"Fleet at a glance: {len(view.rows)} assets, {flagged} flagged, "
-            f"nights {view.nights[0]} to {view.nights[-1]}" if view.nights else "Fleet")
-    return text + (f"\n(worst {shown} shown; {band.count} folded)" if band is not None else "")
+    text = f"Fleet at a glance: {len(view.rows)} assets, {flagged} flagged"
+    if view.nights:
+        text += f"\nnights {view.nights[0]} to {view.nights[-1]}"
+    return text + (f" (worst {shown} shown, {band.count} folded)" if band is not None else "")
 
 
 def heatmap_png(view: FleetView, top: int = DEFAULT_TOP, dpi: int = 100) -> bytes:
