@@ -45,7 +45,7 @@ def synthetic_fleet(assets: int, nights: int, seed: int = 1):
              + [Mark(ids[i], "turbine", days[-1], "stale", "no telemetry for 3 days")
                 for i in stale])
     coverage = {"assets": assets, "monitored": assets - len(failed) - len(stale),
-                "alarmed": len(drifting), "stale": len(stale), "failed": len(failed),
+                "stale": len(stale), "failed": len(failed),
                 "without baseline": 0}
     return days, ratios, marks, coverage
 

@@ -20,14 +20,15 @@ from __future__ import annotations
 import json
 import logging
 
-from flows.fleet_view import DEFAULT_NIGHTS, DEFAULT_TOP, collect_view, night_document
+from flows.fleet_view import (DEFAULT_NIGHTS, DEFAULT_TOP, VIEW_FILE, collect_view,
+                              night_document)
 from flows.html_report import png_data_uri
 from flows.results import RunSummary
 
 logger = logging.getLogger(__name__)
 
 ARTIFACT_KEY = "fleet-health-fleet-view"
-HEATMAP_FILE, VIEW_FILE = "fleet_heatmap.png", "fleet_view.json"
+HEATMAP_FILE = "fleet_heatmap.png"
 
 
 def publish_fleet_view(summary: RunSummary, config, nights: int = DEFAULT_NIGHTS,

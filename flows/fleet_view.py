@@ -28,6 +28,7 @@ STALE, UNUSABLE_BASELINE = "stale", "unusable baseline"   # flows.results status
 MARKED = (FAILED, STALE, UNUSABLE_BASELINE)
 DEFAULT_NIGHTS = 14
 DEFAULT_TOP = 40
+VIEW_FILE = "fleet_view.json"          #: the view, as an artifact of a night's fleet run
 
 
 def night_of(as_of) -> str:
@@ -135,8 +136,8 @@ class FleetView:
     rows : tuple of AssetNights
         Worst first (see the module docstring).
     coverage : tuple of (str, int)
-        Counts of the latest night with a nightly run: ``assets``, ``monitored``,
-        ``alarmed``, ``stale``, ``failed``, ``without baseline``, ``unusable baseline``,
+        Counts of the latest night with a nightly run: ``assets``, ``monitored`` (ok or up
+        to date), ``stale``, ``failed``, ``without baseline``, ``unusable baseline``,
         ``no telemetry`` (empty when no run recorded its statuses).
     coverage_night : str or None
         The night those counts are of.
@@ -245,7 +246,6 @@ def coverage_counts(summary: RunSummary) -> dict[str, int]:
     counts = summary.counts()
     return {"assets": len(summary.assets),
             "monitored": counts.get(OK, 0) + counts.get(UP_TO_DATE, 0),
-            "alarmed": sum(1 for a in summary.assets if any(w.alarm for w in a.windows)),
             "stale": counts.get(STALE, 0), "failed": counts.get(FAILED, 0),
             "without baseline": counts.get(NO_BASELINE, 0),
             "unusable baseline": counts.get(UNUSABLE_BASELINE, 0),
@@ -253,11 +253,13 @@ def coverage_counts(summary: RunSummary) -> dict[str, int]:
 
 
 def night_document(summary: RunSummary) -> dict:
-    """What a nightly run keeps of its night with the fleet-level run: the night, its marks
-    and its coverage counts (JSON types)."""
+    """What a nightly run keeps of its night with the fleet-level run: the night, its marks,
+    its coverage counts and the nights it recorded windows in (JSON types)."""
     night = night_of(summary.as_of)
+    recorded = sorted({pd.Timestamp(w.window_start).strftime("%Y-%m-%d")
+                       for a in summary.assets for w in a.windows})
     return {"night": night, "as_of": summary.as_of, "flow_run_id": summary.flow_run_id,
-            "coverage": coverage_counts(summary),
+            "coverage": coverage_counts(summary), "nights_recorded": recorded,
             "marks": [mark.to_dict() for mark in summary_marks(summary, night)]}
 
 
@@ -267,23 +269,44 @@ def collect_view(registry, last_night: str, count: int = DEFAULT_NIGHTS,
                  tonight: dict | None = None) -> FleetView:
     """The view of the ``count`` nights ending with ``last_night``, from the registry.
 
-    Ratios come from the candidates recorded (:func:`registry.fleet_ratios.night_ratios`),
-    marks and coverage from the nights' fleet-level runs; ``tonight`` (a
-    :func:`night_document` not yet published) replaces its night's.
+    Without ``tonight`` (the report), every night's ratios are read from the candidates
+    recorded (:func:`registry.fleet_ratios.night_ratios`) and the marks and coverage from
+    the nights' fleet-level runs. With ``tonight`` (a :func:`night_document` being
+    published by the nightly run), the latest view published up to that night
+    (``fleet_view.json`` of its fleet-level run) gives the cells and marks of its nights,
+    except the nights tonight's run recorded windows in, which are read again; the nights
+    it does not cover are read; tonight's marks and coverage are added. A nightly view
+    thus reads about one night of runs, not ``count``.
     """
-    from registry.fleet_ratios import night_ratios
-    from registry.fleet_runs import fleet_runs, night_statuses
+    from registry.fleet_ratios import NightRatio, night_ratios
+    from registry.fleet_runs import fleet_runs, night_statuses, run_document
 
     nights = window_nights(last_night, count)
     backend = registry.backend
     runs = {night: run for night, run in fleet_runs(backend).items() if night in nights}
-    if tonight is not None:
-        runs.pop(tonight["night"], None)
-    documents = night_statuses(backend, runs)
-    if tonight is not None and tonight["night"] in nights:
-        documents[tonight["night"]] = tonight
-    marks = [Mark.from_dict(m) for night in sorted(documents)
-             for m in documents[night].get("marks", [])]
-    latest = max(documents) if documents else None
-    coverage = documents[latest].get("coverage", {}) if latest else {}
-    return build_view(nights, night_ratios(backend, nights), marks, coverage, latest)
+    if tonight is None:
+        documents = night_statuses(backend, runs)
+        marks = [Mark.from_dict(m) for night in sorted(documents)
+                 for m in documents[night].get("marks", [])]
+        latest = max(documents) if documents else None
+        coverage = documents[latest].get("coverage", {}) if latest else {}
+        return build_view(nights, night_ratios(backend, nights), marks, coverage, latest)
+
+    previous = None
+    for night in sorted(runs, reverse=True):
+        document = run_document(backend, runs[night].info.run_id, VIEW_FILE)
+        if document is not None:
+            previous = FleetView.from_dict(document)
+            break
+    recorded = set(tonight.get("nights_recorded", ()))
+    covered = set() if previous is None else set(previous.nights) - recorded
+    ratios: list = night_ratios(backend, [n for n in nights if n not in covered])
+    marks: list[Mark] = []
+    for row in () if previous is None else previous.rows:
+        for night, ratio, mark in zip(previous.nights, row.ratios, row.marks):
+            if night in covered and ratio is not None:
+                ratios.append(NightRatio(row.asset_id, row.vehicle_class, night, ratio))
+            if mark is not None:
+                marks.append(Mark(row.asset_id, row.vehicle_class, night, mark))
+    marks += [Mark.from_dict(m) for m in tonight.get("marks", [])]
+    return build_view(nights, ratios, marks, tonight.get("coverage", {}), tonight["night"])

@@ -2,15 +2,16 @@
 
 A night is the UTC date a candidate's window starts on; its ratio is the run's
 ``max_ratio`` metric (the largest zeta/epsilon over the tiers and channels of the window;
-the largest over the windows when a night has several). Runs are read with one
-``search_runs`` over every vehicle class's experiment per calendar month the nights touch
-(MLflow compares tags only with ``=`` and ``LIKE``, so the months are ``LIKE`` prefixes),
-never one call per asset. Only complete nightly candidates count, one per asset and window
+the largest over the windows when a night has several). Runs are read with one (paged)
+``search_runs`` over every vehicle class's experiment per night (``window_start LIKE
+'YYYY-MM-DD%'``: MLflow compares tags only with ``=`` and ``LIKE``), so exactly the runs
+of those nights are read, never one call per asset. Only complete nightly candidates count, one per asset and window
 (the latest recorded); reanalyses are left out.
 """
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -19,6 +20,8 @@ import pandas as pd
 from registry import naming
 from registry.backend import Backend
 from registry.history import _asset_runs
+
+_DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
 
 
 @dataclass(frozen=True)
@@ -44,12 +47,13 @@ def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
     experiment_ids = backend.experiment_ids()
     if not wanted or not experiment_ids:
         return []
-    months = sorted({night[:7] for night in wanted})
     worst: dict[tuple[str, str], NightRatio] = {}
-    for month in months:
+    for day in sorted(wanted):
+        if _DATE.fullmatch(day) is None:
+            raise ValueError(f"a night is a date YYYY-MM-DD, not {day!r}")
         runs = _asset_runs(backend, experiment_ids, [
             f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'",
-            f"tags.`{naming.TAG_WINDOW_START}` LIKE '{month}-%'"])
+            f"tags.`{naming.TAG_WINDOW_START}` LIKE '{day}%'"])
         for run in runs:
             tags = run.data.tags
             night = pd.Timestamp(tags[naming.TAG_WINDOW_START]).strftime("%Y-%m-%d")

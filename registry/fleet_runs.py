@@ -87,18 +87,23 @@ def publish_night(backend: Backend, night: str, files: Mapping[str, bytes],
 def night_statuses(backend: Backend, runs: Mapping[str, object]) -> dict[str, dict]:
     """The :data:`STATUSES_FILE` document of each run given (night -> document); nights
     whose run has none (published by an older version, or half-way) are left out."""
-    out: dict[str, dict] = {}
-    with tempfile.TemporaryDirectory(prefix="fleet-health-statuses-") as scratch:
-        for night, run in runs.items():
-            run_id = run.info.run_id
-            try:
-                local = backend.client.download_artifacts(run_id, STATUSES_FILE,
-                                                          str(pathlib.Path(scratch) / run_id))
-            except (FileNotFoundError, OSError):
-                continue
-            except MlflowException as error:
-                if not is_not_found(error):
-                    raise
-                continue
-            out[night] = json.loads(pathlib.Path(local).read_text(encoding="utf-8"))
+    out = {}
+    for night, run in runs.items():
+        document = run_document(backend, run.info.run_id, STATUSES_FILE)
+        if document is not None:
+            out[night] = document
     return out
+
+
+def run_document(backend: Backend, run_id: str, name: str) -> dict | None:
+    """The JSON artifact ``name`` of a fleet-level run (None if the run has none)."""
+    with tempfile.TemporaryDirectory(prefix="fleet-health-night-") as scratch:
+        try:
+            local = backend.client.download_artifacts(run_id, name, scratch)
+        except (FileNotFoundError, OSError):
+            return None
+        except MlflowException as error:
+            if not is_not_found(error):
+                raise
+            return None
+        return json.loads(pathlib.Path(local).read_text(encoding="utf-8"))

@@ -174,8 +174,14 @@ def _markdown_artifacts(flow_run_id):
 
 @pytest.mark.slow
 def test_nightly_publishes_the_heat_map_once_per_night(workspace, monkeypatch):
+    from flows.fleet_view import collect_view
     from flows.nightly import nightly
 
+    # two nights: the second reuses the first's published view for the nights before it
+    first = nightly(config_path=str(workspace.config), as_of=day(DAYS - 1).isoformat(),
+                    return_state=True)
+    assert first.is_completed(), first.message
+    assert first.result()["extra"]["fleet_view"]["night"] == f"{day(DAYS - 2):%Y-%m-%d}"
     state = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
                     return_state=True)
     assert state.is_completed(), state.message
@@ -194,10 +200,10 @@ def test_nightly_publishes_the_heat_map_once_per_night(workspace, monkeypatch):
 
     # the MLflow fleet run of the night, with the same picture and the view
     registry = workspace.registry()
-    runs = _fleet_runs(registry)
-    assert len(runs) == 1 and runs[0].info.run_id == note["fleet_run_id"]
-    assert runs[0].data.tags["fleet_health.night"] == night
-    assert runs[0].data.metrics["assets"] == len(ASSETS)
+    runs = {run.data.tags["fleet_health.night"]: run for run in _fleet_runs(registry)}
+    assert sorted(runs) == [f"{day(DAYS - 2):%Y-%m-%d}", night]
+    assert runs[night].info.run_id == note["fleet_run_id"]
+    assert runs[night].data.metrics["assets"] == len(ASSETS)
     client = registry.backend.client
     names = {f.path for f in client.list_artifacts(note["fleet_run_id"])}
     assert names == {"fleet_heatmap.png", "fleet_view.json", "night_statuses.json"}
@@ -217,13 +223,20 @@ def test_nightly_publishes_the_heat_map_once_per_night(workspace, monkeypatch):
     last = history[history["window_start"].str.startswith(night)]
     assert view.rows[[r.asset_id for r in view.rows].index("T-002")].ratios[-1] == \
         pytest.approx(last["ratio"].max())
+    # the nightly view (reused cells + tonight's night read) equals a full registry read
+    full = collect_view(registry, night)
+    assert [(r.asset_id, r.ratios) for r in full.rows] == \
+        [(r.asset_id, r.ratios) for r in view.rows]
 
     # the same night again: the same fleet run, its artifacts replaced, never a second run
     again = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
                     return_state=True)
     assert again.is_completed(), again.message
     assert again.result()["extra"]["fleet_view"]["fleet_run_id"] == note["fleet_run_id"]
-    assert len(_fleet_runs(registry)) == 1
+    assert len(_fleet_runs(registry)) == 2
+    local = client.download_artifacts(note["fleet_run_id"], "fleet_view.json",
+                                      str(workspace.path / "dl2"))
+    assert FleetView.from_dict(json.loads(open(local).read())) == view
     # the fleet experiment is not a vehicle class: the class searches do not see it
     assert len(registry.backend.experiment_ids()) == 1
 
@@ -240,4 +253,4 @@ def test_nightly_publishes_the_heat_map_once_per_night(workspace, monkeypatch):
     note = third.result()["extra"]["fleet_view"]
     assert note == {"published": False, "error": "the fleet heat map was not published: "
                                                  "RuntimeError: no canvas"}
-    assert len(_fleet_runs(registry)) == 1
+    assert len(_fleet_runs(registry)) == 2
