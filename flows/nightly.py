@@ -46,8 +46,8 @@ from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, pending_windows, utc
-from flows.fleet_publish import publish_or_note
 from flows.hooks import notify_hook
+from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
                             read_against, record_candidates)
