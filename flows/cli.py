@@ -29,6 +29,7 @@ from flows.commands.baseline import add_baseline_group
 from flows.commands.demo import add_demo_command
 from flows.commands.plumbing import EPHEMERAL_STARTUP_TIMEOUT, prefect_environment
 from flows.commands.reanalyze import add_reanalyze_command
+from flows.commands.report import add_report_command
 from flows.commands.run import add_run_command
 from flows.commands.serve import add_serve_command
 from flows.commands.simulate import add_simulate_command
@@ -54,6 +55,7 @@ COMMANDS: dict[str, Callable[[argparse._SubParsersAction], argparse.ArgumentPars
     "reanalyze": add_reanalyze_command,
     "alerts": add_alerts_command,
     "serve": add_serve_command,
+    "report": add_report_command,
 }
 
 

@@ -44,7 +44,8 @@ reported failed and the other batches go on.
 
 The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batch_size``
 assets (not per asset: thousands of task runs overwhelm a Prefect server), a table
-artifact of the night, and notification hooks. Its final state is Failed when an asset
+artifact of the night, the fleet heat map (:mod:`flows.fleet_publish`), and notification
+hooks. Its final state is Failed when an asset
 failed (the return value still holds the whole summary). Inside a batch, assets are read
 and fitted in groups within ``[nightly] memory_budget`` (:mod:`flows.memory`); the order
 above holds per group.
@@ -68,6 +69,7 @@ from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
 from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
+from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_candidates,
                             loader, memory_groups, read_against, record_candidates)
@@ -314,6 +316,7 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     summary = run_nightly(config, config_path, tracking_uri, as_of, assets, vehicle_class)
+    publish_or_note(summary, config)          # the fleet heat map; never fails the night
     unusable = [a.asset_id for a in summary.assets if a.status == UNUSABLE_BASELINE]
     names = ", ".join(a.asset_id for a in summary.failed[:10])
     return flow_result(summary, config, f"{len(summary.failed)} of {len(summary.assets)} assets "

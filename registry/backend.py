@@ -163,10 +163,12 @@ class Backend:
         self._experiments.pop(vehicle_class, None)
 
     def experiment_ids(self) -> list[str]:
-        """Ids of every fleet-health experiment (one per vehicle class)."""
+        """Ids of every fleet-health experiment (one per vehicle class; not the fleet-level
+        experiment of the nights' heat maps)."""
         ids: list[str] = []
         for experiment in self.paged(self.client.search_experiments,
-                                     filter_string=f"name LIKE '{naming.EXPERIMENT_PREFIX}%'",
+                                     filter_string=f"name LIKE '{naming.EXPERIMENT_PREFIX}%' and "
+                                                   f"name != '{naming.FLEET_EXPERIMENT}'",
                                      view_type=ViewType.ACTIVE_ONLY):
             ids.append(experiment.experiment_id)
         return ids

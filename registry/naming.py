@@ -18,6 +18,9 @@ from graybox.timestamps import utc
 
 EXPERIMENT_PREFIX = "fleet-health/"
 MODEL_PREFIX = "fleet-health."
+#: the fleet-level experiment: one run per night with the fleet's heat map (not a class)
+FLEET_EXPERIMENT = EXPERIMENT_PREFIX + "fleet"
+RESERVED_CLASSES = ("fleet",)
 
 BASELINE = "baseline"
 CANDIDATE = "candidate"
@@ -57,6 +60,7 @@ TAG_ROLLED_BACK_AT = _P + "rolled_back_at"
 TAG_ROLLED_BACK_BY = _P + "rolled_back_by"
 TAG_ROLLBACK_REASON = _P + "rollback_reason"
 TAG_REANALYSIS = _P + "reanalysis"               #: "true" on runs of an ad-hoc reanalysis
+TAG_NIGHT = _P + "night"                         #: a fleet-level run's night (YYYY-MM-DD)
 
 
 def validate_vehicle_class(vehicle_class: str) -> str:
@@ -65,6 +69,9 @@ def validate_vehicle_class(vehicle_class: str) -> str:
             or vehicle_class in (".", "..")):
         raise ValueError(f"invalid vehicle class {vehicle_class!r}: must match "
                          f"[A-Za-z0-9_.-]{{1,64}} and not be '.' or '..'")
+    if vehicle_class in RESERVED_CLASSES:
+        raise ValueError(f"vehicle class {vehicle_class!r} is reserved: its experiment "
+                         f"{FLEET_EXPERIMENT!r} holds the fleet-level runs of the nights")
     return vehicle_class
 
 
