@@ -2,16 +2,24 @@
 
 For every asset with whole windows past its watermark (see :mod:`flows.fleet`): read and
 validate each window, refit the tiers with the baseline's frozen structure (all of a batch's
-networks in one batched computation), record the candidate in the registry with its drift,
-write the alerts, then advance the watermark. Per group of assets the order is
+networks in one batched computation), record the candidate in the registry with its drift
+and alerts, then advance the watermark. Per group of assets the order is
 
-1. record every candidate run and version (idempotent on asset, window, role, data hash),
-2. append the group's alerts to the JSON-lines file (idempotent on asset, window, channel,
-   tier),
-3. advance each asset's watermark to the end of its last committed window,
+1. record every candidate run and version, with its drift and alerts (idempotent on asset,
+   window, role, data hash),
+2. advance each asset's watermark to the end of its last committed window,
 
 so an interruption anywhere leaves the watermark before anything not fully committed, and the
-rerun repeats it without duplicates.
+rerun repeats it without duplicates. The registry is the alerts' system of record: the
+batches (which may run on many hosts) write nothing else. After every batch,
+
+3. the flow's own process exports the registry's alerts of the windows the run started
+   from onwards to the JSON-lines file (``[alerts] jsonl``; idempotent on asset, window,
+   channel, tier; :func:`flows.alerts.export_alerts`),
+
+so the file holds the run's alerts and those of an interrupted earlier run of the same
+windows; a run interrupted after its last watermark and before the export leaves the file
+behind the registry until ``fleet-health alerts --export`` (or a later run of those windows).
 
 Failures: an asset whose telemetry is bad (:class:`graybox.exceptions.TelemetryError`) or
 whose fit fails stops at that window: the windows before it are committed, the watermark
@@ -40,7 +48,7 @@ from prefect.cache_policies import NO_CACHE
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates
 
-from flows.alerts import AlertLog
+from flows.alerts import AlertLog, export_alerts
 from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
@@ -51,7 +59,7 @@ from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, me
                             read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, UP_TO_DATE, AssetResult,
-                           RunSummary, TransientError, describe_error, is_transient, now_iso)
+                           RunSummary, describe_error, now_iso)
 
 
 def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
@@ -115,22 +123,15 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     registry = registry or config.registry()
     as_of = utc(as_of)
     results: dict[str, AssetResult] = {}
-    log = AlertLog(config.alerts.jsonl)
     load = loader(results, lambda ref: select(config, registry, ref, as_of, clock),
                   _progress_text)
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
     for group in memory_groups(refs, load, budget):
         fit_candidates(group, clock)
-        # 1. every candidate recorded, 2. the group's alerts in the file, 3. watermarks
-        alerts = [alert for pending in group for alert in record_candidates(
-            config, registry, pending, reanalysis=False, stop_at_error=True, clock=clock)]
-        try:
-            with timed(clock, "alerts"):
-                log.append(alerts)
-        except Exception as error:  # noqa: BLE001
-            if is_transient(error):
-                raise TransientError(f"alerts file {log.path}: {error}") from error
-            raise
+        # 1. every candidate recorded (with its alerts), 2. watermarks
+        for pending in group:
+            record_candidates(config, registry, pending, reanalysis=False, stop_at_error=True,
+                              clock=clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
             asset_done(pending.result, _progress_text)
@@ -177,10 +178,47 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
     as_of_ts = utc(as_of) if as_of is not None else pd.Timestamp.now(tz="UTC")
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
-    return run_over_fleet(summary, nightly_batch, config,
-                          (config_path, tracking_uri, as_of_ts.isoformat()),
-                          f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
-                          vehicle_class)
+    summary = run_over_fleet(summary, nightly_batch, config,
+                             (config_path, tracking_uri, as_of_ts.isoformat()),
+                             f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+                             vehicle_class)
+    export_night_alerts(config, summary)
+    return summary
+
+
+def export_since(summary: RunSummary) -> pd.Timestamp | None:
+    """Where the run started: the earliest of its windows' starts and of the watermarks of
+    the assets it fitted or failed (None when it fitted nothing)."""
+    starts = [utc(w.window_start) for a in summary.assets for w in a.windows]
+    starts += [utc(a.watermark_before) for a in summary.assets
+               if a.watermark_before is not None and (a.windows or a.status == FAILED)]
+    return min(starts) if starts else None
+
+
+def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
+    """Step 3 of the module docstring: the registry's alerts since the run's start, into the
+    JSON-lines file (in the flow's own process, after every batch).
+
+    Raises
+    ------
+    RuntimeError
+        When the export fails; the night itself is committed in the registry, and
+        ``fleet-health alerts --export`` writes the file again.
+    """
+    since = export_since(summary)
+    if since is None:
+        return
+    log = AlertLog(config.alerts.jsonl)
+    try:
+        _, written = export_alerts(config.registry(), log, since=since,
+                                   major_ratio=config.alerts.major_ratio,
+                                   critical_ratio=config.alerts.critical_ratio)
+    except Exception as error:
+        raise RuntimeError(f"the night is recorded in the registry, but exporting its alerts "
+                           f"to {log.path} failed: {type(error).__name__}: {error}; run "
+                           f"'fleet-health alerts --export --since {since:%Y-%m-%d}' to write "
+                           f"them") from error
+    summary.extra["alerts_exported"] = len(written)
 
 
 @flow(name="fleet-health-nightly", on_completion=[notify_hook], on_failure=[notify_hook],

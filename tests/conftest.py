@@ -4,24 +4,15 @@ from __future__ import annotations
 
 import itertools
 import os
-import pathlib
 import subprocess
 import sys
 
 import pytest
 
-from postgres_server import PostgresServer, find_initdb
+from postgres_server import REPO, PostgresServer, find_initdb, subprocess_env
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
 MLFLOW_TEMPLATE = "mlflow_template"
 _databases = itertools.count()
-
-
-def subprocess_env() -> dict:
-    """The environment of a child Python that imports this tree."""
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(REPO), env.get("PYTHONPATH")) if p)
-    return env
 
 
 @pytest.fixture(scope="session")

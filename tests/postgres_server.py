@@ -14,6 +14,7 @@ import socket
 import subprocess
 import tempfile
 
+REPO = pathlib.Path(__file__).resolve().parents[1]
 SEARCH_PATHS = ("/usr/lib/postgresql/17/bin", "/usr/lib/postgresql/16/bin",
                 "/usr/lib/postgresql/15/bin", "/usr/local/bin", "/usr/bin")
 SERVER_USER = "postgres"
@@ -26,6 +27,13 @@ def find_initdb() -> pathlib.Path | None:
             return pathlib.Path(directory)
     found = shutil.which("initdb")
     return None if found is None else pathlib.Path(found).parent
+
+
+def subprocess_env() -> dict:
+    """The environment of a child Python that imports this tree."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(REPO), env.get("PYTHONPATH")) if p)
+    return env
 
 
 def free_port() -> int:
