@@ -45,7 +45,9 @@ Locks
     the creation of MLflow's schema is serialized the same way (two processes opening a new
     database together would both migrate it). Against an ``mlflow server``
     (``http://...``) the lock files sit in the user's cache directory: they then serialize
-    operations from this host only.
+    operations from this host only, unless ``FLEET_HEALTH_LOCK_URI`` names a PostgreSQL
+    database (e.g. the server's backend store): then its advisory locks are used, and
+    workers on every host exclude each other.
 """
 from __future__ import annotations
 
@@ -78,6 +80,8 @@ _LOCKED_MESSAGES = ("database is locked", "database is busy", "database table is
                     # PostgreSQL asks for the transaction to be run again
                     "deadlock detected", "could not serialize access")
 POSTGRES_SCHEMES = ("postgresql", "postgres", "postgresql+psycopg")
+#: a PostgreSQL database whose advisory locks serialize the writers of an ``mlflow server``
+LOCK_URI_VARIABLE = "FLEET_HEALTH_LOCK_URI"
 SCHEMA_LOCK = "fleet-health/schema"
 
 
@@ -203,8 +207,8 @@ class Store:
     lock_dir : pathlib.Path
         Where the lock files are (unused by a PostgreSQL store).
     postgres_conninfo : str or None
-        For a PostgreSQL store, its libpq URI (no SQLAlchemy driver): the connection of
-        the advisory locks.
+        The libpq URI (no SQLAlchemy driver) of the database whose advisory locks are the
+        asset locks: a PostgreSQL store's own, or ``FLEET_HEALTH_LOCK_URI`` for a server.
     """
 
     tracking_uri: str
@@ -216,6 +220,11 @@ class Store:
     @property
     def is_local(self) -> bool:
         return self.db_path is not None
+
+    @property
+    def is_postgres(self) -> bool:
+        """Whether the tracking store is a PostgreSQL database (not a server in front of one)."""
+        return self.tracking_uri.startswith("postgresql")
 
     def experiment_artifact_location(self, experiment_name: str) -> str | None:
         """Artifact location for a new experiment (None lets the server choose)."""
@@ -389,7 +398,23 @@ def resolve_store(tracking_uri: str | None = None,
                          f"the embedded store or http://host:port for an MLflow server")
     cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
     digest = hashlib.sha256(tracking_uri.encode()).hexdigest()[:16]
-    return Store(tracking_uri.rstrip("/"), None, None, cache / "fleet-health" / "locks" / digest)
+    lock_uri = os.environ.get(LOCK_URI_VARIABLE)
+    return Store(tracking_uri.rstrip("/"), None, None, cache / "fleet-health" / "locks" / digest,
+                 postgres_conninfo=None if not lock_uri else _libpq_uri(lock_uri))
+
+
+def _libpq_uri(uri: str) -> str:
+    """A PostgreSQL URI without its SQLAlchemy driver (``postgresql+psycopg://`` ->
+    ``postgresql://``), as libpq reads it."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        url = make_url(uri)
+    except Exception as error:
+        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI: {error}") from None
+    if url.get_backend_name() not in ("postgresql", "postgres"):
+        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI")
+    return url.set(drivername="postgresql").render_as_string(hide_password=False)
 
 
 def _postgres_store(tracking_uri: str, workdir: str | os.PathLike | None) -> Store:
@@ -407,7 +432,7 @@ def _postgres_store(tracking_uri: str, workdir: str | os.PathLike | None) -> Sto
         raise ValueError(f"PostgreSQL tracking URI {tracking_uri!r} must name a database: "
                          f"postgresql://user@host:port/database")
     normalized = url.render_as_string(hide_password=False)
-    conninfo = url.set(drivername="postgresql").render_as_string(hide_password=False)
+    conninfo = _libpq_uri(normalized)
     digest = hashlib.sha256(normalized.encode()).hexdigest()[:16]
     cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
     base = pathlib.Path(workdir) if workdir is not None else pathlib.Path.cwd()
@@ -420,7 +445,7 @@ def prepare_store(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
     :func:`prepare_postgres`); nothing for a server."""
     if store.db_path is not None:
         prepare_sqlite(store, policy)
-    elif store.postgres_conninfo is not None:
+    elif store.is_postgres:
         prepare_postgres(store, policy)
 
 

@@ -98,6 +98,11 @@ class PostgresServer:
         if template is not None:
             statement += sql.SQL(" TEMPLATE {}").format(sql.Identifier(template))
         with psycopg.connect(self.uri(), autocommit=True) as connection:
+            if template is not None:
+                # a template must have no other session (e.g. a pooled MLflow connection)
+                connection.execute("SELECT pg_terminate_backend(pid) FROM pg_stat_activity "
+                                   "WHERE datname = %s AND pid <> pg_backend_pid()",
+                                   (template,))
             connection.execute(statement)
         return self.uri(name)
 

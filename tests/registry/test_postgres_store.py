@@ -160,3 +160,22 @@ def test_writer_threads_on_postgres(postgres_uri, fits, tmp_path):
         thread.join()
     assert not errors, errors
     _check_store(registry, threads_n * fits_each, ["Q-0", "Q-1", "Q-2"])
+
+
+def test_server_clients_share_advisory_locks_through_the_lock_uri(postgres_uri, monkeypatch):
+    """Clients of an ``mlflow server`` lock in the database FLEET_HEALTH_LOCK_URI names."""
+    monkeypatch.delenv("FLEET_HEALTH_LOCK_URI", raising=False)
+    assert resolve_store("http://mlflow.example:5000").postgres_conninfo is None   # file locks
+    monkeypatch.setenv("FLEET_HEALTH_LOCK_URI", postgres_uri.replace("postgresql://",
+                                                                      "postgresql+psycopg://"))
+    server = resolve_store("http://mlflow.example:5000")
+    assert server.postgres_conninfo == postgres_uri and not server.is_postgres
+    with resolve_store(postgres_uri).asset_lock("T-01"):
+        with pytest.raises(RegistryError, match="could not lock asset 'T-01'"):
+            with server.asset_lock("T-01", timeout=0.3):
+                pass
+    with server.asset_lock("T-01", timeout=5):
+        pass
+    monkeypatch.setenv("FLEET_HEALTH_LOCK_URI", "mysql://db/locks")
+    with pytest.raises(ValueError, match="FLEET_HEALTH_LOCK_URI"):
+        resolve_store("http://mlflow.example:5000")
