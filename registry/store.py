@@ -317,8 +317,11 @@ def advisory_lock(conninfo: str, name: str, timeout: float = 120.0,
         try:
             yield
         finally:
-            if not connection.closed:
+            try:
                 connection.execute("SELECT pg_advisory_unlock(%s)", (key,))
+            except psycopg.Error:     # a broken connection: closing it releases the lock
+                logger.warning("could not release advisory lock %d (%s); the connection's "
+                               "end releases it", key, what or name)
 
 
 @contextlib.contextmanager
@@ -473,9 +476,12 @@ def prepare_postgres(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
         import psycopg
 
         with psycopg.connect(store.postgres_conninfo, autocommit=True) as connection:
-            # a hash index: a B-tree refuses values over ~2.7 kB, which tags may hold
-            connection.execute(f"CREATE INDEX IF NOT EXISTS {TAG_VALUE_INDEX} "
-                               f"ON tags USING hash (value)")
+            # looked up first: CREATE INDEX IF NOT EXISTS would wait for the writers of tags
+            if connection.execute("SELECT 1 FROM pg_indexes WHERE indexname = %s",
+                                  (TAG_VALUE_INDEX,)).fetchone() is None:
+                # a hash index: a B-tree refuses values over ~2.7 kB, which tags may hold
+                connection.execute(f"CREATE INDEX IF NOT EXISTS {TAG_VALUE_INDEX} "
+                                   f"ON tags USING hash (value)")
 
 
 def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
