@@ -5,11 +5,14 @@ An alert (:class:`registry.alert.Alert`, re-exported here with :func:`alerts_fro
 and the parameters that moved most (the root-cause hint). Alerts are stored twice, as the
 same records:
 
-* in the registry (the candidate's MLflow run: the ``fleet_health.alarm`` tag, zeta/epsilon/
-  ratio metrics for the MLflow UI, and ``drift.json``, from which
-  :meth:`registry.Registry.alerts` makes the records again);
+* in the registry, the system of record (the candidate's MLflow run: the
+  ``fleet_health.alarm`` tag, zeta/epsilon/ratio metrics for the MLflow UI, and
+  ``drift.json``, from which :meth:`registry.Registry.alerts` makes the records again); the
+  batches write only there, so workers on many hosts need nothing but the tracking store;
 * in a JSON-lines file (``[alerts] jsonl``), one object per line, for scripts and the
-  ``fleet-health alerts`` command.
+  ``fleet-health alerts`` command: an export of the registry's alerts
+  (:func:`export_alerts`), written by the nightly flow's own process after its batches, and
+  rebuilt at any time by ``fleet-health alerts --export``.
 
 The JSON-lines file is append-only and idempotent: a line's key is
 ``(asset_id, window_start, window_end, channel, tier)``, appends happen under an exclusive
@@ -31,7 +34,7 @@ from registry.store import file_lock
 #: seconds an append waits for the alerts file's lock before the run fails (never hangs)
 LOCK_TIMEOUT = 120.0
 
-__all__ = ["Alert", "AlertLog", "alerts_from_drift", "severity"]
+__all__ = ["Alert", "AlertLog", "alerts_from_drift", "export_alerts", "severity"]
 
 
 class AlertLog:
@@ -129,6 +132,30 @@ class AlertLog:
         records.sort(key=lambda a: (utc(a.window_end), a.asset_id, -a.ratio))
         return records
 
+
+def export_alerts(registry, log: AlertLog, since=None, major_ratio: float | None = None,
+                  critical_ratio: float | None = None) -> tuple[list[Alert], list[Alert]]:
+    """Append the registry's nightly alerts to the JSON-lines file (those not in it yet).
+
+    Parameters
+    ----------
+    registry : registry.Registry
+    log : AlertLog
+    since : timestamp-like, optional
+        Only windows ending at or after this instant (default: every alert recorded).
+    major_ratio, critical_ratio : float, optional
+        Severity thresholds (``[alerts]`` of fleet.toml; the registry's defaults if omitted).
+
+    Returns
+    -------
+    (list of Alert, list of Alert)
+        The registry's alerts since ``since``, and those of them newly written.
+    """
+    thresholds = {name: value for name, value in (("major_ratio", major_ratio),
+                                                   ("critical_ratio", critical_ratio))
+                  if value is not None}
+    recorded = registry.alerts(since=since, **thresholds)
+    return recorded, log.append(recorded)
 
 
 

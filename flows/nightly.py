@@ -2,16 +2,24 @@
 
 For every asset with whole windows past its watermark (see :mod:`flows.fleet`): read and
 validate each window, refit the tiers with the baseline's frozen structure (all of a batch's
-networks in one batched computation), record the candidate in the registry with its drift,
-write the alerts, then advance the watermark. Per group of assets the order is
+networks in one batched computation), record the candidate in the registry with its drift
+and alerts, then advance the watermark. Per group of assets the order is
 
-1. record every candidate run and version (idempotent on asset, window, role, data hash),
-2. append the group's alerts to the JSON-lines file (idempotent on asset, window, channel,
-   tier),
-3. advance each asset's watermark to the end of its last committed window,
+1. record every candidate run and version, with its drift and alerts (idempotent on asset,
+   window, role, data hash),
+2. advance each asset's watermark to the end of its last committed window,
 
 so an interruption anywhere leaves the watermark before anything not fully committed, and the
-rerun repeats it without duplicates.
+rerun repeats it without duplicates. The registry is the alerts' system of record: the
+batches (which may run on many hosts) write nothing else. After every batch,
+
+3. the flow's own process exports the registry's alerts of the windows the run started
+   from onwards to the JSON-lines file (``[alerts] jsonl``; idempotent on asset, window,
+   channel, tier; :func:`flows.alerts.export_alerts`),
+
+so the file holds the run's alerts and those of an interrupted earlier run of the same
+windows; a run interrupted after its last watermark and before the export leaves the file
+behind the registry until ``fleet-health alerts --export`` (or a later run of those windows).
 
 The watermark means "every window before it that had telemetry when a run passed it was
 analysed"; it only moves forward. Telemetry that arrives later (a day's partition uploaded
@@ -63,7 +71,7 @@ from graybox.telemetry import list_dates, newest_timestamp
 from registry.alert import STALE as STALE_KIND
 from registry.alert import Alert, stale_alert
 
-from flows.alerts import AlertLog
+from flows.alerts import AlertLog, export_alerts
 from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
                             run_over_fleet)
 from flows.config import FleetConfig, NightlySettings, load_config
@@ -75,8 +83,7 @@ from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_can
                             loader, memory_groups, read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
-                           AssetResult, RunSummary, TransientError, describe_error,
-                           is_transient, now_iso)
+                           AssetResult, RunSummary, describe_error, now_iso)
 from registry.exceptions import UnusableBaselineError
 
 
@@ -211,32 +218,19 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     registry = registry or config.registry()
     as_of = utc(as_of)
     results: dict[str, AssetResult] = {}
-    log = AlertLog(config.alerts.jsonl)
     load = loader(results, lambda ref: select(config, registry, ref, as_of, clock),
                   _progress_text)
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
     for group in memory_groups(refs, load, budget):
         fit_candidates(group, clock)
-        # 1. every candidate recorded, 2. the group's alerts in the file, 3. watermarks
-        alerts = [alert for pending in group for alert in record_candidates(
-            config, registry, pending, reanalysis=False, stop_at_error=True, clock=clock)]
-        _append(log, alerts, clock)
+        # 1. every candidate recorded (with its alerts), 2. watermarks
+        for pending in group:
+            record_candidates(config, registry, pending, reanalysis=False, stop_at_error=True,
+                              clock=clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
             asset_done(pending.result, _progress_text)
-    # the stale alerts of assets with nothing to fit (the groups' appends carry the others)
-    _append(log, [a for r in results.values() for a in r.alerts if a.kind == STALE_KIND], clock)
     return [results[ref.asset_id] for ref in refs]
-
-
-def _append(log: AlertLog, alerts: list[Alert], clock: StageClock | None) -> None:
-    try:
-        with timed(clock, "alerts"):
-            log.append(alerts)
-    except Exception as error:  # noqa: BLE001
-        if is_transient(error):
-            raise TransientError(f"alerts file {log.path}: {error}") from error
-        raise
 
 
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
@@ -282,10 +276,54 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
                 else pd.Timestamp.now(tz="UTC"))
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
-    return run_over_fleet(summary, nightly_batch, config,
-                          (config_path, tracking_uri, as_of_ts.isoformat()),
-                          f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
-                          vehicle_class)
+    summary = run_over_fleet(summary, nightly_batch, config,
+                             (config_path, tracking_uri, as_of_ts.isoformat()),
+                             f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+                             vehicle_class)
+    export_night_alerts(config, summary)
+    return summary
+
+
+def export_since(summary: RunSummary) -> pd.Timestamp | None:
+    """Where the run started: the earliest of its windows' starts and of the watermarks of
+    the assets it fitted or failed (None when it fitted nothing)."""
+    starts = [utc(w.window_start) for a in summary.assets for w in a.windows]
+    starts += [utc(a.watermark_before) for a in summary.assets
+               if a.watermark_before is not None and (a.windows or a.status == FAILED)]
+    return min(starts) if starts else None
+
+
+def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
+    """Step 3 of the module docstring: the registry's alerts since the run's start, and the
+    run's staleness alerts (which are not recorded in the registry: every run finds them again
+    from the telemetry), into the JSON-lines file (in the flow's own process, after every
+    batch).
+
+    Raises
+    ------
+    RuntimeError
+        When the export fails; the night itself is committed in the registry, and
+        ``fleet-health alerts --export`` writes the file again.
+    """
+    since = export_since(summary)
+    stale = [alert for a in summary.assets for alert in a.alerts if alert.kind == STALE_KIND]
+    if since is None and not stale:
+        return
+    log = AlertLog(config.alerts.jsonl)
+    try:
+        written = []
+        if since is not None:
+            _, written = export_alerts(config.registry(), log, since=since,
+                                       major_ratio=config.alerts.major_ratio,
+                                       critical_ratio=config.alerts.critical_ratio)
+        written = list(written) + log.append(stale)
+    except Exception as error:
+        since_text = f" --since {since:%Y-%m-%d}" if since is not None else ""
+        raise RuntimeError(f"the night is recorded in the registry, but exporting its alerts "
+                           f"to {log.path} failed: {type(error).__name__}: {error}; run "
+                           f"'fleet-health alerts --export{since_text}' to write "
+                           f"them") from error
+    summary.extra["alerts_exported"] = len(written)
 
 
 @flow(name="fleet-health-nightly", on_completion=[notify_hook], on_failure=[notify_hook],

@@ -19,7 +19,7 @@ from mlflow.protos.databricks_pb2 import (RESOURCE_ALREADY_EXISTS, RESOURCE_DOES
 
 from registry import naming
 from registry.exceptions import NotFoundError, RegistryError
-from registry.store import (RetryingClient, RetryPolicy, Store, call_with_retry, prepare_sqlite,
+from registry.store import (RetryingClient, RetryPolicy, Store, call_with_retry, prepare_store,
                             relax_commit_sync, resolve_store)
 
 logger = logging.getLogger(__name__)
@@ -77,7 +77,7 @@ class Backend:
         self.store: Store = resolve_store(tracking_uri, workdir)
         self.retry = retry
         self.user = user or default_user()
-        prepare_sqlite(self.store, retry)
+        prepare_store(self.store, retry)
         self.client = RetryingClient(MlflowClient(tracking_uri=self.store.tracking_uri,
                                                   registry_uri=self.store.tracking_uri), retry)
         self._registry = None
@@ -124,13 +124,19 @@ class Backend:
                                                          value)
 
     def log_artifacts(self, artifact_uri: str, local_dir: str) -> None:
-        """Upload a directory's contents to a run's artifact root, given by its URI (saves
-        the ``get_run`` that ``MlflowClient.log_artifacts`` makes to find it)."""
+        """Upload a directory's contents to a run's (or logged model's) artifact root, given
+        by its URI (saves the ``get_run`` that ``MlflowClient.log_artifacts`` makes to find
+        it); the URI as recorded, rebased if the store was moved."""
+        call_with_retry(self.artifact_repository(artifact_uri).log_artifacts, local_dir,
+                        policy=self.retry, what="log artifacts")
+
+    def artifact_repository(self, artifact_uri: str):
+        """MLflow's artifact repository of a recorded artifact URI, where it is now (see
+        :meth:`registry.store.Store.local_artifact_uri`)."""
         from mlflow.store.artifact.artifact_repository_registry import get_artifact_repository
 
-        repository = get_artifact_repository(artifact_uri, tracking_uri=self.tracking_uri)
-        call_with_retry(repository.log_artifacts, local_dir, policy=self.retry,
-                        what="log artifacts")
+        return get_artifact_repository(self.store.local_artifact_uri(artifact_uri),
+                                       tracking_uri=self.tracking_uri)
 
     # -- experiments ---------------------------------------------------------------------------
     def experiment_id(self, vehicle_class: str, create: bool = False) -> str | None:

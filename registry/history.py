@@ -25,6 +25,7 @@ from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_f
 from registry.artifacts import DRIFT_FILE
 from registry.backend import Backend, is_not_found
 from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
+from registry.store import call_with_retry
 
 VERSION_QUERY_RUNS = 50         # run ids per model-version search (``run_id IN (...)``)
 HISTORY_COLUMNS = ("window_start", "window_end", "channel", "tier", "zeta", "epsilon", "ratio",
@@ -132,7 +133,7 @@ def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
             tags = run.data.tags
             baseline = tags.get(naming.TAG_BASELINE_VERSION)
             out += alerts_from_drift(
-                _recorded_drift(backend, run.info.run_id, pathlib.Path(scratch)),
+                _recorded_drift(backend, run, pathlib.Path(scratch)),
                 asset_id=tags.get(naming.TAG_ASSET_ID),
                 vehicle_class=tags.get(naming.TAG_VEHICLE_CLASS),
                 window_start=tags.get(naming.TAG_WINDOW_START),
@@ -155,11 +156,16 @@ def _versions_of(backend: Backend, run_ids: list[str]) -> dict[str, int]:
     return out
 
 
-def _recorded_drift(backend: Backend, run_id: str, scratch: pathlib.Path) -> Drift:
+def _recorded_drift(backend: Backend, run, scratch: pathlib.Path) -> Drift:
     """The run's drift, from its ``drift.json`` (other errors, e.g. an unreachable server,
     are raised as they are)."""
+    run_id = run.info.run_id
     try:
-        local = backend.client.download_artifacts(run_id, DRIFT_FILE, str(scratch / run_id))
+        repository = backend.artifact_repository(run.info.artifact_uri)
+        destination = scratch / run_id
+        destination.mkdir(parents=True, exist_ok=True)
+        local = call_with_retry(repository.download_artifacts, DRIFT_FILE, str(destination),
+                                policy=backend.retry, what="download drift")
         return drift_from_document(json.loads(pathlib.Path(local).read_text(encoding="utf-8")))
     except (FileNotFoundError, ValueError, KeyError, TypeError, MlflowException) as error:
         if isinstance(error, MlflowException) and not is_not_found(error):

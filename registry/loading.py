@@ -176,11 +176,12 @@ def load(backend: Backend, asset_id: str, mv, model=None,
     if expected is None:
         raise ArtifactError(f"{where}: no manifest digest recorded with the version; it was "
                             f"not recorded by fleet-health and cannot be verified")
+    source = backend.store.local_artifact_uri(mv.source)    # rebased if the store moved
     with tempfile.TemporaryDirectory(prefix="fleet-health-load-") as scratch:
-        local = None if keep is not None else _in_place(mv.source)
+        local = None if keep is not None else _in_place(source)
         if local is None:
             target = keep if keep is not None else pathlib.Path(scratch)
-            local = _download(backend, mv.source, target, where)
+            local = _download(backend, source, target, where)
         bundle_dir = verify_model_dir(local, where)
         bundle = read_bundle(bundle_dir, where=where, expected_manifest_sha256=expected,
                              expected_asset_id=asset_id)

@@ -107,7 +107,7 @@ def log_logged_model(backend: Backend, experiment_id: str, run_id: str, asset_id
         description = Model(artifact_path=logged.artifact_location, model_uuid=logged.model_id,
                             run_id=run_id, model_id=logged.model_id)
         save_pyfunc(path, bundle, description)
-        client.log_model_artifacts(logged.model_id, str(path))
+        backend.log_artifacts(logged.artifact_location, str(path))
         client.finalize_logged_model(logged.model_id, LoggedModelStatus.READY)
         client.log_outputs(run_id, [LoggedModelOutput(logged.model_id, step=0)])
     except BaseException:

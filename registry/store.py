@@ -4,9 +4,25 @@ Embedded default
     ``sqlite:///<workdir>/mlflow.db``, artifacts in ``<workdir>/mlartifacts``. Relative SQLite
     paths are resolved against the working directory once, so every later use (and every
     process) means the same file.
+PostgreSQL
+    ``postgresql://user@host:port/db`` (or ``postgres://``) is normalized to
+    ``postgresql+psycopg://...``: MLflow opens it with SQLAlchemy, and psycopg 3 (the
+    ``postgres`` extra) is the driver. A URI naming another driver
+    (``postgresql+psycopg2://``) is kept as given. Experiments the registry creates keep
+    their artifacts in ``<workdir>/mlartifacts``, an absolute path every worker must see
+    alike (a shared file system); to serve artifacts to many hosts, run an ``mlflow server``
+    on the database and give the workers its ``http://`` URI (docs/deployment.md).
 Any other tracking URI
     (``http://host:port`` of an ``mlflow server``, a database URI) is used as given; the
     server chooses where artifacts go.
+
+Moved embedded stores
+    MLflow records absolute ``file://`` artifact URIs. An artifact URI that lies under another
+    ``mlartifacts`` directory than the store's own, which no longer exists (the working
+    directory was moved), is read and written under the store's own ``mlartifacts`` instead
+    (:meth:`Store.local_artifact_uri`); so a moved directory (fleet.toml, mlflow.db,
+    mlartifacts) keeps working. A copy whose original still exists keeps using the
+    original's artifacts.
 
 SQLite and concurrent writers
     MLflow opens SQLite with a 20 s busy timeout, but SQLite still answers "database is
@@ -21,10 +37,17 @@ SQLite and concurrent writers
     message) are retried the same way.
 
 Locks
-    :meth:`Store.asset_lock` is an exclusive ``fcntl.flock`` on one file per asset. For a local
-    SQLite store the lock files sit beside the database, so every process using the store
-    shares them. Against a remote server they sit in the user's cache directory: they then
-    serialize operations from this host only.
+    :meth:`Store.asset_lock` serializes the writes of one asset (promotions, records,
+    watermark). For a local SQLite store it is an exclusive ``fcntl.flock`` on one file per
+    asset beside the database, so every process using the store shares them. For a
+    PostgreSQL store it is a PostgreSQL advisory lock (``pg_advisory_lock``, on a connection
+    of its own, waiting at most the timeout), so writers on every machine exclude each other;
+    the creation of MLflow's schema is serialized the same way (two processes opening a new
+    database together would both migrate it). Against an ``mlflow server``
+    (``http://...``) the lock files sit in the user's cache directory: they then serialize
+    operations from this host only, unless ``FLEET_HEALTH_LOCK_URI`` names a PostgreSQL
+    database (e.g. the server's backend store): then its advisory locks are used, and
+    workers on every host exclude each other.
 """
 from __future__ import annotations
 
@@ -37,6 +60,8 @@ import pathlib
 import random
 import sqlite3
 import time
+import urllib.parse
+import urllib.request
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, TypeVar
 
@@ -51,7 +76,13 @@ DEFAULT_DB_NAME = "mlflow.db"
 ARTIFACTS_DIR_NAME = "mlartifacts"
 LOCKS_DIR_NAME = ".fleet-health-locks"
 
-_LOCKED_MESSAGES = ("database is locked", "database is busy", "database table is locked")
+_LOCKED_MESSAGES = ("database is locked", "database is busy", "database table is locked",
+                    # PostgreSQL asks for the transaction to be run again
+                    "deadlock detected", "could not serialize access")
+POSTGRES_SCHEMES = ("postgresql", "postgres", "postgresql+psycopg")
+#: a PostgreSQL database whose advisory locks serialize the writers of an ``mlflow server``
+LOCK_URI_VARIABLE = "FLEET_HEALTH_LOCK_URI"
+SCHEMA_LOCK = "fleet-health/schema"
 
 
 @dataclass(frozen=True)
@@ -82,7 +113,8 @@ class RetryPolicy:
 
 
 def is_locked_error(error: BaseException) -> bool:
-    """Whether ``error`` (or an exception it was raised from) is SQLite's "database is locked"."""
+    """Whether ``error`` (or an exception it was raised from) is SQLite's "database is locked"
+    (or PostgreSQL's deadlock or serialization failure: the transaction should be retried)."""
     seen = set()
     current: BaseException | None = error
     while current is not None and id(current) not in seen:
@@ -171,18 +203,28 @@ class Store:
         The SQLite file, for an embedded store.
     artifact_root : str or None
         ``file://`` URI under which experiments created by the registry keep their artifacts
-        (SQLite stores only; a server decides for itself).
+        (SQLite and PostgreSQL stores; a server decides for itself).
     lock_dir : pathlib.Path
+        Where the lock files are (unused by a PostgreSQL store).
+    postgres_conninfo : str or None
+        The libpq URI (no SQLAlchemy driver) of the database whose advisory locks are the
+        asset locks: a PostgreSQL store's own, or ``FLEET_HEALTH_LOCK_URI`` for a server.
     """
 
     tracking_uri: str
     db_path: pathlib.Path | None
     artifact_root: str | None
     lock_dir: pathlib.Path
+    postgres_conninfo: str | None = None
 
     @property
     def is_local(self) -> bool:
         return self.db_path is not None
+
+    @property
+    def is_postgres(self) -> bool:
+        """Whether the tracking store is a PostgreSQL database (not a server in front of one)."""
+        return self.tracking_uri.startswith("postgresql")
 
     def experiment_artifact_location(self, experiment_name: str) -> str | None:
         """Artifact location for a new experiment (None lets the server choose)."""
@@ -202,9 +244,84 @@ class Store:
             If the lock is not acquired within ``timeout`` seconds.
         """
         validate_asset_id(asset_id)
-        with file_lock(self.lock_dir / f"{asset_id}.lock", timeout=timeout,
-                       what=f"asset {asset_id!r}"):
+        if self.postgres_conninfo is not None:
+            lock = advisory_lock(self.postgres_conninfo, f"fleet-health/asset/{asset_id}",
+                                 timeout=timeout, what=f"asset {asset_id!r}")
+        else:
+            lock = file_lock(self.lock_dir / f"{asset_id}.lock", timeout=timeout,
+                             what=f"asset {asset_id!r}")
+        with lock:
             yield
+
+    def local_artifact_uri(self, uri: str) -> str:
+        """Where an artifact URI recorded in this store is now.
+
+        For an embedded (SQLite) store, a ``file://`` URI under another ``mlartifacts``
+        directory than the store's own, when that directory no longer exists (the store was
+        moved), is rebased on the store's own; any other URI is returned unchanged.
+        """
+        if self.db_path is None or self.artifact_root is None or not uri.startswith("file:"):
+            return uri     # a shared store's paths mean the same on every host: never rebased
+        path = pathlib.PurePosixPath(_file_uri_path(uri))
+        parts = path.parts
+        if ARTIFACTS_DIR_NAME not in parts:
+            return uri
+        cut = len(parts) - parts[::-1].index(ARTIFACTS_DIR_NAME)
+        recorded_root = pathlib.PurePosixPath(*parts[:cut])
+        own_root = pathlib.PurePosixPath(_file_uri_path(self.artifact_root))
+        if recorded_root == own_root or os.path.isdir(recorded_root):
+            return uri
+        return pathlib.Path(own_root, *parts[cut:]).as_uri()
+
+
+def _file_uri_path(uri: str) -> str:
+    return urllib.request.url2pathname(urllib.parse.urlparse(uri).path)
+
+
+def advisory_key(name: str) -> int:
+    """The signed 64-bit key of a PostgreSQL advisory lock named ``name``."""
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "big", signed=True)
+
+
+@contextlib.contextmanager
+def advisory_lock(conninfo: str, name: str, timeout: float = 120.0,
+                  what: str | None = None) -> Iterator[None]:
+    """An exclusive PostgreSQL advisory lock, held on a connection of its own.
+
+    The wait is bounded by ``lock_timeout``; the lock goes with the connection, so a
+    holder that dies releases it.
+
+    Raises
+    ------
+    RegistryError
+        If the lock is not acquired within ``timeout`` seconds.
+    ConnectionError
+        If the database cannot be reached (a transient error: the flows retry the batch).
+    """
+    import psycopg
+
+    key = advisory_key(name)
+    try:
+        connection = psycopg.connect(conninfo, autocommit=True, connect_timeout=30)
+    except psycopg.OperationalError as error:
+        raise ConnectionError(f"could not connect to PostgreSQL to lock {what or name}: "
+                              f"{error}") from error
+    with connection:
+        connection.execute("SELECT set_config('lock_timeout', %s, false)",
+                           (f"{max(1, int(timeout * 1000))}ms",))
+        try:
+            connection.execute("SELECT pg_advisory_lock(%s)", (key,))
+        except psycopg.errors.LockNotAvailable:
+            raise RegistryError(f"could not lock {what or name} within {timeout:g} s "
+                                f"(PostgreSQL advisory lock {key})") from None
+        try:
+            yield
+        finally:
+            try:
+                connection.execute("SELECT pg_advisory_unlock(%s)", (key,))
+            except psycopg.Error:     # a broken connection: closing it releases the lock
+                logger.warning("could not release advisory lock %d (%s); the connection's "
+                               "end releases it", key, what or name)
 
 
 @contextlib.contextmanager
@@ -255,6 +372,11 @@ def resolve_store(tracking_uri: str | None = None,
     Returns
     -------
     Store
+
+    Notes
+    -----
+    ``postgresql://`` and ``postgres://`` become ``postgresql+psycopg://`` (SQLAlchemy's
+    name for psycopg 3); a URI that names its driver is kept.
     """
     if tracking_uri is None:
         tracking_uri = default_tracking_uri(workdir)
@@ -271,12 +393,95 @@ def resolve_store(tracking_uri: str | None = None,
         path = path.resolve()
         return Store("sqlite:///" + str(path), path, (path.parent / ARTIFACTS_DIR_NAME).as_uri(),
                      path.parent / LOCKS_DIR_NAME)
+    scheme = tracking_uri.split("://", 1)[0].lower()
+    if scheme in POSTGRES_SCHEMES or scheme.startswith("postgresql+"):
+        return _postgres_store(tracking_uri, workdir)
     if "://" not in tracking_uri:
         raise ValueError(f"tracking URI {tracking_uri!r} is not a URI: use sqlite:///path.db for "
                          f"the embedded store or http://host:port for an MLflow server")
     cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
     digest = hashlib.sha256(tracking_uri.encode()).hexdigest()[:16]
-    return Store(tracking_uri.rstrip("/"), None, None, cache / "fleet-health" / "locks" / digest)
+    lock_uri = os.environ.get(LOCK_URI_VARIABLE)
+    return Store(tracking_uri.rstrip("/"), None, None, cache / "fleet-health" / "locks" / digest,
+                 postgres_conninfo=None if not lock_uri else _libpq_uri(lock_uri))
+
+
+def _libpq_uri(uri: str) -> str:
+    """A PostgreSQL URI without its SQLAlchemy driver (``postgresql+psycopg://`` ->
+    ``postgresql://``), as libpq reads it."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        url = make_url(uri)
+    except Exception as error:
+        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI: {error}") from None
+    if url.get_backend_name() not in ("postgresql", "postgres"):
+        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI")
+    return url.set(drivername="postgresql").render_as_string(hide_password=False)
+
+
+def _postgres_store(tracking_uri: str, workdir: str | os.PathLike | None) -> Store:
+    from sqlalchemy.engine import make_url
+
+    try:
+        url = make_url(tracking_uri)
+    except Exception as error:
+        raise ValueError(f"PostgreSQL tracking URI {tracking_uri!r} is malformed: {error}") from None
+    if url.get_backend_name() not in ("postgresql", "postgres"):
+        raise ValueError(f"tracking URI {tracking_uri!r} is not a PostgreSQL URI")
+    if url.drivername in ("postgresql", "postgres"):
+        url = url.set(drivername="postgresql+psycopg")
+    if not url.database:
+        raise ValueError(f"PostgreSQL tracking URI {tracking_uri!r} must name a database: "
+                         f"postgresql://user@host:port/database")
+    normalized = url.render_as_string(hide_password=False)
+    conninfo = _libpq_uri(normalized)
+    digest = hashlib.sha256(normalized.encode()).hexdigest()[:16]
+    cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
+    base = pathlib.Path(workdir) if workdir is not None else pathlib.Path.cwd()
+    return Store(normalized, None, (base.resolve() / ARTIFACTS_DIR_NAME).as_uri(),
+                 cache / "fleet-health" / "locks" / digest, postgres_conninfo=conninfo)
+
+
+def prepare_store(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
+    """Make the store ready for concurrent writers (see :func:`prepare_sqlite` and
+    :func:`prepare_postgres`); nothing for a server."""
+    if store.db_path is not None:
+        prepare_sqlite(store, policy)
+    elif store.is_postgres:
+        prepare_postgres(store, policy)
+
+
+def _open_mlflow(store: Store, policy: RetryPolicy) -> None:
+    from mlflow import MlflowClient
+
+    client = MlflowClient(tracking_uri=store.tracking_uri, registry_uri=store.tracking_uri)
+    # the first use of the URI in this process builds MLflow's store (and, on a new database,
+    # its tables); doing it under the lock keeps two processes from migrating together
+    call_with_retry(client.search_experiments, max_results=1, policy=policy,
+                    what="open tracking store")
+    call_with_retry(client.search_registered_models, max_results=1, policy=policy,
+                    what="open model registry")
+
+
+def prepare_postgres(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
+    """Create MLflow's tables (and the tag-value index) under an advisory lock.
+
+    Safe from many processes on many hosts at once: the first migrates the database, the
+    others wait for the lock and find the schema in place.
+    """
+    with advisory_lock(store.postgres_conninfo, SCHEMA_LOCK, timeout=300,
+                       what="the database schema"):
+        _open_mlflow(store, policy)
+        import psycopg
+
+        with psycopg.connect(store.postgres_conninfo, autocommit=True) as connection:
+            # looked up first: CREATE INDEX IF NOT EXISTS would wait for the writers of tags
+            if connection.execute("SELECT 1 FROM pg_indexes WHERE indexname = %s",
+                                  (TAG_VALUE_INDEX,)).fetchone() is None:
+                # a hash index: a B-tree refuses values over ~2.7 kB, which tags may hold
+                connection.execute(f"CREATE INDEX IF NOT EXISTS {TAG_VALUE_INDEX} "
+                                   f"ON tags USING hash (value)")
 
 
 def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
@@ -291,15 +496,7 @@ def prepare_sqlite(store: Store, policy: RetryPolicy = RetryPolicy()) -> None:
     with file_lock(store.db_path.with_name(store.db_path.name + ".init.lock"), timeout=300,
                    what=f"database {store.db_path}"):
         call_with_retry(_enable_wal, store.db_path, policy=policy, what="enable WAL")
-        from mlflow import MlflowClient
-
-        client = MlflowClient(tracking_uri=store.tracking_uri, registry_uri=store.tracking_uri)
-        # the first use of the URI in this process builds MLflow's store (and, on a new file,
-        # its tables); doing it under the lock keeps two processes from migrating together
-        call_with_retry(client.search_experiments, max_results=1, policy=policy,
-                        what="open tracking store")
-        call_with_retry(client.search_registered_models, max_results=1, policy=policy,
-                        what="open model registry")
+        _open_mlflow(store, policy)
         call_with_retry(_index_tag_values, store.db_path, policy=policy, what="index tag values")
 
 

@@ -1,10 +1,11 @@
-"""``fleet-health alerts``: the alerts recorded (the JSON-lines file, or the registry)."""
+"""``fleet-health alerts``: the alerts recorded (the JSON-lines file, or the registry), and
+``--export``: the registry's alerts written into the file."""
 from __future__ import annotations
 
 import argparse
 import json
 
-from flows.alerts import AlertLog
+from flows.alerts import AlertLog, export_alerts
 from flows.commands.plumbing import config_options, guarded, load
 from flows.fleet import parse_time
 from flows.report import alert_table
@@ -24,6 +25,10 @@ def add_alerts_command(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--from-registry", action="store_true",
                         help="read the alerts from the MLflow registry (the system of record) "
                              "instead of the JSON-lines file")
+    parser.add_argument("--export", action="store_true",
+                        help="write the registry's alerts (since --since) into the JSON-lines "
+                             "file, skipping those already there: rebuilds a lost or partial "
+                             "file")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     config_options(parser)
     parser.set_defaults(handler=guarded(alerts))
@@ -34,6 +39,8 @@ def alerts(args: argparse.Namespace) -> int:
     """Print the alerts (a table, or JSON); return the exit status."""
     config = load(args)
     since = None if args.since is None else parse_time(args.since, "--since")
+    if args.export:
+        return export(config, since)
     if args.from_registry:
         try:
             found = config.registry().alerts(since=since,
@@ -56,4 +63,20 @@ def alerts(args: argparse.Namespace) -> int:
                                                           if since is not None else "") + ".")
         return EXIT_OK
     console.print(alert_table(found))
+    return EXIT_OK
+
+
+def export(config, since) -> int:
+    """``alerts --export``: append the registry's alerts missing from the file."""
+    log = AlertLog(config.alerts.jsonl)
+    try:
+        recorded, written = export_alerts(config.registry(), log, since=since,
+                                          major_ratio=config.alerts.major_ratio,
+                                          critical_ratio=config.alerts.critical_ratio)
+    except (RegistryError, ArtifactError) as error:
+        _error(str(error))
+        return EXIT_FAILED
+    _console().print(f"{len(written)} alert(s) written to {log.path} ({len(recorded)} in the "
+                     f"registry" + (f" since {since:%Y-%m-%d}" if since is not None else "")
+                     + f", {len(recorded) - len(written)} already in the file).")
     return EXIT_OK

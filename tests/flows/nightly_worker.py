@@ -1,0 +1,39 @@
+"""A nightly batch run as a plain process, as a worker on another host runs it (a script of
+``test_postgres_flows.py``, not collected).
+
+Usage: nightly_worker.py CONFIG AS_OF GO_FILE ASSET...
+
+Imports everything, prints ``ready``, waits until GO_FILE exists (so that several workers
+start together), processes the assets as one batch (:func:`flows.nightly.process_batch`) and
+prints the batch output as JSON.
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+import time
+
+from flows.batching import batch_task_body
+from flows.nightly import process_batch
+
+
+def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> int:
+    from flows.config import load_config
+    from flows.fleet import discover
+
+    refs = [{"asset_id": r.asset_id, "vehicle_class": r.vehicle_class}
+            for r in discover(load_config(config_path), assets).assets]
+    print("ready", flush=True)
+    deadline = time.monotonic() + 300
+    while not go.exists():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{go} never appeared")
+        time.sleep(0.01)
+    print(json.dumps(batch_task_body(process_batch, config_path, None, refs, as_of)))
+    return 0
+
+
+if __name__ == "__main__":
+    config_path, as_of, go, *assets = sys.argv[1:]
+    sys.exit(main(config_path, as_of, pathlib.Path(go), assets))
