@@ -81,7 +81,7 @@ def publish_artifacts(summary: RunSummary, config=None) -> None:
     stamp = _when(summary.as_of)
     description = (f"**fleet-health {summary.flow}** as of {stamp} UTC: "
                    + ", ".join(f"{n} {status}" for status, n in counts.items() if n)
-                   + f"; {len(summary.alerts)} alert(s).")
+                   + f"; {len(summary.alerts)} alert(s). Coverage: {summary.coverage.line()}")
     if summary.unmatched:
         description += (f" {len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                         f"class: {', '.join(summary.unmatched[:20])}.")

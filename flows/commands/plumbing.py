@@ -12,7 +12,7 @@ from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
-from flows.results import RunSummary
+from flows.results import MONITORED, RunSummary
 from graybox.exceptions import InvalidAssetIdError
 from registry.cli import EXIT_USAGE, _console, _error
 
@@ -111,11 +111,15 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         counts = ", ".join(f"{n} {status}" for status, n in summary.counts().items() if n)
         count = len(summary.assets)
         console.print(f"{count} asset{'' if count == 1 else 's'}: {counts or 'none'}.")
+        console.print(f"Coverage: {summary.coverage.line()}")
         if summary.unmatched:
             console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                           f"class and were left alone: {', '.join(summary.unmatched[:20])}")
-    for asset in summary.failed:
-        print(f"fleet-health: {asset.asset_id} failed: {asset.reason()}", file=sys.stderr)
+    for asset in summary.assets:
+        if asset.status in MONITORED:
+            continue
+        what = "failed" if asset.failed else f"not monitored ({asset.status})"
+        print(f"fleet-health: {asset.asset_id} {what}: {asset.reason()}", file=sys.stderr)
     return summary.exit_status
 
 
