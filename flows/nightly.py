@@ -50,6 +50,7 @@ from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
                             read_against, record_candidates)
 from flows.report import flow_result
+from flows.run_guard import exclusive_run
 from flows.results import (FAILED, NO_BASELINE, OK, UP_TO_DATE, AssetResult,
                            RunSummary, TransientError, describe_error, is_transient, now_iso)
 
@@ -210,7 +211,9 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
         Failed when an asset failed; the summary is its result either way.
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    summary = run_nightly(config, config_path, tracking_uri, as_of, assets, vehicle_class)
+    with exclusive_run(config, "nightly") as guarded:
+        summary = guarded.annotate(run_nightly(config, config_path, tracking_uri, as_of,
+                                               assets, vehicle_class))
     names = ", ".join(a.asset_id for a in summary.failed[:10])
     return flow_result(summary, config, f"{len(summary.failed)} of {len(summary.assets)} assets "
                                         f"failed: {names}")

@@ -30,6 +30,7 @@ from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, fit_candidates, loader, memory_groups,
                             read_against, record_candidates)
 from flows.report import flow_result
+from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, describe_error,
                            now_iso)
 
@@ -132,7 +133,8 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
         The run summary; the flow run ends Failed when an asset failed.
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    summary = run_reanalysis(config, config_path, start, end, tracking_uri, assets,
-                             vehicle_class, version)
+    with exclusive_run(config, "reanalyze") as guarded:
+        summary = guarded.annotate(run_reanalysis(config, config_path, start, end,
+                                                  tracking_uri, assets, vehicle_class, version))
     return flow_result(summary, config,
                        f"{len(summary.failed)} of {len(summary.assets)} assets failed")

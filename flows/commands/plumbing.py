@@ -13,6 +13,7 @@ from flows.config import ConfigError, FleetConfig, load_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary
+from flows.store_probe import bound_mlflow_requests
 from graybox.exceptions import InvalidAssetIdError
 from registry.cli import EXIT_USAGE, _console, _error
 
@@ -34,6 +35,7 @@ def prefect_environment(args: argparse.Namespace) -> None:
     os.environ.setdefault("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS",
                           str(EPHEMERAL_STARTUP_TIMEOUT))
     os.environ.setdefault("MLFLOW_LOGGING_LEVEL", level)
+    bound_mlflow_requests(os.environ)
 
 
 def config_options(parser: argparse.ArgumentParser) -> None:
@@ -115,12 +117,30 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         if summary.unmatched:
             console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                           f"class and were left alone: {', '.join(summary.unmatched[:20])}")
+    for line in guard_lines(summary):
+        print(f"fleet-health: {line}", file=sys.stderr)
     for asset in summary.assets:
         if asset.status in MONITORED:
             continue
         what = "failed" if asset.failed else f"not monitored ({asset.status})"
         print(f"fleet-health: {asset.asset_id} {what}: {asset.reason()}", file=sys.stderr)
     return summary.exit_status
+
+
+def guard_lines(summary: RunSummary) -> list[str]:
+    """What the run lock and the orphan check found (:mod:`flows.run_guard`), one line each."""
+    lines = []
+    lock = summary.extra.get("run_lock") or {}
+    if lock.get("waited_seconds", 0) >= 1:
+        holder = lock.get("waited_for") or {}
+        whom = (f"the {holder['flow']} run (flow run {holder['flow_run_id']}, pid "
+                f"{holder['pid']})" if holder else "another run")
+        lines.append(f"waited {lock['waited_seconds']:g} s for {whom} of this fleet to "
+                     f"finish; what it committed was not done again")
+    for orphan in summary.extra.get("orphans_crashed", []):
+        lines.append(f"marked the orphaned {orphan['flow']} flow run {orphan['name']} "
+                     f"({orphan['flow_run_id']}) Crashed: {orphan['why']}")
+    return lines
 
 
 def int_at_least(low: int) -> Callable[[str], int]:

@@ -7,10 +7,15 @@ versions, aliases, alerts, watermarks) and that the outcome is reported, never s
 from __future__ import annotations
 
 import json
+import socket
+import sqlite3
+import threading
+import time
 
 from flows.cli import main
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
                            UP_TO_DATE, AssetResult, RunSummary)
+from flows.store_probe import MLFLOW_HTTP_DEFAULTS, STORE_TIMEOUT_ENV, bound_mlflow_requests
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 
 
@@ -125,3 +130,95 @@ def test_fault_alerts_file_unwritable_is_not_retried_and_loses_nothing(workspace
     assert {a["asset_id"] for a in lines} == {"T-002"}
     assert len(lines) == len({(a["asset_id"], a["window_start"], a["channel"], a["tier"])
                               for a in lines})
+
+
+# -- the store ------------------------------------------------------------------------------
+
+def _closed_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def test_mlflow_request_bounds_are_set_unless_the_user_set_them():
+    environ = {"MLFLOW_HTTP_REQUEST_TIMEOUT": "7"}
+    bound_mlflow_requests(environ)
+    assert environ == {**MLFLOW_HTTP_DEFAULTS, "MLFLOW_HTTP_REQUEST_TIMEOUT": "7"}
+
+
+def test_fault_store_unreachable_fails_fast_naming_the_uri(workspace, capsys, monkeypatch,
+                                                            count):
+    """A dead MLflow server (a closed port): the run stops within the bound with one line
+    naming the URI; nothing is done and the real store is untouched."""
+    before = _state(workspace.registry()), count(workspace.registry())
+    uri = f"http://127.0.0.1:{_closed_port()}"
+    monkeypatch.setenv(STORE_TIMEOUT_ENV, "2")
+    started = time.monotonic()
+    status, out, err = run(capsys, "--config", str(workspace.config), "--tracking-uri", uri,
+                           "run", "--as-of", day(DAYS).isoformat())
+    elapsed = time.monotonic() - started
+    assert status == 1 and elapsed < 60, (status, elapsed)
+    (line,) = [x for x in err.splitlines() if uri in x]
+    assert "did not answer within 2 s" in line and "nothing was run" in line
+    assert (_state(workspace.registry()), count(workspace.registry())) == before
+    assert not workspace.alerts.exists()
+
+
+def test_fault_store_locked_by_another_writer_waits_and_loses_nothing(workspace, count):
+    """Another connection holds SQLite's write lock for 6 s while the run starts: the registry
+    retries, the run completes and every window is committed once."""
+    from flows.nightly import nightly
+
+    before = count(workspace.registry())
+    locked = threading.Event()
+
+    def hold():
+        connection = sqlite3.connect(workspace.db, isolation_level=None)
+        connection.execute("BEGIN EXCLUSIVE")
+        locked.set()
+        time.sleep(6)
+        connection.execute("ROLLBACK")
+        connection.close()
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    locked.wait(30)
+    state = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
+                    return_state=True)
+    holder.join()
+    summary = state.result(raise_on_failure=False)
+    assert state.is_completed(), state.message
+    assert summary["coverage"]["complete"]
+    registry = workspace.registry()
+    nights = DAYS - BASELINE_DAYS
+    assert count(registry)["versions"] == before["versions"] + nights * len(ASSETS)
+    assert {registry.watermark(a) for a in ASSETS} == {day(DAYS)}
+
+
+def test_fault_store_read_only_fails_every_asset_and_the_rerun_commits_once(workspace, count):
+    """The store refuses writes (SQLite's "attempt to write a readonly database", raised by
+    a trigger): every asset is reported failed with the reason, no watermark moves; once
+    writable, the rerun commits every window once."""
+    from flows.nightly import nightly
+
+    registry = workspace.registry()
+    before, counts = _state(registry), count(registry)
+    connection = sqlite3.connect(workspace.db)
+    connection.execute("CREATE TRIGGER read_only BEFORE INSERT ON runs BEGIN "
+                       "SELECT RAISE(ABORT, 'attempt to write a readonly database'); END")
+    connection.commit()
+    as_of = day(BASELINE_DAYS + 1).isoformat()
+    state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
+    summary = state.result(raise_on_failure=False)
+    assert state.is_failed()
+    assert summary["coverage"]["failed"] == len(ASSETS) and summary["exit_status"] == 1
+    for asset in summary["assets"]:
+        assert "readonly database" in asset["error"]["message"], asset
+    assert _state(workspace.registry()) == before
+    assert count(workspace.registry()) == counts
+    connection.execute("DROP TRIGGER read_only")
+    connection.commit()
+    connection.close()
+    state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
+    assert state.is_completed(), state.message
+    assert count(workspace.registry())["versions"] == counts["versions"] + len(ASSETS)
