@@ -7,14 +7,25 @@ versions, aliases, alerts, watermarks) and that the outcome is reported, never s
 from __future__ import annotations
 
 import json
+import os
+import pathlib
+import shutil
+import signal
 import socket
 import sqlite3
+import subprocess
+import sys
 import threading
 import time
+import uuid
+
+import pytest
 
 from flows.cli import main
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
                            UP_TO_DATE, AssetResult, RunSummary)
+from conftest import write_config
+from flows.run_lock import LOCK_WAIT_ENV
 from flows.store_probe import MLFLOW_HTTP_DEFAULTS, STORE_TIMEOUT_ENV, bound_mlflow_requests
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 
@@ -222,3 +233,116 @@ def test_fault_store_read_only_fails_every_asset_and_the_rerun_commits_once(work
     state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
     assert state.is_completed(), state.message
     assert count(workspace.registry())["versions"] == counts["versions"] + len(ASSETS)
+
+
+# -- concurrent runs, killed runs -------------------------------------------------------------
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+
+
+def _start_cli(workspace, *argv) -> subprocess.Popen:
+    """``python -m flows --config <workspace> ARGV`` in its own process, on the session's
+    Prefect server."""
+    from prefect.settings import PREFECT_API_URL
+
+    env = dict(os.environ, PREFECT_API_URL=PREFECT_API_URL.value(),
+               PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
+    env[LOCK_WAIT_ENV] = "600"
+    return subprocess.Popen([sys.executable, "-m", "flows", "--config", str(workspace.config),
+                             *argv], cwd=workspace.path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _alert_lines(path: pathlib.Path) -> list[tuple]:
+    lines = [json.loads(x) for x in path.read_text().splitlines() if x.strip()]
+    return sorted((a["asset_id"], a["window_start"], a["channel"], a["tier"]) for a in lines)
+
+
+@pytest.mark.slow
+def test_fault_concurrent_runs_fit_each_window_once(workspace, count):
+    """Two ``run``s of the same fleet at once: one fits every window, the other waits for
+    the run lock and finds them done; both exit 0 with honest summaries."""
+    before = count(workspace.registry())
+    as_of = day(DAYS).isoformat()
+    processes = [_start_cli(workspace, "run", "--as-of", as_of, "--json") for _ in range(2)]
+    outputs = [p.communicate(timeout=900) for p in processes]
+    for process, (out, err) in zip(processes, outputs):
+        assert process.returncode == 0, err
+    summaries = [json.loads(out) for out, _ in outputs]
+    created = [sum(w["created"] for a in s["assets"] for w in a["windows"]) for s in summaries]
+    nights = DAYS - BASELINE_DAYS
+    worker, waiter = (0, 1) if created[0] else (1, 0)
+    assert sorted(created) == [0, nights * len(ASSETS)]
+    assert {a["status"] for a in summaries[worker]["assets"]} == {"ok"}
+    assert {a["status"] for a in summaries[waiter]["assets"]} == {"up to date"}
+    for summary in summaries:
+        assert summary["coverage"]["complete"] and summary["exit_status"] == 0
+    lock = summaries[waiter]["extra"]["run_lock"]
+    if lock["waited_seconds"] >= 1:       # they overlapped (the usual case): it says whom
+        assert lock["waited_for"]["flow_run_id"] == summaries[worker]["flow_run_id"]
+        assert "waited" in outputs[waiter][1]
+    registry = workspace.registry()
+    assert count(registry)["versions"] == before["versions"] + nights * len(ASSETS)
+    assert count(registry)["runs"] == before["runs"] + nights * len(ASSETS)
+    assert {registry.watermark(a) for a in ASSETS} == {day(DAYS)}
+    alerts = _alert_lines(workspace.alerts)
+    assert alerts and len(alerts) == len(set(alerts))
+    assert not (workspace.db.parent / ".fleet-health-locks" / "fleet-run.json").exists()
+
+
+@pytest.mark.slow
+def test_fault_kill_9_then_rerun_equals_uninterrupted_run(workspace, baselined, fleet,
+                                                          count, capsys):
+    """A run killed with SIGKILL while it records its candidates: its Prefect flow run
+    stays Running until the next run marks it Crashed; that rerun leaves the store and the
+    alerts exactly as one uninterrupted run does."""
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.objects import StateType
+
+    from flows.nightly import nightly
+
+    as_of = day(DAYS).isoformat()
+    reference = workspace.path / "reference"
+    reference.mkdir()
+    shutil.copy(baselined.db, reference / "mlflow.db")
+    reference_config = write_config(reference / "fleet.toml", fleet.root,
+                                    reference / "mlflow.db")
+    state = nightly(config_path=str(reference_config), as_of=as_of, return_state=True)
+    assert state.is_completed(), state.message
+    from registry import Registry
+    expected = Registry(f"sqlite:///{reference / 'mlflow.db'}")
+
+    versions_before = count(workspace.registry())["versions"]
+    holder_file = workspace.db.parent / ".fleet-health-locks" / "fleet-run.json"
+    process = _start_cli(workspace, "run", "--as-of", as_of)
+    deadline = time.monotonic() + 600
+    while True:           # kill it once it has recorded a first candidate
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline
+        connection = sqlite3.connect(workspace.db)
+        (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
+        connection.close()
+        if versions > versions_before:
+            break
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)
+    process.communicate()
+    killed = json.loads(holder_file.read_text())["flow_run_id"]
+    with get_client(sync_client=True) as client:
+        assert client.read_flow_run(uuid.UUID(killed)).state.type == StateType.RUNNING
+
+    status, out, err = run(capsys, "--config", str(workspace.config), "run", "--as-of", as_of,
+                           "--json")
+    assert status == 0, err
+    summary = json.loads(out)
+    assert [o["flow_run_id"] for o in summary["extra"]["orphans_crashed"]] == [killed]
+    assert "marked the orphaned fleet-health-nightly flow run" in err
+    with get_client(sync_client=True) as client:
+        crashed = client.read_flow_run(uuid.UUID(killed)).state
+    assert crashed.type == StateType.CRASHED and "orphaned" in crashed.message
+
+    registry = workspace.registry()
+    assert count(registry) == count(expected)
+    assert _state(registry) == _state(expected)
+    assert _alert_lines(workspace.alerts) == _alert_lines(reference / "alerts.jsonl")
+    assert not holder_file.exists()
