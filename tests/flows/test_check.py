@@ -91,3 +91,38 @@ def test_broken_config_exits_2_naming_the_key(tmp_path, capsys):
     assert finding["fix"]
     status, out, err = check(capsys, str(config))
     assert status == 2 and "nightly.batch_sise" in err
+
+
+def test_check_marks_orphaned_flow_runs_crashed(workspace, capsys, monkeypatch):
+    """A Running nightly flow run named by the lock's holder file although the lock is free
+    (its process died), and one Running longer than $FLEET_HEALTH_ORPHAN_AFTER: check marks
+    both Crashed, says so, and is otherwise all good."""
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.objects import StateType
+    from prefect.states import Running
+
+    from flows.nightly import nightly
+    from flows.orphans import ORPHAN_AFTER_ENV
+    from flows.run_lock import Holder, RunLock
+
+    with get_client(sync_client=True) as client:
+        dead, old = (client.create_flow_run(nightly, parameters={
+            "config_path": str(workspace.config)}, state=Running()) for _ in range(2))
+    lock = RunLock.of(workspace.uri)
+    lock.directory.mkdir(parents=True, exist_ok=True)
+    lock._write_holder(Holder("nightly", str(dead.id), 999999, "gone-host",
+                              "2026-01-07T02:30:00+00:00"))
+    monkeypatch.setenv(ORPHAN_AFTER_ENV, "0")
+    status, out, err = check(capsys, str(workspace.config), "--json")
+    assert status == 0, out + err
+    findings = _findings(out)
+    assert "pid 999999 on gone-host" in findings[("runs", dead.name)]["detail"]
+    assert "Running since" in findings[("runs", old.name)]["detail"]
+    with get_client(sync_client=True) as client:
+        for run in (dead, old):
+            state = client.read_flow_run(run.id).state
+            assert state.type == StateType.CRASHED and "orphaned" in state.message
+    assert not lock.holder_path.exists()
+    # nothing is left to mark
+    status, out, _ = check(capsys, str(workspace.config), "--json")
+    assert status == 0 and _findings(out)[("runs", "orphans")]["level"] == "ok"

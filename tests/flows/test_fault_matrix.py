@@ -346,3 +346,20 @@ def test_fault_kill_9_then_rerun_equals_uninterrupted_run(workspace, baselined, 
     assert _state(registry) == _state(expected)
     assert _alert_lines(workspace.alerts) == _alert_lines(reference / "alerts.jsonl")
     assert not holder_file.exists()
+
+
+def test_coverage_is_in_the_flow_runs_prefect_artifact(workspace):
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import (ArtifactFilter, ArtifactFilterFlowRunId,
+                                                ArtifactFilterKey)
+
+    from flows.nightly import nightly
+
+    state = nightly(config_path=str(workspace.config), as_of=day(BASELINE_DAYS + 1).isoformat(),
+                    assets=["T-001", "T-003"], return_state=True)
+    summary = state.result()
+    with get_client(sync_client=True) as client:
+        (artifact,) = client.read_artifacts(artifact_filter=ArtifactFilter(
+            key=ArtifactFilterKey(any_=["fleet-health-nightly"]),
+            flow_run_id=ArtifactFilterFlowRunId(any_=[uuid.UUID(summary["flow_run_id"])])))
+    assert artifact.description.endswith("Coverage: 2 assets: 2 monitored and up to date.")
