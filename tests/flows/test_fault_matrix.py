@@ -176,33 +176,44 @@ def test_fault_store_unreachable_fails_fast_naming_the_uri(workspace, capsys, mo
 
 
 def test_fault_store_locked_by_another_writer_waits_and_loses_nothing(workspace, count):
-    """Another connection holds SQLite's write lock for 6 s while the run starts: the registry
-    retries, the run completes and every window is committed once."""
+    """Another connection takes SQLite's exclusive lock for 5 s in the middle of the run
+    (once its first candidate is recorded): the registry retries, the run completes and
+    every window is committed once."""
     from flows.nightly import nightly
 
     before = count(workspace.registry())
-    locked = threading.Event()
+    held = threading.Event()
+    done = threading.Event()
 
-    def hold():
-        connection = sqlite3.connect(workspace.db, isolation_level=None)
-        connection.execute("BEGIN EXCLUSIVE")
-        locked.set()
-        time.sleep(6)
-        connection.execute("ROLLBACK")
+    def hold_when_recording():
+        connection = sqlite3.connect(workspace.db, isolation_level=None, timeout=30)
+        while not done.is_set():
+            (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
+            if versions > before["versions"]:
+                connection.execute("BEGIN EXCLUSIVE")
+                held.set()
+                time.sleep(5)
+                connection.execute("ROLLBACK")
+                break
+            time.sleep(0.02)
         connection.close()
 
-    holder = threading.Thread(target=hold)
+    holder = threading.Thread(target=hold_when_recording)
     holder.start()
-    locked.wait(30)
-    state = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
-                    return_state=True)
-    holder.join()
+    try:
+        state = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
+                        return_state=True)
+    finally:
+        done.set()
+        holder.join()
+    assert held.is_set(), "the store was never locked during the run"
     summary = state.result(raise_on_failure=False)
     assert state.is_completed(), state.message
     assert summary["coverage"]["complete"]
     registry = workspace.registry()
     nights = DAYS - BASELINE_DAYS
     assert count(registry)["versions"] == before["versions"] + nights * len(ASSETS)
+    assert count(registry)["runs"] == before["runs"] + nights * len(ASSETS)
     assert {registry.watermark(a) for a in ASSETS} == {day(DAYS)}
 
 
@@ -363,3 +374,39 @@ def test_coverage_is_in_the_flow_runs_prefect_artifact(workspace):
             key=ArtifactFilterKey(any_=["fleet-health-nightly"]),
             flow_run_id=ArtifactFilterFlowRunId(any_=[uuid.UUID(summary["flow_run_id"])])))
     assert artifact.description.endswith("Coverage: 2 assets: 2 monitored and up to date.")
+
+
+def test_fault_artifacts_unwritable_fail_the_assets_and_the_rerun_commits_once(workspace,
+                                                                               count):
+    """The experiment's artifact location cannot be created (a file stands where its
+    directory should be): every asset fails with the reason, no watermark moves and no
+    version is made; once fixed, the rerun commits every window once."""
+    from flows.nightly import nightly
+
+    registry = workspace.registry()
+    before, counts = _state(registry), count(registry)
+    blocked = workspace.path / "artifacts-blocked"
+    blocked.write_text("a file where the artifact directory should be")
+    connection = sqlite3.connect(workspace.db)
+    connection.execute("UPDATE experiments SET artifact_location = ?",
+                       (f"file://{blocked}/inside",))
+    connection.commit()
+    connection.close()
+    as_of = day(BASELINE_DAYS + 1).isoformat()
+    state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
+    summary = state.result(raise_on_failure=False)
+    assert state.is_failed()
+    assert summary["coverage"]["failed"] == len(ASSETS)
+    for asset in summary["assets"]:
+        assert asset["error"]["message"], asset
+    registry = workspace.registry()
+    assert _state(registry) == before
+    assert count(registry)["versions"] == counts["versions"]
+    assert not workspace.alerts.exists()
+    blocked.unlink()
+    state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
+    assert state.is_completed(), state.message
+    registry = workspace.registry()
+    assert count(registry)["versions"] == counts["versions"] + len(ASSETS)
+    assert count(registry)["runs"] == counts["runs"] + len(ASSETS)
+    assert {registry.watermark(a) for a in ASSETS} == {day(BASELINE_DAYS + 1)}
