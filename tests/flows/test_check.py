@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sqlite3
 
 from flows.cli import main
 from flowtest_fleet import ASSETS
@@ -126,3 +127,24 @@ def test_check_marks_orphaned_flow_runs_crashed(workspace, capsys, monkeypatch):
     # nothing is left to mark
     status, out, _ = check(capsys, str(workspace.config), "--json")
     assert status == 0 and _findings(out)[("runs", "orphans")]["level"] == "ok"
+
+
+def test_unusable_baseline_is_reported_with_the_fix(workspace, capsys):
+    """T-003's baseline no longer verifies (its recorded manifest digest differs from its
+    artifacts): check names it unusable, with the error and the fix."""
+    from registry import naming
+
+    connection = sqlite3.connect(workspace.db)
+    changed = connection.execute(
+        "UPDATE model_version_tags SET value = ? WHERE key = ? AND name = ?",
+        ("0" * 64, naming.TAG_MANIFEST_SHA256, naming.model_name("T-003"))).rowcount
+    connection.commit()
+    connection.close()
+    assert changed >= 1
+    status, out, _ = check(capsys, str(workspace.config), "--json")
+    assert status == 1
+    findings = _findings(out)
+    unusable = findings[("baseline", "T-003")]
+    assert unusable["level"] == "problem" and unusable["detail"].startswith("unusable baseline")
+    assert "baseline rollback T-003" in unusable["fix"]
+    assert [a for a in ASSETS if findings[("baseline", a)]["level"] != "ok"] == ["T-003"]

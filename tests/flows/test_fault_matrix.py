@@ -25,7 +25,8 @@ from flows.cli import main
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
                            UP_TO_DATE, AssetResult, RunSummary)
 from conftest import write_config
-from flows.run_lock import LOCK_WAIT_ENV
+from flows.run_lock import LOCK_WAIT_ENV, RunLock, RunLockTimeout
+from registry.exceptions import RegistryError
 from flows.store_probe import MLFLOW_HTTP_DEFAULTS, STORE_TIMEOUT_ENV, bound_mlflow_requests
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 
@@ -410,3 +411,18 @@ def test_fault_artifacts_unwritable_fail_the_assets_and_the_rerun_commits_once(w
     assert count(registry)["versions"] == counts["versions"] + len(ASSETS)
     assert count(registry)["runs"] == counts["runs"] + len(ASSETS)
     assert {registry.watermark(a) for a in ASSETS} == {day(BASELINE_DAYS + 1)}
+
+
+def test_run_lock_names_its_holder_and_never_swallows_the_runs_errors(tmp_path):
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    first = RunLock.of(uri)
+    with first.hold("nightly", "run-1", wait=0):
+        assert first.is_held()
+        with pytest.raises(RunLockTimeout, match=r"the nightly run \(flow run run-1, pid "):
+            with RunLock.of(uri).hold("baseline", "run-2", wait=0.2):
+                raise AssertionError("must not be reached")
+    assert not first.is_held() and first.holder() is None
+    with pytest.raises(RegistryError, match="the run's own"):
+        with RunLock.of(uri).hold("nightly", "run-3", wait=0):
+            raise RegistryError("the run's own error")
+    assert RunLock.of(uri).holder() is None
