@@ -136,7 +136,7 @@ def guard_lines(summary: RunSummary) -> list[str]:
         whom = (f"the {holder['flow']} run (flow run {holder['flow_run_id']}, pid "
                 f"{holder['pid']})" if holder else "another run")
         lines.append(f"waited {lock['waited_seconds']:g} s for {whom} of this fleet to "
-                     f"finish; what it committed was not done again")
+                     f"finish first (the run lock)")
     for orphan in summary.extra.get("orphans_crashed", []):
         lines.append(f"marked the orphaned {orphan['flow']} flow run {orphan['name']} "
                      f"({orphan['flow_run_id']}) Crashed: {orphan['why']}")

@@ -148,3 +148,13 @@ def test_unusable_baseline_is_reported_with_the_fix(workspace, capsys):
     assert unusable["level"] == "problem" and unusable["detail"].startswith("unusable baseline")
     assert "baseline rollback T-003" in unusable["fix"]
     assert [a for a in ASSETS if findings[("baseline", a)]["level"] != "ok"] == ["T-003"]
+
+
+def test_help_says_what_is_checked_and_the_exit_statuses(capsys):
+    assert main(["check", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    for what in ("configuration", "telemetry layout", "MLflow store", "Prefect's API",
+                 "baseline", "Orphaned flow runs", "Exit status: 0 all good; 1 problems "
+                 "found; 2 usage or configuration error."):
+        assert what in out, what
+    assert main(["--help"]) == 0 and "check" in capsys.readouterr().out
