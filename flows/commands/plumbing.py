@@ -13,9 +13,9 @@ from flows.config import ConfigError, FleetConfig, load_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary
-from flows.store_probe import bound_mlflow_requests
+from flows.store_probe import StoreUnavailable, bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError
-from registry.cli import EXIT_USAGE, _console, _error
+from registry.cli import EXIT_FAILED, EXIT_USAGE, _console, _error
 
 #: seconds Prefect's temporary local server may take to start (Prefect's own default, 20 s,
 #: is missed on a loaded machine: a first run in a new PREFECT_HOME took 27.7 s on an idle one)
@@ -46,9 +46,23 @@ def config_options(parser: argparse.ArgumentParser) -> None:
                         help="MLflow tracking URI (overrides [mlflow] tracking_uri)")
 
 
+#: commands that run a flow: they wait for the tracking store (bounded) before starting it
+STORE_COMMANDS = ("run", "reanalyze", "baseline")
+
+
 def load(args: argparse.Namespace) -> FleetConfig:
-    """The configuration of ``--config``, with ``--tracking-uri`` applied."""
-    return load_config(args.config).with_tracking_uri(args.tracking_uri)
+    """The configuration of ``--config``, with ``--tracking-uri`` applied; for the commands
+    of :data:`STORE_COMMANDS`, once the tracking store answers.
+
+    Raises
+    ------
+    flows.store_probe.StoreUnavailable
+        When an MLflow server does not answer within the bound (nothing was run).
+    """
+    config = load_config(args.config).with_tracking_uri(args.tracking_uri)
+    if getattr(args, "command", None) in STORE_COMMANDS:
+        require_store(config.tracking_uri)
+    return config
 
 
 def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -59,6 +73,9 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
         except USAGE_ERRORS as error:
             _error(str(error))
             return EXIT_USAGE
+        except StoreUnavailable as error:
+            _error(str(error))
+            return EXIT_FAILED
         except KeyboardInterrupt:
             _error("interrupted; rerun the command: committed results are kept and nothing "
                    "is duplicated")
