@@ -36,6 +36,7 @@ from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, asset_done, fit_baselines, loader, memory_groups,
                             read)
 from flows.report import flow_result
+from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)
 from registry.submission import FitSubmission
@@ -214,10 +215,11 @@ def baseline(start: str, end: str, config_path: str = "fleet.toml",
     Returns
     -------
     dict
-        The run summary; the flow run ends Failed when an asset failed.
+        The run summary; the flow run ends Failed (message: the coverage line)
+        when an asset's baseline was not fitted.
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    summary = run_baseline(config, config_path, start, end, tracking_uri, assets,
-                           vehicle_class, promote, reason)
-    return flow_result(summary, config,
-                       f"{len(summary.failed)} of {len(summary.assets)} baselines failed")
+    with exclusive_run(config, "baseline") as guarded:
+        summary = guarded.annotate(run_baseline(config, config_path, start, end, tracking_uri,
+                                                assets, vehicle_class, promote, reason))
+    return flow_result(summary, config)

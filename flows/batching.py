@@ -62,11 +62,30 @@ def retry_transient(task_, task_run, state) -> bool:
     return False
 
 
+def task_attempts(state, error: BaseException | str, retries: int) -> int:
+    """How many times the batch task ran: its task run's ``run_count`` read from Prefect's
+    API; if that cannot be read, 1 for an error that is not retried, else ``retries + 1``."""
+    task_run_id = getattr(state.state_details, "task_run_id", None)
+    if task_run_id is not None:
+        try:
+            from prefect.client.orchestration import get_client
+
+            with get_client(sync_client=True) as client:
+                return max(1, client.read_task_run(task_run_id).run_count)
+        except Exception:  # noqa: BLE001 - the count is then inferred, as documented
+            logger.warning("could not read task run %s: its attempts are inferred",
+                           task_run_id, exc_info=True)
+    transient = isinstance(error, BaseException) and is_transient(error)
+    return retries + 1 if transient else 1
+
+
 def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
                  attempts: int) -> list[AssetResult]:
-    """Results for a batch whose task failed after its retries."""
+    """Results for a batch whose task failed after ``attempts`` runs (1: not retried)."""
     text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
-    message = (f"the batch failed after {attempts} attempt(s): {text}; windows committed "
+    how = (f"after {attempts} attempt(s)" if attempts > 1
+           else "(not retried: not a transient error)")
+    message = (f"the batch failed {how}: {text}; windows committed "
                f"before the error are kept, the rest are retried by the next run")
     out = []
     for ref in refs:
@@ -100,7 +119,8 @@ def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tu
             error = state.result(raise_on_failure=False)
             reason = error if isinstance(error, BaseException) else (state.message or
                                                                      state.name)
-            out += on_failure(batch, reason, config.nightly.retries + 1)
+            out += on_failure(batch, reason,
+                              task_attempts(state, reason, config.nightly.retries))
     return out
 
 

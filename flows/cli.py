@@ -12,9 +12,10 @@ Global options (before the command; ``run``, ``reanalyze``, ``alerts``, ``baseli
 ``--tracking-uri URI``  overrides ``[mlflow] tracking_uri`` (and ``$FLEET_HEALTH_TRACKING_URI``)
 ``-v``                  show Prefect's and the libraries' log lines
 
-Exit status: 0 all assets processed; 1 some assets failed (each named, with why) or the
-operation failed; 2 bad usage or configuration; 3 Prefect's API server could not be started
-or reached (one line says what to do).
+Exit status: 0 all assets processed; 1 an asset that should be monitored was not (failed,
+stale, no baseline, unusable baseline, no telemetry: each named, with why) or the operation
+failed (``check``: a problem found); 2 bad usage or configuration; 3 Prefect's API server
+could not be started or reached (one line says what to do).
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from typing import Callable
 
 from flows.commands.alerts import add_alerts_command
 from flows.commands.baseline import add_baseline_group
+from flows.commands.check import add_check_command
 from flows.commands.demo import add_demo_command
 from flows.commands.plumbing import EPHEMERAL_STARTUP_TIMEOUT, prefect_environment
 from flows.commands.reanalyze import add_reanalyze_command
@@ -56,6 +58,7 @@ COMMANDS: dict[str, Callable[[argparse._SubParsersAction], argparse.ArgumentPars
     "alerts": add_alerts_command,
     "serve": add_serve_command,
     "report": add_report_command,
+    "check": add_check_command,
 }
 
 
@@ -64,9 +67,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fleet-health",
         description="Gray-box fleet health: nightly residual models, drift and baselines.",
-        epilog="Exit status: 0 all assets processed; 1 some assets failed (each named, with "
-               "why); 2 bad usage or configuration; 3 Prefect's API server could not be "
-               "started or reached.")
+        epilog="Exit status: 0 all assets processed; 1 an asset that should be monitored was "
+               "not (failed, stale, no baseline, unusable baseline, no telemetry: each named, "
+               "with why), or check found a problem; 2 bad usage or configuration; 3 "
+               "Prefect's API server could not be started or reached.")
     parser.add_argument(
         "--config", metavar="PATH",
         default=os.environ.get("FLEET_HEALTH_CONFIG") or DEFAULT_CONFIG,

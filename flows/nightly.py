@@ -53,8 +53,9 @@ reported failed and the other batches go on.
 The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batch_size``
 assets (not per asset: thousands of task runs overwhelm a Prefect server), a table
 artifact of the night, the fleet heat map (:mod:`flows.fleet_publish`), and notification
-hooks. Its final state is Failed when an asset
-failed (the return value still holds the whole summary). Inside a batch, assets are read
+hooks. Its final state is Failed when an asset that should be monitored was not
+(failed, stale, without or with an unusable baseline, without telemetry; the message is the
+run's coverage line; the return value still holds the whole summary). Inside a batch, assets are read
 and fitted in groups within ``[nightly] memory_budget`` (:mod:`flows.memory`); the order
 above holds per group.
 """
@@ -85,6 +86,7 @@ from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
 from registry.exceptions import UnusableBaselineError
+from flows.run_guard import exclusive_run
 
 
 def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
@@ -350,14 +352,11 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
     -------
     dict
         The run summary (:class:`flows.results.RunSummary` as a dict). The flow run ends
-        Failed when an asset failed; the summary is its result either way.
+        Failed when an asset was not monitored; the summary is its result either way.
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    summary = run_nightly(config, config_path, tracking_uri, as_of, assets, vehicle_class)
-    publish_or_note(summary, config)          # the fleet heat map; never fails the night
-    unusable = [a.asset_id for a in summary.assets if a.status == UNUSABLE_BASELINE]
-    names = ", ".join(a.asset_id for a in summary.failed[:10])
-    return flow_result(summary, config, f"{len(summary.failed)} of {len(summary.assets)} assets "
-                                        f"failed: {names}" + (
-                                            f"; {len(unusable)} with an unusable baseline: "
-                                            f"{', '.join(unusable[:10])}" if unusable else ""))
+    with exclusive_run(config, "nightly") as guarded:
+        summary = guarded.annotate(run_nightly(config, config_path, tracking_uri, as_of,
+                                               assets, vehicle_class))
+        publish_or_note(summary, config)      # the fleet heat map; never fails the night
+    return flow_result(summary, config)

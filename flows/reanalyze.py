@@ -36,6 +36,7 @@ from flows.report import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
 from registry.exceptions import NotFoundError, UnusableBaselineError
+from flows.run_guard import exclusive_run
 
 
 def _reference(version):
@@ -139,12 +140,11 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     Returns
     -------
     dict
-        The run summary; the flow run ends Failed when an asset failed.
+        The run summary; the flow run ends Failed (message: the coverage line)
+        when an asset was not reanalysed.
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
-    summary = run_reanalysis(config, config_path, start, end, tracking_uri, assets,
-                             vehicle_class, version)
-    unusable = sum(1 for a in summary.assets if a.status == UNUSABLE_BASELINE)
-    return flow_result(summary, config,
-                       f"{len(summary.failed)} of {len(summary.assets)} assets failed"
-                       + (f", {unusable} with an unusable baseline" if unusable else ""))
+    with exclusive_run(config, "reanalyze") as guarded:
+        summary = guarded.annotate(run_reanalysis(config, config_path, start, end,
+                                                  tracking_uri, assets, vehicle_class, version))
+    return flow_result(summary, config)

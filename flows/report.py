@@ -59,10 +59,10 @@ def alert_rows(alerts: Sequence[Alert]) -> list[dict]:
     return rows
 
 
-def flow_result(summary: RunSummary, config, failure: str):
+def flow_result(summary: RunSummary, config):
     """A flow's return value: publish its artifacts, then the summary as a dict, wrapped in a
-    Failed state with the message ``failure`` when an asset failed or had an unusable
-    baseline (exit status 1)."""
+    Failed state when an asset that should have been covered was not (exit status 1), whose
+    message is the coverage line (which assets, and why)."""
     # prefect loads only inside a flow: the command line prints these tables without it
     from prefect.runtime import flow_run
     from prefect.states import Failed
@@ -70,7 +70,7 @@ def flow_result(summary: RunSummary, config, failure: str):
     summary.flow_run_id = str(flow_run.id) if flow_run.id else None
     publish_artifacts(summary, config)
     data = summary.to_dict()
-    return Failed(message=failure, data=data) if summary.exit_status else data
+    return Failed(message=summary.coverage.line(), data=data) if summary.exit_status else data
 
 
 def publish_artifacts(summary: RunSummary, config=None) -> None:
@@ -82,7 +82,7 @@ def publish_artifacts(summary: RunSummary, config=None) -> None:
     stamp = _when(summary.as_of)
     description = (f"**fleet-health {summary.flow}** as of {stamp} UTC: "
                    + ", ".join(f"{n} {status}" for status, n in counts.items() if n)
-                   + f"; {len(summary.alerts)} alert(s).")
+                   + f"; {len(summary.alerts)} alert(s). Coverage: {summary.coverage.line()}")
     if summary.unmatched:
         description += (f" {len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                         f"class: {', '.join(summary.unmatched[:20])}.")

@@ -14,6 +14,9 @@ Statuses of an asset in a run:
 ``unusable baseline``  the version to compare with cannot be used (no calibration, artifacts
                   that fail verification, another model than the configured one): not
                   monitored, exit status 1; its note names the version and the fix
+
+Every status but ``ok`` and ``up to date`` means an asset that should be monitored was not:
+:class:`Coverage` counts them and the run's exit status is then 1.
 """
 from __future__ import annotations
 
@@ -36,8 +39,8 @@ OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
 STALE = "stale"
 UNUSABLE_BASELINE = "unusable baseline"
 STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE)
-#: statuses of an asset that should be monitored and was not (besides failed): exit status 1
-NOT_MONITORED = (STALE, UNUSABLE_BASELINE)
+#: statuses of an asset that was monitored this run (checked against its baseline)
+MONITORED = (OK, UP_TO_DATE)
 
 
 
@@ -188,11 +191,14 @@ class RunSummary:
         return [alert for a in self.assets for alert in a.alerts]
 
     @property
+    def coverage(self) -> "Coverage":
+        return Coverage.of(self.flow, self.assets)
+
+    @property
     def exit_status(self) -> int:
-        """0 when every asset was processed (or had nothing to do), 1 when some failed or
-        went stale or had an unusable baseline (not monitored)."""
-        unmonitored = any(a.status in NOT_MONITORED for a in self.assets)
-        return EXIT_FAILED if self.failed or unmonitored else EXIT_OK
+        """0 when every asset was processed (or had nothing to do), 1 when one that should be
+        monitored was not (failed, stale, no baseline, unusable baseline, no telemetry)."""
+        return EXIT_OK if self.coverage.complete else EXIT_FAILED
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}
@@ -204,7 +210,8 @@ class RunSummary:
         return {"flow": self.flow, "started": self.started, "finished": self.finished,
                 "as_of": self.as_of, "config": self.config, "tracking_uri": self.tracking_uri,
                 "flow_run_id": self.flow_run_id, "exit_status": self.exit_status,
-                "counts": self.counts(), "unmatched_assets": list(self.unmatched),
+                "counts": self.counts(), "coverage": self.coverage.to_dict(),
+                "unmatched_assets": list(self.unmatched),
                 "skipped": [dict(s) for s in self.skipped],
                 "assets": [a.to_dict() for a in self.assets],
                 "alerts": [alert.to_dict() for alert in self.alerts],
@@ -219,6 +226,72 @@ class RunSummary:
                    tracking_uri=data.get("tracking_uri"), flow_run_id=data.get("flow_run_id"),
                    extra=dict(data.get("extra", {})),
                    skipped=[dict(s) for s in data.get("skipped", [])])
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """How much of the fleet a run covered: every asset it should have monitored, by outcome.
+
+    Attributes
+    ----------
+    flow : str
+        ``nightly``, ``baseline`` or ``reanalyze`` (the baseline flow counts fits).
+    assets : int
+        Assets that should be monitored (the discovered fleet and the listed assets).
+    up_to_date : int
+        Monitored: processed up to date against their baseline (``ok`` or ``up to date``).
+    stale, no_baseline, unusable_baseline, failed, no_telemetry : int
+        Not monitored, by reason.
+    missed : tuple of str
+        The assets not monitored, in the run's order.
+    """
+
+    flow: str
+    assets: int
+    up_to_date: int
+    stale: int
+    no_baseline: int
+    unusable_baseline: int
+    failed: int
+    no_telemetry: int
+    missed: tuple[str, ...]
+
+    @classmethod
+    def of(cls, flow: str, assets: list[AssetResult]) -> "Coverage":
+        def n(status: str) -> int:
+            return sum(1 for a in assets if a.status == status)
+        return cls(flow, len(assets), sum(1 for a in assets if a.status in MONITORED),
+                   n(STALE), n(NO_BASELINE), n(UNUSABLE_BASELINE), n(FAILED), n(NO_TELEMETRY),
+                   tuple(a.asset_id for a in assets if a.status not in MONITORED))
+
+    @property
+    def complete(self) -> bool:
+        """Whether every asset that should be monitored was."""
+        return self.up_to_date == self.assets
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["missed"] = list(self.missed)
+        data["complete"] = self.complete
+        return data
+
+    def line(self) -> str:
+        """One honest line, e.g. ``8 assets: 5 monitored and up to date; not monitored: 1
+        stale, 2 without baseline (T-7, T-8)``."""
+        done, not_done = {"baseline": ("fitted", "not fitted"),
+                          "reanalyze": ("reanalysed", "not reanalysed")}.get(
+            self.flow, ("monitored and up to date", "not monitored"))
+        missing = [(self.failed, "failed"), (self.stale, "stale"),
+                   (self.no_baseline, "without baseline"),
+                   (self.unusable_baseline, "with an unusable baseline"),
+                   (self.no_telemetry, "without telemetry")]
+        text = (f"{self.assets} asset{'' if self.assets == 1 else 's'}: "
+                f"{self.up_to_date} {done}")
+        parts = [f"{count} {what}" for count, what in missing if count]
+        if parts:
+            names = ", ".join(self.missed[:10]) + (", ..." if len(self.missed) > 10 else "")
+            text += f"; {not_done}: {', '.join(parts)} ({names})"
+        return text + "."
 
 
 def now_iso() -> str:

@@ -12,9 +12,10 @@ from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
-from flows.results import UNUSABLE_BASELINE, RunSummary
+from flows.results import MONITORED, RunSummary
+from flows.store_probe import StoreUnavailable, bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError
-from registry.cli import EXIT_USAGE, _console, _error
+from registry.cli import EXIT_FAILED, EXIT_USAGE, _console, _error
 
 #: seconds Prefect's temporary local server may take to start (Prefect's own default, 20 s,
 #: is missed on a loaded machine: a first run in a new PREFECT_HOME took 27.7 s on an idle one)
@@ -34,6 +35,7 @@ def prefect_environment(args: argparse.Namespace) -> None:
     os.environ.setdefault("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS",
                           str(EPHEMERAL_STARTUP_TIMEOUT))
     os.environ.setdefault("MLFLOW_LOGGING_LEVEL", level)
+    bound_mlflow_requests(os.environ)
 
 
 def config_options(parser: argparse.ArgumentParser) -> None:
@@ -44,9 +46,23 @@ def config_options(parser: argparse.ArgumentParser) -> None:
                         help="MLflow tracking URI (overrides [mlflow] tracking_uri)")
 
 
+#: commands that run a flow: they wait for the tracking store (bounded) before starting it
+STORE_COMMANDS = ("run", "reanalyze", "baseline")
+
+
 def load(args: argparse.Namespace) -> FleetConfig:
-    """The configuration of ``--config``, with ``--tracking-uri`` applied."""
-    return load_config(args.config).with_tracking_uri(args.tracking_uri)
+    """The configuration of ``--config``, with ``--tracking-uri`` applied; for the commands
+    of :data:`STORE_COMMANDS`, once the tracking store answers.
+
+    Raises
+    ------
+    flows.store_probe.StoreUnavailable
+        When an MLflow server does not answer within the bound (nothing was run).
+    """
+    config = load_config(args.config).with_tracking_uri(args.tracking_uri)
+    if getattr(args, "command", None) in STORE_COMMANDS:
+        require_store(config.tracking_uri)
+    return config
 
 
 def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -57,6 +73,9 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
         except USAGE_ERRORS as error:
             _error(str(error))
             return EXIT_USAGE
+        except StoreUnavailable as error:
+            _error(str(error))
+            return EXIT_FAILED
         except KeyboardInterrupt:
             _error("interrupted; rerun the command: committed results are kept and nothing "
                    "is duplicated")
@@ -111,18 +130,36 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         counts = ", ".join(f"{n} {status}" for status, n in summary.counts().items() if n)
         count = len(summary.assets)
         console.print(f"{count} asset{'' if count == 1 else 's'}: {counts or 'none'}.")
+        console.print(f"Coverage: {summary.coverage.line()}")
         if summary.unmatched:
             console.print(f"{len(summary.unmatched)} asset(s) in the telemetry match no vehicle "
                           f"class and were left alone: {', '.join(summary.unmatched[:20])}")
     for entry in summary.skipped:
         print(f"fleet-health: skipped {entry['path']}: {entry['reason']}", file=sys.stderr)
-    for asset in summary.failed:
-        print(f"fleet-health: {asset.asset_id} failed: {asset.reason()}", file=sys.stderr)
+    for line in guard_lines(summary):
+        print(f"fleet-health: {line}", file=sys.stderr)
     for asset in summary.assets:
-        if asset.status == UNUSABLE_BASELINE:
-            print(f"fleet-health: {asset.asset_id} {UNUSABLE_BASELINE} (not monitored): "
-                  f"{asset.reason()}", file=sys.stderr)
+        if asset.status in MONITORED:
+            continue
+        what = "failed" if asset.failed else f"not monitored ({asset.status})"
+        print(f"fleet-health: {asset.asset_id} {what}: {asset.reason()}", file=sys.stderr)
     return summary.exit_status
+
+
+def guard_lines(summary: RunSummary) -> list[str]:
+    """What the run lock and the orphan check found (:mod:`flows.run_guard`), one line each."""
+    lines = []
+    lock = summary.extra.get("run_lock") or {}
+    if lock.get("waited_seconds", 0) >= 1:
+        holder = lock.get("waited_for") or {}
+        whom = (f"the {holder['flow']} run (flow run {holder['flow_run_id']}, pid "
+                f"{holder['pid']})" if holder else "another run")
+        lines.append(f"waited {lock['waited_seconds']:g} s for {whom} of this fleet to "
+                     f"finish first (the run lock)")
+    for orphan in summary.extra.get("orphans_crashed", []):
+        lines.append(f"marked the orphaned {orphan['flow']} flow run {orphan['name']} "
+                     f"({orphan['flow_run_id']}) Crashed: {orphan['why']}")
+    return lines
 
 
 def int_at_least(low: int) -> Callable[[str], int]:

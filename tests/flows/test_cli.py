@@ -86,9 +86,15 @@ def test_run_json_alerts_and_baseline_list(workspace, fleet, capsys, tmp_path):
 
     as_of = day(BASELINE_DAYS + 1).isoformat()
     status, out, err = run(capsys, "--config", config, "run", "--as-of", as_of, "--json")
-    assert status == 0, err
+    # issue 13: T-009 should be monitored and is not (no baseline): exit status 1, named
+    assert status == 1, err
+    assert "T-009 not monitored (no baseline)" in err
     summary = json.loads(out)
-    assert summary["exit_status"] == 0 and summary["as_of"] == as_of
+    assert summary["exit_status"] == 1 and summary["as_of"] == as_of
+    assert summary["coverage"] == {
+        "flow": "nightly", "assets": 6, "up_to_date": 5, "stale": 0, "no_baseline": 1,
+        "unusable_baseline": 0, "failed": 0, "no_telemetry": 0, "missed": ["T-009"],
+        "complete": False}
     statuses = {a["asset_id"]: a["status"] for a in summary["assets"]}
     assert statuses["T-009"] == "no baseline"
     assert {statuses[a] for a in statuses if a != "T-009"} == {"ok"}
@@ -99,8 +105,10 @@ def test_run_json_alerts_and_baseline_list(workspace, fleet, capsys, tmp_path):
 
     # the table form of the same (nothing new to do now)
     status, out, _ = run(capsys, "--config", config, "run", "--as-of", as_of)
-    assert status == 0
+    assert status == 1
     assert "up to date" in out and "no baseline" in out and "PUMP-1" in out
+    assert ("Coverage: 6 assets: 5 monitored and up to date; not monitored: 1 without "
+            "baseline (T-009).") in " ".join(out.split())
 
     status, out, _ = run(capsys, "--config", config, "alerts", "--json")
     assert status == 0
