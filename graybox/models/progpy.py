@@ -106,6 +106,20 @@ def _scalar_parameters(parameters: Mapping[str, Any], states: tuple[str, ...]) -
     return scalars
 
 
+def _derived_parameters(progpy_class: type, default) -> set[str]:
+    """Parameters ProgPy computes from others (its ``param_callbacks``): not overridable."""
+    derived = set()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        for callbacks in getattr(progpy_class, "param_callbacks", {}).values():
+            for callback in callbacks:
+                try:
+                    derived.update(callback(default.parameters) or {})
+                except Exception:  # a callback that cannot run on the defaults derives nothing we can name
+                    continue
+    return derived
+
+
 def _hold_defaults(parameters: Mapping[str, Any], states: tuple[str, ...]) -> dict[str, float]:
     x0 = parameters.get("x0") if "x0" in parameters else None
     x0 = x0 if isinstance(x0, Mapping) else {}
@@ -171,6 +185,8 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         # instance narrows them to the observed ones
         cls.states = states
         parameters = _scalar_parameters(default.parameters, states)
+        for name in _derived_parameters(progpy_class, default):
+            parameters.pop(name, None)
         cls.progpy_parameters = tuple(parameters)
         parameters.update(_hold_defaults(default.parameters, states))
         if default.is_discrete:
