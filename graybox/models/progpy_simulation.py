@@ -127,3 +127,36 @@ def _apply_changes(state, assets, changes: StateChanges, at: float) -> None:
                     raise ValueError(f"asset {asset}: {name!r} is not a ProgPy state "
                                      f"({', '.join(names)})")
                 state.matrix[names.index(name), index] = float(value)
+
+
+def pump_cycle_load(t: float, period: float = 1800.0, voltage: float = 471.2389,
+                    step: float = 40.0, ramp: float = 100.0) -> dict[str, float]:
+    """Inputs of ProgPy's ``CentrifugalPump`` over a duty cycle, after ProgPy's own example.
+
+    Low voltage for the first half of each ``period`` less ``ramp``, a linear ramp up by
+    ``step`` volts over ``ramp`` seconds, high voltage, and a ramp back down at the end; the
+    synchronous speed is 0.8 times the voltage, the pressures and ambient temperature hold.
+    ProgPy's example uses a 3600 s cycle and a 100 V step.
+
+    Parameters
+    ----------
+    t : float
+        Seconds since the start.
+
+    Returns
+    -------
+    dict
+        ``Tamb`` (K), ``V`` (V), ``pdisch`` and ``psuc`` (Pa), ``wsync`` (rad/s).
+    """
+    phase = t % period
+    half = period / 2
+    if phase < half - ramp:
+        level = 0.0
+    elif phase < half:
+        level = (phase - (half - ramp)) / ramp
+    elif phase < period - ramp:
+        level = 1.0
+    else:
+        level = 1.0 - (phase - (period - ramp)) / ramp
+    v = voltage + step * level
+    return {"Tamb": 290.0, "V": v, "pdisch": 928654.0, "psuc": 239179.0, "wsync": 0.8 * v}

@@ -9,22 +9,6 @@ pytest.importorskip("progpy")
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 HOUR = 3600.0
-V0 = 471.2389
-
-
-def pump_load(t):
-    """ProgPy's pump example cycle, shortened to 30 minutes: low, ramp up, high, ramp down."""
-    cycle = t % 1800
-    if cycle < 800:
-        voltage = V0
-    elif cycle < 900:
-        voltage = V0 + 0.4 * (cycle - 800)
-    elif cycle < 1700:
-        voltage = V0 + 40
-    else:
-        voltage = V0 + 40 - 0.4 * (cycle - 1700)
-    return {"Tamb": 290.0, "V": voltage, "pdisch": 928654.0, "psuc": 239179.0,
-            "wsync": voltage * 0.8}
 
 
 @pytest.mark.slow
@@ -32,7 +16,7 @@ def test_worn_pump_is_alerted_and_healthy_pump_is_not(tmp_path, harness):
     from flows.baseline import baseline
     from flows.nightly import nightly
     from graybox.models import load_model
-    from graybox.models.progpy_simulation import simulate_progpy_fleet
+    from graybox.models.progpy_simulation import pump_cycle_load, simulate_progpy_fleet
     from graybox.telemetry.writing import write_telemetry
     from registry import Registry
 
@@ -40,7 +24,7 @@ def test_worn_pump_is_alerted_and_healthy_pump_is_not(tmp_path, harness):
     # five hourly windows: three healthy for the baselines, then P-002's impeller wears
     # from the start of the fifth at ProgPy's example rate (wA = 0.01)
     frames = simulate_progpy_fleet(
-        model, ["P-001", "P-002"], START, 5 * HOUR, pump_load, sample_interval=1.0, step=0.5,
+        model, ["P-001", "P-002"], START, 5 * HOUR, pump_cycle_load, sample_interval=1.0, step=0.5,
         process_noise={"w": 0.5, "Q": 1e-4, "Tt": 0.01, "Tr": 0.01, "To": 0.001},
         measurement_noise={"w": 0.05, "Qout": 1e-5, "Tt": 0.01, "Tr": 0.01, "To": 0.01},
         initial={"w": 385.0, "Q": 0.117, "Tt": 336.0, "Tr": 329.0, "To": 318.0},

@@ -18,28 +18,13 @@ from graybox.analysis_rate import fastest_rate  # noqa: E402
 from graybox.exceptions import ModelSpecError  # noqa: E402
 from graybox.models import ModelSpec, load_model  # noqa: E402
 from graybox.models.progpy import ProgPyModel  # noqa: E402
-from graybox.models.progpy_simulation import simulate_progpy_fleet  # noqa: E402
+from graybox.models.progpy_simulation import pump_cycle_load, simulate_progpy_fleet  # noqa: E402
 from graybox.residual import one_step_residual  # noqa: E402
 from graybox.telemetry.writing import write_telemetry  # noqa: E402
 
 PUMP = "graybox.models.progpy:CentrifugalPump"
 START = pd.Timestamp("2026-01-01", tz="UTC")
 V0 = 471.2389
-
-
-def pump_load(t):
-    """ProgPy's pump example cycle, shortened: 800 s low, a 100 s ramp, 800 s high, back."""
-    cycle = t % 1800
-    if cycle < 800:
-        voltage = V0
-    elif cycle < 900:
-        voltage = V0 + 0.4 * (cycle - 800)
-    elif cycle < 1700:
-        voltage = V0 + 40
-    else:
-        voltage = V0 + 40 - 0.4 * (cycle - 1700)
-    return {"Tamb": 290.0, "V": voltage, "pdisch": 928654.0, "psuc": 239179.0,
-            "wsync": voltage * 0.8}
 
 
 #: near the pump's operating point, so that the telemetry starts warm
@@ -208,16 +193,22 @@ def test_pump_fastest_rate_is_its_shaft():
 
 # -- telemetry simulated by ProgPy ------------------------------------------------------------
 
+def test_pump_cycle_load_follows_the_duty_cycle():
+    volts = [pump_cycle_load(t)["V"] for t in (0, 799, 850, 900, 1699, 1750, 1800, 2650)]
+    np.testing.assert_allclose(volts, [V0, V0, V0 + 20, V0 + 40, V0 + 40, V0 + 20, V0, V0 + 20])
+    assert pump_cycle_load(850)["wsync"] == pytest.approx(0.8 * (V0 + 20))
+
+
 def test_simulation_is_seeded_and_leaves_numpy_alone():
     model = pump()
     np.random.seed(123)
     expected_next = np.random.random()
     np.random.seed(123)
-    first = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_load,
+    first = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_cycle_load,
                                   process_noise=PROCESS_NOISE,
                                   measurement_noise=MEASUREMENT_NOISE, initial=WARM, seed=4)
     assert np.random.random() == expected_next
-    again = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_load,
+    again = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_cycle_load,
                                   process_noise=PROCESS_NOISE,
                                   measurement_noise=MEASUREMENT_NOISE, initial=WARM, seed=4)
     frame = first["P-1"]
@@ -232,7 +223,7 @@ def test_noise_free_simulation_has_a_small_residual():
     """ProgPy's own (Euler, 0.05 s) trajectory through the white box's RK4 over 1 s: the
     one-step residual is a small fraction of the one-step change of every channel."""
     model = pump()
-    late = lambda t: pump_load(t + 700)   # noqa: E731  (the up-ramp inside 300 s)
+    late = lambda t: pump_cycle_load(t + 700)   # noqa: E731  (the up-ramp inside 300 s)
     frame = simulate_progpy_fleet(model, ["P-1"], START, 300.0, late, step=0.05,
                                   initial=WARM)["P-1"]
     x = frame[list(model.state_columns)].to_numpy()
@@ -244,13 +235,13 @@ def test_noise_free_simulation_has_a_small_residual():
 
 def test_state_change_takes_effect_at_its_time():
     model = pump()
-    frames = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 600.0, pump_load,
+    frames = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 600.0, pump_cycle_load,
                                    initial=WARM, changes={"P-2": [(300.0, {"wA": 0.05})]})
     healthy, worn = frames["P-1"], frames["P-2"]
     np.testing.assert_allclose(worn["Qout"].iloc[:301], healthy["Qout"].iloc[:301])
     assert worn["Qout"].iloc[-1] < healthy["Qout"].iloc[-1] * 0.995   # the impeller wore
     with pytest.raises(ValueError, match="not a ProgPy state"):
-        simulate_progpy_fleet(model, ["P-1"], START, 10.0, pump_load,
+        simulate_progpy_fleet(model, ["P-1"], START, 10.0, pump_cycle_load,
                               changes={"P-1": [(5.0, {"nonsense": 1.0})]})
 
 
@@ -261,7 +252,7 @@ def test_worn_impeller_alarms_only_after_the_wear_starts(tmp_path):
     at ProgPy's example rate (wA = 0.01): the flow channel alarms, the others do not."""
     model = pump()
     window = 1800.0
-    frames = simulate_progpy_fleet(model, ["P-1"], START, 5 * window, pump_load,
+    frames = simulate_progpy_fleet(model, ["P-1"], START, 5 * window, pump_cycle_load,
                                    process_noise=PROCESS_NOISE,
                                    measurement_noise=MEASUREMENT_NOISE, initial=WARM,
                                    changes={"P-1": [(4 * window, {"wA": 0.01})]}, seed=3)
