@@ -2,6 +2,7 @@
 residual on ProgPy-simulated telemetry, and a worn pump told apart from a healthy one."""
 from __future__ import annotations
 
+import pickle
 import subprocess
 import sys
 
@@ -90,6 +91,15 @@ def test_model_spec_round_trip_rebuilds_the_same_white_box():
     assert again.states == model.states and again.columns == model.columns
     assert again.parameters == model.parameters
     assert again.progpy.parameters["I"] == 60.0
+    x, u = operating_points()
+    np.testing.assert_array_equal(again.derivatives(x, u), model.derivatives(x, u))
+
+
+def test_catalogue_model_pickles_by_reference():
+    """A worker process (Dask, Prefect) gets the same class back, with its overrides."""
+    model = pump(I=60.0)
+    again = pickle.loads(pickle.dumps(model))
+    assert type(again) is type(model) and again.progpy.parameters["I"] == 60.0
     x, u = operating_points()
     np.testing.assert_array_equal(again.derivatives(x, u), model.derivatives(x, u))
 
