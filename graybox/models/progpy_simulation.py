@@ -1,4 +1,4 @@
-"""Telemetry of a fleet simulated by a ProgPy model itself (its ``simulate_to``, its noise).
+"""Telemetry of a fleet simulated by a ProgPy model itself (its simulation, its noise).
 
 All assets run in one vectorised ProgPy simulation (one state column per asset) under a
 common input profile; per-asset state changes (a wear rate switched on at some time) make
@@ -83,8 +83,11 @@ def simulate_progpy_fleet(model: ProgPyModel, assets: Sequence[str], start: pd.T
         times, outputs, inputs = [], [], []
         for begin, end in zip(bounds[:-1], bounds[1:]):
             _apply_changes(state, assets, changes, begin)
-            result = plant.simulate_to(
-                end - begin, lambda t, x=None: plant.InputContainer(dict(load(t))),
+            # simulate_to is simulate_to_threshold with no event stopping it (ProgPy 1.9's
+            # simulate_to says so through a deprecated argument, which warns)
+            result = plant.simulate_to_threshold(
+                lambda t, x=None: plant.InputContainer(dict(load(t))),
+                horizon=end - begin, event_strategy=lambda thresholds: False,
                 dt=step, save_freq=sample_interval, t0=begin, x=state)
             skip = 1 if times else 0   # a segment starts where the last one ended
             # (ProgPy's SimResult does not slice: convert to lists first)
