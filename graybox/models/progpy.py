@@ -212,6 +212,12 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
                 f"{self.spec()}: no ProgPy state is observed: none is a ProgPy output of the "
                 f"same name ({', '.join(self.progpy_outputs)}); map at least one state to its "
                 f"telemetry column in 'columns' (states: {', '.join(self.progpy_states)})")
+        for name in parameters or {}:
+            if name in self.progpy_states and name not in self.default_parameters:
+                raise ModelSpecError(
+                    f"{self.spec()}: {name!r} is a ProgPy state of this model, not a parameter; "
+                    f"the value it is held at when not observed is the parameter "
+                    f"'{HOLD_PREFIX}{name}'")
         self.states = observed
         super().__init__(parameters, columns)
         overrides = {name: self.parameters[name] for name in self.progpy_parameters

@@ -120,6 +120,7 @@ def test_derived_parameters_are_not_overridable():
 
 @pytest.mark.parametrize("spec, parameters, columns, message", [
     (PUMP, {"nonsense": 1.0}, {}, "unknown parameter 'nonsense'"),
+    (PUMP, {"wA": 0.01}, {}, "'wA' is a ProgPy state .* parameter 'x0_wA'"),
     (PUMP, {}, {"Qout": "flow"}, "not ProgPy states or inputs"),
     (PUMP, {"derivative_step": 0.0}, {}, "derivative_step must be > 0"),
     ("graybox.models.progpy:BatteryCircuit", {}, {}, "no ProgPy state is observed"),
