@@ -1,0 +1,288 @@
+"""ProgPy models as white boxes: variables, parameters, dynamics against ProgPy's own, the
+residual on ProgPy-simulated telemetry, and a worn pump told apart from a healthy one."""
+from __future__ import annotations
+
+import pickle
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("progpy")
+
+from progpy.models import BatteryCircuit, CentrifugalPump  # noqa: E402
+
+import graybox as gb  # noqa: E402
+from graybox.analysis_rate import fastest_rate  # noqa: E402
+from graybox.exceptions import ModelSpecError  # noqa: E402
+from graybox.models import ModelSpec, load_model  # noqa: E402
+from graybox.models.progpy import ProgPyModel  # noqa: E402
+from graybox.models.progpy_simulation import pump_cycle_load, simulate_progpy_fleet  # noqa: E402
+from graybox.residual import one_step_residual  # noqa: E402
+from graybox.telemetry.writing import write_telemetry  # noqa: E402
+
+PUMP = "graybox.models.progpy:CentrifugalPump"
+START = pd.Timestamp("2026-01-01", tz="UTC")
+V0 = 471.2389
+
+
+#: near the pump's operating point, so that the telemetry starts warm
+WARM = {"w": 385.0, "Q": 0.117, "Tt": 336.0, "Tr": 329.0, "To": 318.0}
+PROCESS_NOISE = {"w": 0.5, "Q": 1e-4, "Tt": 0.01, "Tr": 0.01, "To": 0.001}
+MEASUREMENT_NOISE = {"w": 0.05, "Qout": 1e-5, "Tt": 0.01, "Tr": 0.01, "To": 0.01}
+
+
+def pump(**parameters):
+    return load_model(PUMP, parameters, {"Q": "Qout"})
+
+
+def operating_points(n=6, seed=0):
+    rng = np.random.default_rng(seed)
+    x = np.column_stack([rng.uniform(360, 400, n), rng.uniform(0.08, 0.13, n),
+                         rng.uniform(300, 340, n), rng.uniform(300, 335, n),
+                         rng.uniform(295, 320, n)])
+    voltage = rng.uniform(460, 520, n)
+    u = np.column_stack([np.full(n, 290.0), voltage, np.full(n, 928654.0),
+                         np.full(n, 239179.0), 0.8 * voltage])
+    return x, u
+
+
+def progpy_pump():
+    """ProgPy's own pump (its construction warns that the wear rates are states)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return CentrifugalPump()
+
+
+def progpy_rates(model, x, u, **state):
+    """The rates ProgPy's own pump gives, one sample at a time: (next_state(dt) - x) / dt."""
+    dt = 1e-3
+    rates = []
+    for row, load in zip(x, u):
+        full = dict(model.parameters["x0"], QLeak=0.0, **state)
+        full.update(zip(("w", "Q", "Tt", "Tr", "To"), row))
+        xs = model.StateContainer(full)
+        us = model.InputContainer(dict(zip(model.inputs, load)))
+        following = model.next_state(xs, us, dt)
+        rates.append([(following[s] - xs[s]) / dt for s in ("w", "Q", "Tt", "Tr", "To")])
+    return np.array(rates)
+
+
+# -- variables and parameters -----------------------------------------------------------------
+
+def test_catalogue_pump_variables_and_columns():
+    model = pump()
+    assert isinstance(model, ProgPyModel) and type(model).spec() == PUMP
+    # outputs named like states are observed; Q is observed because the column map names it
+    assert model.states == ("w", "Q", "Tt", "Tr", "To")
+    assert model.inputs == ("Tamb", "V", "pdisch", "psuc", "wsync")
+    assert model.required_columns == ("w", "Qout", "Tt", "Tr", "To",
+                                      "Tamb", "V", "pdisch", "psuc", "wsync")
+    assert model.is_discrete
+    p = model.parameters
+    assert p["I"] == 50.0 and p["FluidI"] == 5.0 and p["x0_A"] == 12.7084
+    assert p["x0_wA"] == 0.0 and p["derivative_step"] == 1e-3
+    # wear rates are states of this pump (held at x0_w*), not parameters; noise is not one
+    assert {"wA", "wRadial", "wThrust", "A", "process_noise", "x0"}.isdisjoint(p)
+    without_flow = load_model(PUMP)
+    assert without_flow.states == ("w", "Tt", "Tr", "To")
+
+
+def test_model_spec_round_trip_rebuilds_the_same_white_box():
+    model = pump(I=60.0, x0_A=12.0)
+    record = ModelSpec.from_model(model)
+    again = ModelSpec.from_dict(record.to_dict()).load()
+    assert type(again) is type(model)
+    assert again.states == model.states and again.columns == model.columns
+    assert again.parameters == model.parameters
+    assert again.progpy.parameters["I"] == 60.0
+    x, u = operating_points()
+    np.testing.assert_array_equal(again.derivatives(x, u), model.derivatives(x, u))
+
+
+@pytest.mark.filterwarnings("ignore:wA, wRadial, and wThrust:UserWarning")
+def test_catalogue_model_pickles_by_reference():
+    """A worker process (Dask, Prefect) gets the same class back, with its overrides."""
+    model = pump(I=60.0)
+    again = pickle.loads(pickle.dumps(model))
+    assert type(again) is type(model) and again.progpy.parameters["I"] == 60.0
+    x, u = operating_points()
+    np.testing.assert_array_equal(again.derivatives(x, u), model.derivatives(x, u))
+
+
+def test_derived_parameters_are_not_overridable():
+    thrown = load_model("graybox.models.progpy:ThrownObject", columns={"v": "v"})
+    assert "lumped_param" not in thrown.parameters and "m" in thrown.parameters
+
+
+@pytest.mark.parametrize("spec, parameters, columns, message", [
+    (PUMP, {"nonsense": 1.0}, {}, "unknown parameter 'nonsense'"),
+    (PUMP, {"wA": 0.01}, {}, "'wA' is a ProgPy state .* parameter 'x0_wA'"),
+    (PUMP, {}, {"Qout": "flow"}, "not ProgPy states or inputs"),
+    (PUMP, {"derivative_step": 0.0}, {}, "derivative_step must be > 0"),
+    ("graybox.models.progpy:BatteryCircuit", {}, {}, "no ProgPy state is observed"),
+    ("graybox.models.progpy:NoSuchModel", {}, {}, "has no 'NoSuchModel'"),
+])
+def test_bad_specs_are_clear_errors(spec, parameters, columns, message):
+    with pytest.raises(ModelSpecError, match=message):
+        load_model(spec, parameters, columns)
+
+
+def test_a_subclass_must_name_a_prognostics_model():
+    with pytest.raises(ModelSpecError, match="not a progpy.PrognosticsModel"):
+        class NotAModel(ProgPyModel):
+            progpy_model = "graybox.models.gas_turbine:GasTurbineShaft"
+    with pytest.raises(ModelSpecError, match="must name a ProgPy model"):
+        class Unnamed(ProgPyModel):
+            pass
+
+
+def test_a_subclass_wraps_any_progpy_model():
+    class Battery(ProgPyModel):
+        progpy_model = "progpy.models:BatteryCircuit"
+
+    model = Battery(columns={"tb": "temperature", "qb": "charge"})
+    assert model.states == ("tb", "qb") and model.required_columns == ("temperature", "charge", "i")
+    assert not model.is_discrete
+
+
+def test_progpy_is_imported_only_when_a_model_is_used():
+    code = ("import sys, graybox, graybox.models.progpy; "
+            "assert 'progpy' not in sys.modules, 'imported early'; "
+            "graybox.models.load_model('graybox.models.progpy:ThrownObject'); "
+            "assert 'progpy' in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# -- dynamics ---------------------------------------------------------------------------------
+
+def test_discrete_pump_rates_are_progpys_next_state():
+    model = pump()
+    x, u = operating_points()
+    expected = progpy_rates(progpy_pump(), x, u)
+    np.testing.assert_allclose(model.derivatives(x, u), expected, rtol=1e-9, atol=1e-12)
+    # the shaft equation by hand at one point: I dw/dt = Te - friction - back torque
+    p = progpy_pump().parameters
+    w, q, voltage, wsync = x[0, 0], x[0, 1], u[0, 1], u[0, 4]
+    slip = (wsync - w) / wsync
+    torque = (p["n"] * p["p"] * p["R2"] / (slip * (wsync + 1e-5)) * voltage ** 2
+              / ((p["R1"] + p["R2"] / slip) ** 2 + (wsync * p["L1"]) ** 2))
+    friction = (p["r"] + 1.4e-6 + 1.8e-6) * w
+    back = -p["a2"] * q ** 2 + p["a1"] * w * q + p["a0"] * w ** 2
+    assert model.derivatives(x[:1], u[:1])[0, 0] == pytest.approx(
+        (torque - friction - back) / p["I"], rel=1e-9)
+
+
+def test_overrides_reach_the_dynamics():
+    x, u = operating_points()
+    base, heavy = pump().derivatives(x, u), pump(I=100.0).derivatives(x, u)
+    np.testing.assert_allclose(heavy[:, 0], base[:, 0] / 2, rtol=1e-9)   # dw/dt = .../I
+    np.testing.assert_array_equal(heavy[:, 1:], base[:, 1:])
+    worn = pump(x0_A=11.0).derivatives(x, u)
+    expected = progpy_rates(progpy_pump(), x, u, A=11.0)
+    np.testing.assert_allclose(worn, expected, rtol=1e-9, atol=1e-12)
+    assert np.all(worn[:, 1] < base[:, 1])   # a smaller impeller delivers less flow
+
+
+def test_continuous_model_rates_are_progpys_dx():
+    model = load_model("graybox.models.progpy:BatteryCircuit", columns={"tb": "tb", "qb": "qb"})
+    x = np.array([[292.1, 7856.0], [300.0, 7000.0]])
+    u = np.array([[2.0], [3.5]])
+    battery = BatteryCircuit()
+    for row, current, rates in zip(x, u, model.derivatives(x, u)):
+        state = battery.StateContainer({"tb": row[0], "qb": row[1], "qcp": 0.0, "qcs": 0.0})
+        dx = battery.dx(state, battery.InputContainer({"i": current[0]}))
+        assert rates == pytest.approx([dx["tb"], dx["qb"]], rel=1e-12)
+    thrown = load_model("graybox.models.progpy:LinearThrownObject", columns={"v": "v"})
+    np.testing.assert_allclose(thrown.derivatives(np.array([[10.0, 3.0]]), np.zeros((1, 0))),
+                               [[3.0, -9.81]])
+
+
+def test_pump_fastest_rate_is_its_shaft():
+    """The analysis interval's linearisation works through the wrapper. At ProgPy's default
+    operating point (V = 471.2 V, steady state of its simulation) the pump's modes are
+    0.932 (shaft), 0.159 (flow) and < 0.01 1/s (temperatures): the shaft is the fastest."""
+    x = [370.78, 0.1104, 302.6, 303.0, 292.3]
+    u = [290.0, V0, 928654.0, 239179.0, 0.8 * V0]
+    frame = pd.DataFrame([x + u], columns=list(pump().required_columns))
+    assert fastest_rate(pump(), [frame]) == pytest.approx(0.93, abs=0.02)
+
+
+# -- telemetry simulated by ProgPy ------------------------------------------------------------
+
+def test_pump_cycle_load_follows_the_duty_cycle():
+    volts = [pump_cycle_load(t)["V"] for t in (0, 799, 850, 900, 1699, 1750, 1800, 2650)]
+    np.testing.assert_allclose(volts, [V0, V0, V0 + 20, V0 + 40, V0 + 40, V0 + 20, V0, V0 + 20])
+    assert pump_cycle_load(850)["wsync"] == pytest.approx(0.8 * (V0 + 20))
+
+
+def test_simulation_is_seeded_and_leaves_numpy_alone():
+    model = pump()
+    np.random.seed(123)
+    expected_next = np.random.random()
+    np.random.seed(123)
+    first = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_cycle_load,
+                                  process_noise=PROCESS_NOISE,
+                                  measurement_noise=MEASUREMENT_NOISE, initial=WARM, seed=4)
+    assert np.random.random() == expected_next
+    again = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 60.0, pump_cycle_load,
+                                  process_noise=PROCESS_NOISE,
+                                  measurement_noise=MEASUREMENT_NOISE, initial=WARM, seed=4)
+    frame = first["P-1"]
+    pd.testing.assert_frame_equal(frame, again["P-1"])
+    assert list(frame.columns) == ["timestamp", "w", "Qout", "Tt", "Tr", "To",
+                                   "Tamb", "V", "pdisch", "psuc", "wsync"]
+    assert len(frame) == 61 and frame["timestamp"].iloc[-1] == START + pd.Timedelta(seconds=60)
+    assert not np.allclose(frame["w"], first["P-2"]["w"])   # independent noise per asset
+
+
+def test_noise_free_simulation_has_a_small_residual():
+    """ProgPy's own (Euler, 0.05 s) trajectory through the white box's RK4 over 1 s: the
+    one-step residual is a small fraction of the one-step change of every channel."""
+    model = pump()
+    late = lambda t: pump_cycle_load(t + 700)   # noqa: E731  (the up-ramp inside 300 s)
+    frame = simulate_progpy_fleet(model, ["P-1"], START, 300.0, late, step=0.05,
+                                  initial=WARM)["P-1"]
+    x = frame[list(model.state_columns)].to_numpy()
+    u = frame[list(model.input_columns)].to_numpy()
+    residual = one_step_residual(model, x, u, 1.0)
+    change = np.abs(np.diff(x, axis=0)).max(axis=0)
+    assert np.all(np.abs(residual).max(axis=0) < 0.1 * change)
+
+
+def test_state_change_takes_effect_at_its_time():
+    model = pump()
+    frames = simulate_progpy_fleet(model, ["P-1", "P-2"], START, 600.0, pump_cycle_load,
+                                   initial=WARM, changes={"P-2": [(300.0, {"wA": 0.05})]})
+    healthy, worn = frames["P-1"], frames["P-2"]
+    np.testing.assert_allclose(worn["Qout"].iloc[:301], healthy["Qout"].iloc[:301])
+    assert worn["Qout"].iloc[-1] < healthy["Qout"].iloc[-1] * 0.995   # the impeller wore
+    with pytest.raises(ValueError, match="not a ProgPy state"):
+        simulate_progpy_fleet(model, ["P-1"], START, 10.0, pump_cycle_load,
+                              changes={"P-1": [(5.0, {"nonsense": 1.0})]})
+
+
+@pytest.mark.slow
+def test_worn_impeller_alarms_only_after_the_wear_starts(tmp_path):
+    """Telemetry from ProgPy's pump with its own noise in half-hour windows: a baseline of
+    three healthy windows; the fourth is still healthy (no alarm), then the impeller wears
+    at ProgPy's example rate (wA = 0.01): the flow channel alarms, the others do not."""
+    model = pump()
+    window = 1800.0
+    frames = simulate_progpy_fleet(model, ["P-1"], START, 5 * window, pump_cycle_load,
+                                   process_noise=PROCESS_NOISE,
+                                   measurement_noise=MEASUREMENT_NOISE, initial=WARM,
+                                   changes={"P-1": [(4 * window, {"wA": 0.01})]}, seed=3)
+    write_telemetry(tmp_path, "P-1", frames["P-1"].iloc[:-1])
+    telemetry = gb.read_window(tmp_path, "P-1", model.required_columns,
+                               inputs=model.input_columns)
+    windows = telemetry.split("30min")
+    assert len(windows) == 5
+    baseline = gb.GrayBox(model).fit(windows[:3])
+    healthy, worn = ({(e.channel, e.tier) for e in baseline.drift(night).entries if e.exceeded}
+                     for night in windows[3:])
+    assert healthy == set()
+    assert ("Q", "noise") in worn and {channel for channel, _ in worn} == {"Q"}
