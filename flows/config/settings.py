@@ -17,6 +17,8 @@ DEFAULT_CONFIG = "fleet.toml"
 DEFAULT_TELEMETRY_ROOT = "telemetry"
 DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 PLOT_POLICIES = ("alarms", "all", "none")
+#: how a flow runs its batch tasks: one after another in its process, or on a Dask cluster
+TASK_RUNNERS = ("sequential", "dask")
 
 #: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
@@ -85,10 +87,31 @@ class NightlySettings:
     retries: int = 2
     retry_delay_seconds: float = 30.0
     memory_budget: int = DEFAULT_MEMORY_BUDGET
+    task_runner: str = "sequential"
 
     @property
     def window_delta(self) -> pd.Timedelta:
         return pd.Timedelta(self.window)
+
+
+@dataclass(frozen=True)
+class DaskSettings:
+    """``[dask]``: where batch tasks run when ``[nightly] task_runner = "dask"``.
+
+    Attributes
+    ----------
+    address : str or None
+        An existing scheduler (``"tcp://host:8786"``); None starts a ``LocalCluster`` for
+        the run.
+    workers : int or None
+        Worker processes of that LocalCluster (None: one per core).
+    threads_per_worker : int
+        Threads per worker process: batches running at once in one process.
+    """
+
+    address: str | None = None
+    workers: int | None = None
+    threads_per_worker: int = 1
 
 
 @dataclass(frozen=True)
@@ -115,7 +138,7 @@ class FleetConfig:
         Absolute for SQLite stores.
     classes : dict of str to VehicleClass
         In file order.
-    alerts, nightly, schedule, notifications
+    alerts, nightly, schedule, notifications, dask
         The optional tables, with defaults.
     """
 
@@ -127,6 +150,7 @@ class FleetConfig:
     nightly: NightlySettings = field(default_factory=NightlySettings)
     schedule: ScheduleSettings = field(default_factory=ScheduleSettings)
     notifications: NotificationSettings = field(default_factory=NotificationSettings)
+    dask: DaskSettings = field(default_factory=DaskSettings)
 
     @property
     def base_dir(self) -> pathlib.Path:
