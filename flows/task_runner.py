@@ -98,7 +98,8 @@ class DaskBatches:
         from distributed import as_completed
 
         index = {future.wrapped_future.key: i for i, future in enumerate(self._futures)}
-        for done in as_completed([future.wrapped_future for future in self._futures]):
+        for done in as_completed([future.wrapped_future for future in self._futures],
+                                 loop=self._runner.client.loop):
             try:
                 outcome = done.result()   # the task's final state (prefect-dask returns it)
             except Exception as error:  # noqa: BLE001 - e.g. KilledWorker: the batch failed

@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import json
 import re
+import shutil
 
 import pytest
 
@@ -30,11 +31,14 @@ def cluster():
         yield local
 
 
-def _workdir(write_config, root, name, fleet, dask_address=None):
-    """A fleet.toml and an empty store in ``root/name``; on Dask with ``dask_address``."""
+def _workdir(write_config, root, name, fleet, db=None, dask_address=None):
+    """A fleet.toml and a store (a copy of ``db``, or empty) in ``root/name``; on Dask with
+    ``dask_address``."""
     directory = root / name
     directory.mkdir()
     store = directory / "mlflow.db"
+    if db is not None:
+        shutil.copy(db, store)
     extra = "" if dask_address is None else f'[dask]\naddress = "{dask_address}"\n'
     config = write_config(directory / "fleet.toml", fleet.root, store,
                           batch_size=BATCH_SIZE, extra=extra)
@@ -83,31 +87,32 @@ def _run_flow(flow, **kwargs):
     return state, state.result(raise_on_failure=False)
 
 
-def test_the_flows_on_dask_equal_the_sequential_runs(tmp_path, harness, fleet, cluster,
-                                                    config_writer):
+def test_the_flows_on_dask_equal_the_sequential_runs(tmp_path, harness, fleet, baselined,
+                                                    cluster, config_writer):
     from flows import progress
     from flows.baseline import baseline
     from flows.nightly import nightly
     from flows.reanalyze import reanalyze
 
-    sequential = _workdir(config_writer, tmp_path, "sequential", fleet)
+    # the sequential runs start from the session's store, baselined in process
+    sequential = _workdir(config_writer, tmp_path, "sequential", fleet, db=baselined.db)
     on_dask = _workdir(config_writer, tmp_path, "dask", fleet,
                        dask_address=cluster.scheduler_address)
 
-    # baselines fitted on Dask equal the ones fitted in process
-    fit = dict(start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
-               vehicle_class="turbine", promote=True, reason="healthy days 1-3")
-    results = {}
-    for config in (sequential, on_dask):
-        state, summary = _run_flow(baseline, config_path=str(config), **fit)
-        assert state.is_completed(), state.message
-        assert [a["asset_id"] for a in summary["assets"]] == list(ASSETS)
-        assert {a["status"] for a in summary["assets"]} == {"ok"}
-        results[config] = summary
-    assert _windows(results[on_dask]) == _windows(results[sequential])
+    # baselines fitted on Dask equal the ones fitted in process (same range and settings)
+    state, summary = _run_flow(baseline, config_path=str(on_dask), vehicle_class="turbine",
+                               start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
+                               promote=True, reason="healthy days 1-3")
+    assert state.is_completed(), state.message
+    assert [a["asset_id"] for a in summary["assets"]] == list(ASSETS)
+    assert {a["status"] for a in summary["assets"]} == {"ok"}
+    assert _windows(summary) == _windows(baselined.summary)
     for asset in ASSETS:
-        assert _registry(on_dask).baseline(asset).version == \
-            _registry(sequential).baseline(asset).version
+        fitted, expected = (_registry(c).baseline(asset) for c in (on_dask, sequential))
+        assert fitted.version == expected.version
+        assert fitted.calibration == expected.calibration
+
+    results = {}
 
     # the nightly run: same versions, zetas, alerts, watermarks and statuses
     stream = io.StringIO()
@@ -146,3 +151,7 @@ def test_the_flows_on_dask_equal_the_sequential_runs(tmp_path, harness, fleet, c
         results[config] = summary
     assert _windows(results[on_dask]) == _windows(results[sequential])
     assert [a["asset_id"] for a in results[on_dask]["assets"]] == list(ASSETS)
+
+    # every batch task ran on the cluster's workers
+    assert {"baseline_batch", "nightly_batch", "reanalysis_batch"} <= \
+        set(cluster.scheduler.task_prefixes)
