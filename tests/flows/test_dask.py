@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import io
 import json
+import os
+import pathlib
 import re
 import shutil
 
@@ -26,8 +28,11 @@ def cluster():
 
     from flows.task_runner import worker_environment
 
+    env = worker_environment()
+    # the workers also import this directory's fault injection (dask_faults)
+    env["PYTHONPATH"] += os.pathsep + str(pathlib.Path(__file__).resolve().parent)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=":0", env=worker_environment()) as local:
+                      dashboard_address=":0", env=env) as local:
         yield local
 
 
@@ -155,3 +160,43 @@ def test_the_flows_on_dask_equal_the_sequential_runs(tmp_path, harness, fleet, b
     # every batch task ran on the cluster's workers
     assert {"baseline_batch", "nightly_batch", "reanalysis_batch"} <= \
         set(cluster.scheduler.task_prefixes)
+
+
+def test_retries_and_failed_batches_on_dask(tmp_path, harness, fleet, baselined, cluster,
+                                            config_writer):
+    from distributed import Client
+
+    from dask_faults import BrokenWatermarks
+    from flows import progress
+    from flows.nightly import nightly
+
+    config = _workdir(config_writer, tmp_path, "dask", fleet, db=baselined.db,
+                      dask_address=cluster.scheduler_address)
+    config.write_text(config.read_text().replace("batch_size = 2", "batch_size = 1")
+                      .replace("retries = 2", "retries = 1"))
+    stream = io.StringIO()
+    with Client(cluster) as client:
+        client.register_plugin(BrokenWatermarks(always=("T-001",), once=("T-003",)),
+                               name="broken-watermarks")
+        try:
+            with progress.reporting(progress.LineReporter(stream)):
+                state, summary = _run_flow(nightly, config_path=str(config),
+                                           as_of=day(BASELINE_DAYS + 1).isoformat(),
+                                           assets=["T-001", "T-003"])
+        finally:
+            client.unregister_worker_plugin("broken-watermarks")
+    assert state.is_failed()
+    assert [a["asset_id"] for a in summary["assets"]] == ["T-001", "T-003"]
+    failed, retried = summary["assets"]
+    # T-001 failed its two attempts: reported failed, the other batch went on
+    assert failed["status"] == "failed"
+    assert "failed after 2 attempt(s)" in failed["error"]["message"]
+    assert "registry unreachable" in failed["error"]["message"]
+    # T-003's batch was retried in its worker and found its first attempt's record
+    assert retried["status"] == "ok"
+    assert [w["created"] for w in retried["windows"]] == [False]
+    registry = _registry(config)
+    assert registry.watermark("T-001") is None
+    assert registry.watermark("T-003") == day(BASELINE_DAYS + 1)
+    assert "2/2 done, 1 failed" in stream.getvalue(), stream.getvalue()
+    assert summary["exit_status"] == 1
