@@ -48,6 +48,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workdir", help="default: a temporary directory, removed after")
     parser.add_argument("--json", dest="json_out", help="write every run here")
+    parser.add_argument("--reuse", action="store_true",
+                        help="keep the fleet and baselines of an earlier run in --workdir")
     args = parser.parse_args(argv)
     args.workers = [int(k) for k in args.workers.split(",") if k.strip()]
     if not args.workers or min(args.workers) < 1 or args.repeats < 1 or args.assets < 1:
@@ -90,14 +92,13 @@ def one_night(workdir: pathlib.Path, saved: pathlib.Path, workers: int | None,
     return data
 
 
-def run(args: argparse.Namespace, argv: list[str]) -> dict:
-    root = pathlib.Path(args.workdir or tempfile.mkdtemp(prefix="dask-scale-")).resolve()
+def prepare(root: pathlib.Path, args: argparse.Namespace) -> None:
+    """Simulate the fleet into ``root``, fit its baselines, save the store as baselined.db."""
     if root.exists():
         shutil.rmtree(root)
     root.mkdir(parents=True)
     days = BASELINE_DAYS + 1
     base_end = START + datetime.timedelta(days=BASELINE_DAYS)
-    as_of = (START + datetime.timedelta(days=days)).isoformat()
     say(f"simulating {args.assets} x {days} days at {args.sample_interval:g} s in {root} ...")
     generate(root, args.assets, days, args.seed, args.sample_interval, args.batch_size, "4GB")
     say("baseline fit (sequential) ...")
@@ -105,8 +106,16 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
     fleet_health(root, "baseline", "baseline", "fit", "--all", "--start", START.isoformat(),
                  "--end", base_end.isoformat(), "--promote", "--reason", "dask_scale")
     checkpoint(root / "mlflow.db")
+    shutil.copy(root / "mlflow.db", root / "baselined.db")
+
+
+def run(args: argparse.Namespace, argv: list[str]) -> dict:
+    root = pathlib.Path(args.workdir or tempfile.mkdtemp(prefix="dask-scale-")).resolve()
+    days = BASELINE_DAYS + 1
+    as_of = (START + datetime.timedelta(days=days)).isoformat()
     saved = root / "baselined.db"
-    shutil.copy(root / "mlflow.db", saved)
+    if not (args.reuse and saved.exists()):
+        prepare(root, args)
     runners = [None] + list(args.workers)
     runs = []
     for repeat in range(args.repeats):
