@@ -12,6 +12,8 @@ import statistics
 GB = 10 ** 9
 #: hand-written observations appended to the Markdown report (kept apart so a rerun keeps them)
 NOTES = pathlib.Path(__file__).with_name("nightly_scale_notes.md")
+#: the hand-written section on Dask workers (benchmarks.dask_scale), appended after the notes
+DASK_NOTES = pathlib.Path(__file__).with_name("dask_scale_notes.md")
 FLEET = 1000
 #: (stage key in a run summary's ``extra["stages"]``, label)
 STAGES = (("read", "read + validate + grid"), ("residual", "residual"),
@@ -300,4 +302,6 @@ def render_markdown(results: dict) -> str:
     ]
     if NOTES.exists():
         parts += ["## Notes", NOTES.read_text().strip()]
+    if DASK_NOTES.exists():
+        parts += [DASK_NOTES.read_text().strip()]
     return "\n\n".join(parts) + "\n"

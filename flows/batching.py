@@ -5,12 +5,18 @@ A batch task returns :class:`BatchOutput` as a dict: the assets' results and the
 stages took (see :class:`graybox.stage_clock.StageClock`). Transient errors (registry locked
 or unreachable, I/O) stop the batch and Prefect retries it (``[nightly] retries``); after the
 last retry its assets are reported failed and the other batches go on.
+
+Batches run one after another in the flow's process, or all at once on a Dask cluster
+(``[nightly] task_runner``, :mod:`flows.task_runner`); either way the flow's results keep the
+fleet's order and are the same.
 """
 from __future__ import annotations
 
 import logging
 from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
+
+from prefect.utilities.callables import get_call_parameters
 
 from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock
@@ -20,6 +26,7 @@ from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, TransientError,
                            describe_error, is_transient, now_iso)
+from flows.task_runner import batch_runner
 from registry.exceptions import RegistryError
 
 logger = logging.getLogger(__name__)
@@ -98,30 +105,45 @@ def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
 def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tuple,
                 clock: StageClock | None = None,
                 on_failure: Callable = batch_failed) -> list[AssetResult]:
-    """Call a batch task for each batch of ``[nightly] batch_size`` assets, one after another
-    (each batch already uses all cores). ``args`` are the task's arguments before and after
-    the batch's asset list: ``(config_path, tracking_uri, *rest)``. The batches' stage
-    seconds are added to ``clock``."""
-    out: list[AssetResult] = []
+    """Run a batch task for each batch of ``[nightly] batch_size`` assets with the runner of
+    ``[nightly] task_runner`` (:mod:`flows.task_runner`): one after another in this process,
+    or all at once on Dask. ``args`` are the task's arguments before and after the batch's
+    asset list: ``(config_path, tracking_uri, *rest)``. Returns the assets' results in the
+    order of ``refs`` whatever order the batches finish in; the batches' stage seconds are
+    added to ``clock``."""
     configured = task_fn.with_options(retries=config.nightly.retries,
                                       retry_delay_seconds=config.nightly.retry_delay_seconds)
-    for batch in batches(list(refs), config.nightly.batch_size):
-        payload = [asdict(r) for r in batch]
-        label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
-                 if len(batch) > 1 else batch[0].asset_id)
-        state = configured(*args[:2], payload, *args[2:], label=label, return_state=True)
-        if state.is_completed():
-            output = BatchOutput.from_dict(state.result())
-            out += output.assets
-            if clock is not None:
-                clock.add(output.stages)
-        else:
-            error = state.result(raise_on_failure=False)
-            reason = error if isinstance(error, BaseException) else (state.message or
-                                                                     state.name)
-            out += on_failure(batch, reason,
-                              task_attempts(state, reason, config.nightly.retries))
-    return out
+    # a worker may run elsewhere: the configuration's and the store's absolute locations
+    config_path, tracking_uri = str(config.path), config.tracking_uri if args[1] else None
+    parts = batches(list(refs), config.nightly.batch_size)
+    outputs: list[list[AssetResult]] = [[] for _ in parts]
+    with batch_runner(config) as runner:
+        for batch in parts:
+            label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
+                     if len(batch) > 1 else batch[0].asset_id)
+            call = (config_path, tracking_uri, [asdict(r) for r in batch], *args[2:])
+            runner.submit(configured, get_call_parameters(configured.fn, call,
+                                                          {"label": label}))
+        for index, outcome in runner.completed():
+            batch = parts[index]
+            if not isinstance(outcome, BaseException) and outcome.is_completed():
+                output = BatchOutput.from_dict(outcome.result())
+                outputs[index] = output.assets
+                if clock is not None:
+                    clock.add(output.stages)
+                if not runner.in_process:   # the worker's progress did not reach us
+                    failed = sum(1 for a in output.assets if a.status == FAILED)
+                    progress.advance(len(batch), f"batch {batch[0].asset_id}.."
+                                                 f"{batch[-1].asset_id} done", failed=failed)
+            elif isinstance(outcome, BaseException):     # its Dask worker was lost
+                outputs[index] = on_failure(batch, outcome, config.nightly.retries + 1)
+            else:                                          # a Failed state
+                error = outcome.result(raise_on_failure=False)
+                reason = error if isinstance(error, BaseException) else (
+                    outcome.message or outcome.name)
+                outputs[index] = on_failure(batch, reason, task_attempts(
+                    outcome, reason, config.nightly.retries))
+    return [result for output in outputs for result in output]
 
 
 def batch_task_body(process: Callable, config_path: str, tracking_uri: str | None,

@@ -22,6 +22,7 @@ Layout (every key and its default: docs/design.md section 3.3; every table but
     retries = 2                            # retries of a batch after a transient error
     retry_delay_seconds = 30
     memory_budget = "4GB"                  # peak memory of a batch: assets fitted in groups
+    task_runner = "sequential"             # or "dask": batches at once on a Dask cluster
 
     [schedule]
     cron = "30 2 * * *"                    # the nightly deployment's schedule
@@ -29,6 +30,11 @@ Layout (every key and its default: docs/design.md section 3.3; every table but
 
     [notifications]
     block = "slack-webhook/fleet-health"   # optional Prefect notification block
+
+    [dask]                                 # with [nightly] task_runner = "dask":
+    address = "tcp://scheduler:8786"       # an existing cluster, or (without address)
+    # workers = 4                          # a LocalCluster per run: worker processes
+    threads_per_worker = 1                 # (default one per core) of this many threads
 
     [classes.turbine]                      # one table per vehicle class
     model = "graybox.models:GasTurbineShaft"
@@ -50,14 +56,14 @@ above, written once), :mod:`~flows.config.parse` (loading and checking),
 from flows.config.checker import Checker
 from flows.config.parse import RENAMED_SETTINGS, load_config, parse_config
 from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_MEMORY_BUDGET, DEFAULT_TELEMETRY_ROOT,
-                                   DEFAULT_TRACKING_URI, PLOT_POLICIES, AlertSettings,
-                                   ConfigError, FleetConfig, NightlySettings,
-                                   NotificationSettings, ScheduleSettings, VehicleClass,
+                                   DEFAULT_TRACKING_URI, PLOT_POLICIES, TASK_RUNNERS,
+                                   AlertSettings, ConfigError, DaskSettings, FleetConfig,
+                                   NightlySettings, NotificationSettings, ScheduleSettings, VehicleClass,
                                    resolve_tracking_uri)
 from flows.config.template import render_config
 
 __all__ = ["DEFAULT_CONFIG", "DEFAULT_MEMORY_BUDGET", "DEFAULT_TELEMETRY_ROOT",
-           "DEFAULT_TRACKING_URI", "PLOT_POLICIES", "RENAMED_SETTINGS", "AlertSettings",
-           "Checker", "ConfigError", "FleetConfig", "NightlySettings", "NotificationSettings",
+           "DEFAULT_TRACKING_URI", "PLOT_POLICIES", "RENAMED_SETTINGS", "TASK_RUNNERS",
+           "AlertSettings", "Checker", "ConfigError", "DaskSettings", "FleetConfig", "NightlySettings", "NotificationSettings",
            "ScheduleSettings", "VehicleClass", "load_config", "parse_config", "render_config",
            "resolve_tracking_uri"]

@@ -16,9 +16,10 @@ import pandas as pd
 
 from flows.config.checker import Checker
 from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI,
-                                   PLOT_POLICIES, AlertSettings, ConfigError, FleetConfig,
-                                   NightlySettings, NotificationSettings, ScheduleSettings,
-                                   VehicleClass, resolve_tracking_uri)
+                                   PLOT_POLICIES, TASK_RUNNERS, AlertSettings, ConfigError,
+                                   DaskSettings, FleetConfig, NightlySettings,
+                                   NotificationSettings, ScheduleSettings, VehicleClass,
+                                   resolve_tracking_uri)
 from flows.memory import parse_bytes
 from graybox.estimator import GrayBoxSettings
 from graybox.exceptions import ModelSpecError
@@ -75,7 +76,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
     check = Checker(path.name)
     base = path.parent
     check.keys("", data, ("telemetry", "mlflow", "alerts", "nightly", "schedule",
-                          "notifications", "classes"))
+                          "notifications", "dask", "classes"))
 
     telemetry = check.table("telemetry", data.get("telemetry", {}))
     check.keys("telemetry", telemetry, ("root",))
@@ -92,6 +93,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
     alerts = _alerts(check, check.table("alerts", data.get("alerts", {})), base)
     nightly = _nightly(check, check.table("nightly", data.get("nightly", {})))
     schedule = _schedule(check, check.table("schedule", data.get("schedule", {})))
+    dask = _dask(check, check.table("dask", data.get("dask", {})))
     notes = check.table("notifications", data.get("notifications", {}))
     check.keys("notifications", notes, ("block",))
     block = notes.get("block")
@@ -109,7 +111,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
                for name, table in classes_table.items()}
     return FleetConfig(path=path, telemetry_root=root.resolve(), tracking_uri=uri,
                        classes=classes, alerts=alerts, nightly=nightly, schedule=schedule,
-                       notifications=NotificationSettings(block))
+                       notifications=NotificationSettings(block), dask=dask)
 
 
 def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings:
@@ -154,7 +156,8 @@ def _positive_duration(check: Checker, key: str, text: str, example: str,
 
 def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
-                                  "retry_delay_seconds", "memory_budget", "lookback"))
+                                  "retry_delay_seconds", "memory_budget", "lookback",
+                                  "task_runner"))
     default = NightlySettings()
     batch = check.integer("nightly.batch_size", table.get("batch_size", default.batch_size),
                           low=1)
@@ -185,7 +188,33 @@ def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     lookback = check.string("nightly.lookback", table.get("lookback", default.lookback))
     _positive_duration(check, "nightly.lookback", lookback, "'7D' (or '0D': no look-back)",
                        allow_zero=True)
-    return NightlySettings(batch, window, plots, retries, delay, budget, lookback)
+    runner = check.string("nightly.task_runner", table.get("task_runner", default.task_runner))
+    if runner not in TASK_RUNNERS:
+        raise check.error("nightly.task_runner", f"must be one of {', '.join(TASK_RUNNERS)}, "
+                                                 f"got {runner!r}")
+    return NightlySettings(batch, window, plots, retries, delay, budget, lookback,
+                           task_runner=runner)
+
+
+def _dask(check: Checker, table: Mapping) -> DaskSettings:
+    default = DaskSettings()
+    check.keys("dask", table, ("address", "workers", "threads_per_worker"))
+    address = table.get("address", default.address)
+    if address is not None:
+        address = check.string("dask.address", address)
+        if "://" not in address:
+            raise check.error("dask.address", f"{address!r} is not a scheduler address such as "
+                                              f"'tcp://scheduler.example:8786'")
+    workers = table.get("workers", default.workers)
+    if workers is not None:
+        workers = check.integer("dask.workers", workers, low=1)
+    threads = check.integer("dask.threads_per_worker",
+                            table.get("threads_per_worker", default.threads_per_worker), low=1)
+    for key in ("workers", "threads_per_worker"):
+        if address is not None and key in table:
+            raise check.error(f"dask.{key}", "a cluster at dask.address has its own workers; "
+                                             f"give either address or {key}")
+    return DaskSettings(address, workers, threads)
 
 
 def _schedule(check: Checker, table: Mapping) -> ScheduleSettings:

@@ -17,6 +17,8 @@ DEFAULT_CONFIG = "fleet.toml"
 DEFAULT_TELEMETRY_ROOT = "telemetry"
 DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 PLOT_POLICIES = ("alarms", "all", "none")
+#: how a flow runs its batch tasks: one after another in its process, or on a Dask cluster
+TASK_RUNNERS = ("sequential", "dask")
 
 #: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
@@ -93,6 +95,7 @@ class NightlySettings:
     memory_budget: int = DEFAULT_MEMORY_BUDGET
     #: how far before the watermark a run looks for late-arriving windows ("0D": not at all)
     lookback: str = "7D"
+    task_runner: str = "sequential"
 
     @property
     def window_delta(self) -> pd.Timedelta:
@@ -101,6 +104,26 @@ class NightlySettings:
     @property
     def lookback_delta(self) -> pd.Timedelta:
         return pd.Timedelta(self.lookback)
+
+
+@dataclass(frozen=True)
+class DaskSettings:
+    """``[dask]``: where batch tasks run when ``[nightly] task_runner = "dask"``.
+
+    Attributes
+    ----------
+    address : str or None
+        An existing scheduler (``"tcp://host:8786"``); None starts a ``LocalCluster`` for
+        the run.
+    workers : int or None
+        Worker processes of that LocalCluster (None: one per core).
+    threads_per_worker : int
+        Threads per worker process: batches running at once in one process.
+    """
+
+    address: str | None = None
+    workers: int | None = None
+    threads_per_worker: int = 1
 
 
 @dataclass(frozen=True)
@@ -127,7 +150,7 @@ class FleetConfig:
         Absolute for SQLite stores.
     classes : dict of str to VehicleClass
         In file order.
-    alerts, nightly, schedule, notifications
+    alerts, nightly, schedule, notifications, dask
         The optional tables, with defaults.
     """
 
@@ -139,6 +162,7 @@ class FleetConfig:
     nightly: NightlySettings = field(default_factory=NightlySettings)
     schedule: ScheduleSettings = field(default_factory=ScheduleSettings)
     notifications: NotificationSettings = field(default_factory=NotificationSettings)
+    dask: DaskSettings = field(default_factory=DaskSettings)
 
     @property
     def base_dir(self) -> pathlib.Path:

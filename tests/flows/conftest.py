@@ -155,3 +155,9 @@ def count():
         return {"runs": len(runs), "versions": len(versions),
                 "alerts": len(registry.alerts())}
     return counts
+
+
+@pytest.fixture
+def config_writer():
+    """:func:`write_config`, for a test that needs several fleet.toml files."""
+    return write_config

@@ -1,6 +1,7 @@
 """fleet.toml: loading, defaults, paths, and errors that name the key."""
 from __future__ import annotations
 
+import os
 import pathlib
 
 import pytest
@@ -213,3 +214,57 @@ def test_tracking_uri_override(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     config = load_config(write(tmp_path, MINIMAL)).with_tracking_uri("sqlite:///other.db")
     assert config.tracking_uri == f"sqlite:///{(tmp_path / 'other.db').resolve()}"
+
+
+def test_task_runner_and_dask_defaults_and_values(tmp_path):
+    from flows.config import DaskSettings
+
+    config = load_config(write(tmp_path, MINIMAL))
+    assert config.nightly.task_runner == "sequential"
+    assert config.dask == DaskSettings(address=None, workers=None, threads_per_worker=1)
+    local = load_config(write(tmp_path, '[nightly]\ntask_runner = "dask"\n[dask]\nworkers = 3\n'
+                                        'threads_per_worker = 2\n' + MINIMAL))
+    assert local.nightly.task_runner == "dask"
+    assert local.dask == DaskSettings(address=None, workers=3, threads_per_worker=2)
+    remote = load_config(write(tmp_path, '[nightly]\ntask_runner = "dask"\n[dask]\n'
+                                         'address = "tcp://scheduler.example:8786"\n' + MINIMAL))
+    assert remote.dask.address == "tcp://scheduler.example:8786"
+
+
+@pytest.mark.parametrize("text, where", [
+    ('[nightly]\ntask_runner = "ray"\n', "fleet.toml: nightly.task_runner: must be one of "
+                                         "sequential, dask, got 'ray'"),
+    ("[nightly]\ntask_runner = 1\n", "fleet.toml: nightly.task_runner: must be a non-empty"),
+    ("[dask]\nworkers = 0\n", "fleet.toml: dask.workers: must be an integer >= 1, got 0"),
+    ('[dask]\nworkers = "4"\n', "fleet.toml: dask.workers: must be an integer >= 1"),
+    ("[dask]\nthreads_per_worker = 0\n", "fleet.toml: dask.threads_per_worker: must be an "
+                                         "integer >= 1"),
+    ('[dask]\naddress = "scheduler:8786"\n', "fleet.toml: dask.address: 'scheduler:8786' is "
+                                             "not a scheduler address"),
+    ('[dask]\naddress = "tcp://s:8786"\nworkers = 2\n', "fleet.toml: dask.workers: a cluster "
+                                                        "at dask.address has its own workers"),
+    ('[dask]\naddress = "tcp://s:8786"\nthreads_per_worker = 2\n',
+     "fleet.toml: dask.threads_per_worker: a cluster at dask.address"),
+    ("[dask]\nworker = 2\n", "fleet.toml: dask.worker: unknown key"),
+])
+def test_task_runner_and_dask_errors_name_the_key(tmp_path, text, where):
+    with pytest.raises(ConfigError) as error:
+        load_config(write(tmp_path, text + MINIMAL))
+    assert where in str(error.value), str(error.value)
+
+
+def test_dask_runner_options_from_the_configuration(tmp_path):
+    from flows.task_runner import DaskBatches, SequentialBatches, batch_runner, runner_options
+
+    config = load_config(write(tmp_path, '[nightly]\ntask_runner = "dask"\n[dask]\nworkers = 3\n'
+                                         + MINIMAL))
+    assert isinstance(batch_runner(config), DaskBatches)
+    assert isinstance(batch_runner(load_config(write(tmp_path, MINIMAL))), SequentialBatches)
+    options = runner_options(config.dask)["cluster_kwargs"]
+    assert (options["n_workers"], options["threads_per_worker"]) == (3, 1)
+    # local workers import fleet-health from where this process did
+    import flows
+    source = str(pathlib.Path(flows.__file__).resolve().parents[1])
+    assert options["env"]["PYTHONPATH"].split(os.pathsep)[0] == source
+    remote = load_config(write(tmp_path, '[dask]\naddress = "tcp://s:8786"\n' + MINIMAL))
+    assert runner_options(remote.dask) == {"address": "tcp://s:8786"}

@@ -1,0 +1,152 @@
+"""Where a flow's batch tasks run: ``[nightly] task_runner``.
+
+``"sequential"`` (the default) runs each batch task in the flow's own process, one after
+another: each batch already uses the process's cores through its BLAS and torch thread
+pools. ``"dask"`` submits every batch at once to a Dask cluster through prefect-dask's
+``DaskTaskRunner`` (``[dask] address`` of a running scheduler, or else a ``LocalCluster``
+started for the run with ``[dask] workers`` processes of ``threads_per_worker`` threads).
+Dask starts its worker processes with one BLAS/OpenMP thread each (its
+``distributed.nanny.pre-spawn-environ``), so one thread per worker and one worker per core
+keep the cores busy without oversubscribing them.
+
+Both are used the same way by :func:`flows.batching.run_batches`: :meth:`submit` every
+batch, then take the outcomes from :meth:`completed`, which yields ``(index, outcome)`` in
+the order the batches finish; an outcome is the task's final Prefect state, or the error
+that kept the task from reporting one (a Dask worker that died).
+
+Workers need what the task needs: the same fleet-health installed (a ``LocalCluster``'s
+workers get this process's import path), the Prefect API (an ephemeral API's address is
+handed to them explicitly), and the configuration, telemetry, alerts file and tracking URI
+at the same absolute paths (the caller ships absolute ones).
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import pathlib
+from typing import Any, Iterator
+
+from flows.config import DaskSettings, FleetConfig
+
+
+class SequentialBatches:
+    """Batch tasks run in this process, one after another, as :meth:`completed` is read.
+
+    Their progress reaches this process's reporter directly (``in_process``).
+    """
+
+    in_process = True
+
+    def __init__(self):
+        self._submitted: list[tuple[Any, dict]] = []
+
+    def __enter__(self) -> "SequentialBatches":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._submitted = []
+
+    def submit(self, task, parameters: dict) -> None:
+        """Queue ``task(**parameters)``."""
+        self._submitted.append((task, parameters))
+
+    def completed(self) -> Iterator[tuple[int, Any]]:
+        """Run the queued tasks in order; yield ``(index, final state)``."""
+        for index, (task, parameters) in enumerate(self._submitted):
+            yield index, task(**parameters, return_state=True)
+
+
+class DaskBatches:
+    """Batch tasks run concurrently on a Dask cluster (prefect-dask ``DaskTaskRunner``).
+
+    Their progress is reported in worker processes, out of this process's sight
+    (``in_process`` is False): the caller advances per completed batch.
+
+    Parameters
+    ----------
+    settings : DaskSettings
+    """
+
+    in_process = False
+
+    def __init__(self, settings: DaskSettings):
+        self.settings = settings
+        self._stack: contextlib.ExitStack | None = None
+        self._runner = None
+        self._futures: list = []
+
+    def __enter__(self) -> "DaskBatches":
+        from prefect_dask import DaskTaskRunner
+
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(api_for_workers())
+            self._runner = stack.enter_context(DaskTaskRunner(**runner_options(self.settings)))
+            self._stack = stack.pop_all()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        stack, self._stack, self._futures = self._stack, None, []
+        if stack is not None:
+            stack.__exit__(*exc)
+
+    def submit(self, task, parameters: dict) -> None:
+        """Submit ``task(**parameters)`` to the cluster."""
+        self._futures.append(self._runner.submit(task, parameters))
+
+    def completed(self) -> Iterator[tuple[int, Any]]:
+        """Yield ``(index, final state or error)`` as the batches finish."""
+        from distributed import as_completed
+
+        index = {future.wrapped_future.key: i for i, future in enumerate(self._futures)}
+        for done in as_completed([future.wrapped_future for future in self._futures],
+                                 loop=self._runner.client.loop):
+            try:
+                outcome = done.result()   # the task's final state (prefect-dask returns it)
+            except Exception as error:  # noqa: BLE001 - e.g. KilledWorker: the batch failed
+                outcome = error
+            yield index[done.key], outcome
+
+
+def batch_runner(config: FleetConfig) -> SequentialBatches | DaskBatches:
+    """The runner of ``[nightly] task_runner`` (a context manager)."""
+    if config.nightly.task_runner == "dask":
+        return DaskBatches(config.dask)
+    return SequentialBatches()
+
+
+def runner_options(settings: DaskSettings) -> dict:
+    """``DaskTaskRunner`` keyword arguments for ``[dask]``: the scheduler's address, or a
+    ``LocalCluster`` whose workers import fleet-health from where this process does."""
+    if settings.address:
+        return {"address": settings.address}
+    return {"cluster_kwargs": {"n_workers": settings.workers,
+                               "threads_per_worker": settings.threads_per_worker,
+                               "processes": True, "env": worker_environment()}}
+
+
+def worker_environment() -> dict[str, str]:
+    """``PYTHONPATH`` for local worker processes: the directory this ``flows`` package was
+    imported from first, so workers run the same code as the flow."""
+    source = str(pathlib.Path(__file__).resolve().parents[1])
+    paths = [source] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
+                        if p and p != source]
+    return {"PYTHONPATH": os.pathsep.join(paths)}
+
+
+@contextlib.contextmanager
+def api_for_workers() -> Iterator[None]:
+    """Make the Prefect API address explicit while tasks are submitted.
+
+    prefect-dask ships the settings in effect to the workers. Without ``PREFECT_API_URL``,
+    Prefect serves this process from a temporary local server whose address is not a
+    setting: each worker would start a server of its own on the same database.
+    """
+    from prefect.client.orchestration import get_client
+    from prefect.settings import PREFECT_API_URL, temporary_settings
+
+    if PREFECT_API_URL.value():
+        yield
+        return
+    url = str(get_client(sync_client=True).api_url).rstrip("/")
+    with temporary_settings(updates={PREFECT_API_URL: url}):
+        yield
