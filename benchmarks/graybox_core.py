@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
 
 from graybox import FitRequest, compute_drift, fit_baselines, fit_signatures, load_model
 from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters

@@ -17,7 +17,6 @@ import argparse
 import sys
 import time
 
-import numpy as np
 import pandas as pd
 
 from benchmarks.detection.grid import Grid, asset_id, simulate_seed

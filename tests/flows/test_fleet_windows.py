@@ -59,13 +59,13 @@ def store(tmp_path):
     root = tmp_path / "telemetry"
     for asset in ("T-001", "T-002", "P-001", "X-9"):
         (root / f"asset_id={asset}" / "date=2026-01-01").mkdir(parents=True)
-    (tmp_path / "fleet.toml").write_text(f'''
+    (tmp_path / "fleet.toml").write_text('''
 [telemetry]
 root = "telemetry"
 [classes.turbine]
 model = "graybox.models:GasTurbineShaft"
 assets = ["T-*", "T-404"]
-columns = {{ omega = "shaft_speed" }}
+columns = { omega = "shaft_speed" }
 [classes.pump]
 model = "graybox.models:LangevinShaft"
 assets = ["P-*"]
