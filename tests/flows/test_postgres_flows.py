@@ -174,3 +174,58 @@ def test_nightly_workers_in_several_processes_at_once(pg_site, count):
     keys = [(a["asset_id"], a["window_start"], a["channel"], a["tier"]) for a in lines]
     assert lines and len(keys) == len(set(keys)) == counts["alerts"]
     assert {a["asset_id"] for a in lines} == {"T-002"}
+
+
+@pytest.mark.slow
+def test_nightly_on_two_dask_workers_on_postgres_equals_the_sequential_run(
+        pg_site, postgres_server, fleet, tmp_path, count):
+    """Both assets' batches on a LocalCluster of 2 worker processes, writing to PostgreSQL at
+    once: the same windows, versions, alarms and watermarks as the sequential run of the
+    same store, nothing recorded twice, each alert exported once."""
+    from distributed import LocalCluster
+
+    from flows.nightly import nightly
+    from flows.task_runner import worker_environment
+    from registry import Registry
+
+    as_of = day(DAYS).isoformat()
+    sequential_dir = tmp_path / "sequential"
+    sequential_dir.mkdir()
+    sequential_uri = postgres_server.create_database("flows_dask_sequential",
+                                                     template=BASELINED_DB)
+    sequential = postgres_config(sequential_dir / "fleet.toml", fleet.root, sequential_uri)
+    state = nightly(config_path=str(sequential), as_of=as_of, assets=PAIR, return_state=True)
+    assert state.is_completed(), state.message
+    expected = state.result()
+
+    text = pg_site.config.read_text().replace("batch_size = 64",
+                                              'batch_size = 1\ntask_runner = "dask"')
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0", env=worker_environment()) as cluster:
+        pg_site.config.write_text(text + f'\n[dask]\naddress = "{cluster.scheduler_address}"\n')
+        state = nightly(config_path=str(pg_site.config), as_of=as_of, assets=PAIR,
+                        return_state=True)
+        assert len(cluster.scheduler_info["workers"]) == 2
+    assert state.is_completed(), state.message
+    summary = state.result()
+
+    def outcome(result):
+        return [(a["asset_id"], a["status"], a["watermark_after"],
+                 [(w["window_start"], w["version"], w["alarm"], w["max_ratio"])
+                  for w in a["windows"]]) for a in result["assets"]]
+
+    assert outcome(summary) == outcome(expected)
+    nights = DAYS - BASELINE_DAYS
+    registry, reference = pg_site.registry(), Registry(sequential_uri, workdir=sequential_dir)
+    assert count(registry) == count(reference)
+    assert count(registry)["versions"] == len(PAIR) * (1 + nights)
+    assert count(registry)["runs"] == count(registry)["versions"]
+    for asset in PAIR:
+        assert registry.watermark(asset) == reference.watermark(asset) == day(DAYS)
+
+    def alert_keys(path):
+        return sorted((a["asset_id"], a["window_start"], a["channel"], a["tier"], a["ratio"])
+                      for a in _lines(path))
+
+    assert alert_keys(pg_site.alerts) == alert_keys(sequential_dir / "alerts.jsonl")
+    assert len(set(alert_keys(pg_site.alerts))) == len(alert_keys(pg_site.alerts)) > 0

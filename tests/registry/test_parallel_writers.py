@@ -53,7 +53,12 @@ def test_eight_writer_processes_record_every_run(tmp_path, store_uri, fits, regi
 
 
 def test_eight_writer_threads_record_every_run(registry, fits):
-    threads_n, fits_each = 8, 2
+    record_from_threads(registry, fits, threads_n=8, fits_each=2)
+
+
+def record_from_threads(registry, fits, threads_n: int, fits_each: int) -> None:
+    """``threads_n`` threads record ``fits_each`` baselines each, all at once, over three
+    assets; then every run is in the store once and the versions have no gap."""
     barrier = threading.Barrier(threads_n)
     errors = []
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import threading
 import time
 
 import pandas as pd
@@ -13,7 +12,7 @@ import pytest
 from postgres_server import subprocess_env
 from registry.exceptions import RegistryError
 from registry.store import advisory_key, resolve_store
-from test_parallel_writers import WORKER, _check_store
+from test_parallel_writers import WORKER, _check_store, record_from_threads
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")
 
@@ -136,30 +135,8 @@ def test_writer_processes_on_a_new_postgres_database(tmp_path, postgres_server, 
 def test_writer_threads_on_postgres(postgres_uri, fits, tmp_path):
     from registry import Registry
 
-    registry = Registry(postgres_uri, workdir=tmp_path)
-    threads_n, fits_each = 6, 2
-    barrier = threading.Barrier(threads_n)
-    errors = []
-
-    def write(worker):
-        barrier.wait()
-        try:
-            for k in range(fits_each):
-                start = pd.Timestamp("2026-03-01", tz="UTC") + pd.Timedelta(days=worker * fits_each + k)
-                registry.record_fit(f"Q-{worker % 3}", "turbine", fits.baseline, role="baseline",
-                                    calibration=fits.calibration, window_start=start,
-                                    window_end=start + pd.Timedelta(days=1),
-                                    data_hash=f"t{worker}-{k}", plots=False)
-        except Exception as error:     # reported by the assertion below
-            errors.append(error)
-
-    threads = [threading.Thread(target=write, args=(w,)) for w in range(threads_n)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join()
-    assert not errors, errors
-    _check_store(registry, threads_n * fits_each, ["Q-0", "Q-1", "Q-2"])
+    record_from_threads(Registry(postgres_uri, workdir=tmp_path), fits, threads_n=6,
+                        fits_each=2)
 
 
 def test_server_clients_share_advisory_locks_through_the_lock_uri(postgres_uri, monkeypatch):
