@@ -18,38 +18,13 @@ os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "WARNING")
 os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
 
-import pathlib  # noqa: E402
 from types import SimpleNamespace  # noqa: E402
 
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
+from flowtest_config import write_config  # noqa: E402
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day  # noqa: E402
-
-
-def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
-                 plots: str = "none", retries: int = 2, batch_size: int = 64,
-                 extra: str = "") -> pathlib.Path:
-    path.write_text(f'''
-[telemetry]
-root = "{telemetry}"
-[mlflow]
-tracking_uri = "sqlite:///{db}"
-[alerts]
-false_alarm_rate = 0.01
-jsonl = "alerts.jsonl"
-[nightly]
-batch_size = {batch_size}
-plots = "{plots}"
-retries = {retries}
-retry_delay_seconds = 0
-[classes.turbine]
-model = "graybox.models:GasTurbineShaft"
-assets = ["T-*"]
-columns = {{ omega = "shaft_speed" }}
-{extra}
-''')
-    return path
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,7 @@ from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 def test_fault_telemetry_in_another_layout_is_a_usage_error(harness, fleet, tmp_path, capsys):
     """T-001/2026-01-04.parquet: no asset in the layout, but Parquet files: exit 2, saying
     which layout was expected and what was found (not "0 assets: none.", exit 0)."""
-    from conftest import write_config
+    from flowtest_config import write_config
     from flows.cli import main
 
     root = tmp_path / "telemetry"
@@ -28,7 +28,7 @@ def test_fault_telemetry_in_another_layout_is_a_usage_error(harness, fleet, tmp_
 
 
 def test_an_empty_telemetry_root_is_an_empty_fleet(harness, tmp_path, capsys):
-    from conftest import write_config
+    from flowtest_config import write_config
     from flows.cli import main
 
     (tmp_path / "telemetry").mkdir()

@@ -92,7 +92,7 @@ def test_fault_late_day_beyond_the_lookback_is_left_alone(workspace, fleet, tmp_
 def test_fault_bad_lookback_is_a_config_error(tmp_path):
     import pytest
 
-    from conftest import write_config
+    from flowtest_config import write_config
     from flows.config import ConfigError, load_config
 
     config = write_config(tmp_path / "fleet.toml", tmp_path, tmp_path / "m.db")

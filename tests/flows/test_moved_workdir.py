@@ -5,7 +5,7 @@ import shutil
 
 import pytest
 
-from conftest import write_config
+from flowtest_config import write_config
 from flowtest_fleet import BASELINE_DAYS, day
 
 

@@ -83,7 +83,7 @@ def test_fault_huge_sample_in_baseline_days_fails_only_that_asset(harness, fleet
                                                                   capsys):
     """`baseline fit --all`: T-002's second healthy day holds a 1e10; T-002 fails naming the
     file and row, the other four are fitted and promoted."""
-    from conftest import write_config
+    from flowtest_config import write_config
     from flows.cli import main
     from registry import Registry
 
@@ -108,7 +108,7 @@ def test_fault_huge_sample_in_baseline_days_fails_only_that_asset(harness, fleet
 
 
 def test_ranges_per_vehicle_class_load_from_fleet_toml(tmp_path):
-    from conftest import write_config
+    from flowtest_config import write_config
     from flows.config import ConfigError, load_config
 
     config = write_config(tmp_path / "fleet.toml", tmp_path, tmp_path / "m.db",

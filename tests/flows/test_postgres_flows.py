@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import write_config
+from flowtest_config import write_config
 from flowtest_fleet import BASELINE_DAYS, DAYS, day
 from postgres_server import subprocess_env
 

@@ -106,7 +106,7 @@ def test_fault_run_months_after_the_last_data_is_not_up_to_date(workspace):
     ('"-1D"', "positive duration")])
 def test_fault_bad_stale_after_is_a_config_error(tmp_path, value, message):
     from flows.config import ConfigError, load_config
-    from conftest import write_config
+    from flowtest_config import write_config
 
     config = write_config(tmp_path / "fleet.toml", tmp_path, tmp_path / "m.db")
     _set_alerts_key(config, f"stale_after = {value}")
@@ -116,7 +116,7 @@ def test_fault_bad_stale_after_is_a_config_error(tmp_path, value, message):
 
 def test_stale_after_defaults_and_off(tmp_path):
     from flows.config import load_config
-    from conftest import write_config
+    from flowtest_config import write_config
 
     config = write_config(tmp_path / "fleet.toml", tmp_path, tmp_path / "m.db")
     assert load_config(config).alerts.stale_after_delta == pd.Timedelta(days=2)
@@ -129,7 +129,7 @@ def test_stale_after_defaults_and_off(tmp_path):
     ["reanalyze", "--asset", "T-001", "--start", "2030-01-01", "--end", "2030-01-02"]])
 def test_fault_future_as_of_is_a_usage_error(tmp_path, capsys, argv):
     from flows.cli import main
-    from conftest import write_config
+    from flowtest_config import write_config
 
     (tmp_path / "telemetry").mkdir()
     config = write_config(tmp_path / "fleet.toml", tmp_path / "telemetry", tmp_path / "m.db")

@@ -74,7 +74,7 @@ def test_fault_baseline_alias_moved_to_an_uncalibrated_candidate(workspace, caps
     assert refused["status"] == "unusable baseline" and refused["windows"] == []
     assert "asset 'T-001' version 2 has no calibration (a candidate fit)" in refused["note"]
     assert "fleet-health baseline promote T-001 --version 1" in refused["note"]
-    assert "T-001 unusable baseline (not monitored): asset 'T-001' version 2" in captured.err
+    assert "T-001 not monitored (unusable baseline): asset 'T-001' version 2" in captured.err
     # nothing of T-001 moved: its watermark, versions and aliases are as they were
     assert registry.watermark("T-001") == day(BASELINE_DAYS + 1)
     assert refused["watermark_after"] == day(BASELINE_DAYS + 1).isoformat()
@@ -100,7 +100,7 @@ def test_fault_one_tampered_asset_does_not_stop_the_fleet(workspace, tmp_path, c
     before = count(registry)
 
     state, summary = _nightly(workspace, day(BASELINE_DAYS + 1), ["T-001", "T-002", "T-003"])
-    assert state.is_failed() and "1 with an unusable baseline: T-003" in state.message
+    assert state.is_failed() and "1 with an unusable baseline (T-003)" in state.message
     assert summary["exit_status"] == 1
     by_asset = {a["asset_id"]: a for a in summary["assets"]}
     refused = by_asset["T-003"]
