@@ -33,7 +33,7 @@ from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
                                       validate_asset_id)
 from graybox.telemetry.policy import GridPolicy, duration_seconds
 from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
-from graybox.telemetry.validation import validate, validate_rows
+from graybox.telemetry.validation import period_starts, validate, validate_rows
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
@@ -77,4 +77,4 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     validate_asset_id(asset_id)
     rows = read_rows(root, asset_id, columns, start=start, end=end)
     dt_ns = validate_rows(rows, asset_id, policy, inputs)
-    return grid_rows(rows, asset_id, dt_ns)
+    return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))

@@ -124,6 +124,13 @@ class GridPolicy:
         of 98 % of the samples is the channel's own scale, unaffected by a few wild samples;
         a thousand times it is far beyond any physical excursion of a monitored process, but
         a corrupt sample (1e10) would dominate every least-squares fit. ``0`` disables it.
+    intermittent : bool, default False
+        The asset runs in operating periods (a few hours a day, say). ``True``: a time
+        between rows longer than ``max_gap`` ends one operating period and starts the next
+        instead of being an error (kind ``"gap"``); each period is gridded on its own (no
+        interpolation across a pause), a value held across a pause does not count as stuck,
+        and ``min_duration`` counts the operating time. The fits never let a residual,
+        difference or delay span a pause (:meth:`TelemetryWindow.periods`).
 
     Raises
     ------
@@ -137,8 +144,11 @@ class GridPolicy:
     min_duration: float = 3600.0
     ranges: tuple[tuple[str, float, float], ...] = ()
     plausible_spread: float = 1000.0
+    intermittent: bool = False
 
     def __post_init__(self):
+        if not isinstance(self.intermittent, bool):
+            raise ValueError(f"intermittent must be true or false, got {self.intermittent!r}")
         if self.sample_interval is not None:
             interval = duration_seconds(self.sample_interval, "sample_interval")
             if interval <= 0:
