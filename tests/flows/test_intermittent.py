@@ -94,7 +94,7 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
     assert status == 1
     errors = [a["error"] for a in json.loads(out.out)["assets"]]
     assert len(errors) == 3 and {e["kind"] for e in errors} == {"gap"}
-    assert all("07:30:00" in e["message"] for e in errors)  # the end of the first period
+    assert all("T13:00:00" in e["message"] for e in errors)  # the start of the 2nd period
 
     config.write_text(CONFIG.format(root=root, db=tmp_path / "mlflow.db"))
     status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
