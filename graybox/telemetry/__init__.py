@@ -33,7 +33,8 @@ from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
                                       validate_asset_id)
 from graybox.telemetry.policy import GridPolicy, duration_seconds
 from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
-from graybox.telemetry.validation import period_starts, validate, validate_rows
+from graybox.exceptions import TelemetryError
+from graybox.telemetry.validation import period_starts, running_rows, validate, validate_rows
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
@@ -58,7 +59,9 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     start, end : timestamp-like, optional
         Half-open range; naive values are UTC.
     policy : GridPolicy, optional
-        Validation limits and grid step.
+        Validation limits and grid step; with ``running``, the rows of a stopped machine are
+        dropped first (its ``running`` channels are read too), and a window without a
+        running row is ``"no_data"`` (skipped like a night without telemetry).
     inputs : collection of str, optional
         Columns exempt from the stuck check (``model.input_columns``: commands and setpoints
         may hold a value for hours). By default every column is checked.
@@ -75,6 +78,12 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
         See :func:`read_raw`, :func:`validate` and :func:`to_grid`.
     """
     validate_asset_id(asset_id)
-    rows = read_rows(root, asset_id, columns, start=start, end=end)
+    extra = [name for name, _, _ in policy.running if name not in columns]
+    rows = read_rows(root, asset_id, [*columns, *extra], start=start, end=end)
+    rows = running_rows(rows, asset_id, policy, channels=rows.channels[:len(rows.channels)
+                                                                       - len(extra)])
+    if len(rows) == 0:
+        raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
+                             f"(grid running)")
     dt_ns = validate_rows(rows, asset_id, policy, inputs)
     return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))

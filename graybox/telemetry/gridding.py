@@ -9,7 +9,7 @@ from graybox.telemetry.layout import NS_PER_SECOND
 from graybox.telemetry.policy import GridPolicy
 from graybox.telemetry.rows import Rows
 from graybox.telemetry.validation import (check_duration, check_order, grid_points, interval_ns,
-                                          operating_points, period_starts)
+                                          operating_points, period_starts, running_rows)
 from graybox.telemetry.window import TelemetryWindow
 
 
@@ -44,7 +44,7 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
         if timestamps are not increasing; ``"too_few_samples"`` if the interval cannot be
         inferred (one row) or the grid covers less than ``policy.min_duration``.
     """
-    rows = Rows.from_frame(raw)
+    rows = running_rows(Rows.from_frame(raw), asset_id, policy)
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", "no telemetry rows to put on a grid")
     check_order(rows, asset_id)  # interpolation needs increasing times

@@ -4,7 +4,7 @@ The rules: docs/design.md section 5.1.
 """
 from __future__ import annotations
 
-from typing import Collection
+from typing import Collection, Sequence
 
 import numpy as np
 import pandas as pd
@@ -20,6 +20,9 @@ _NAT = np.iinfo(np.int64).min
 def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy(),
              inputs: Collection[str] = ()) -> None:
     """Check raw telemetry rows; raise at the first bad row.
+
+    With ``policy.running``, the rows of a stopped machine are dropped first
+    (:func:`running_rows`).
 
     Checks run in this order, each over the whole window, and the first failing check raises
     at its first offending row, naming the file and the 0-based row in that file. ``dt`` is
@@ -61,7 +64,7 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     TelemetryError
         On the first problem found.
     """
-    validate_rows(Rows.from_frame(raw), asset_id, policy, inputs)
+    validate_rows(running_rows(Rows.from_frame(raw), asset_id, policy), asset_id, policy, inputs)
 
 
 def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
@@ -102,6 +105,27 @@ def operating_points(ts: np.ndarray, dt_ns: int, policy: GridPolicy) -> int:
     """Grid points of the rows' operating periods (:func:`grid_points` of each)."""
     bounds = np.append(period_starts(ts, policy, dt_ns), len(ts))
     return sum(grid_points(ts[a:b], dt_ns) for a, b in zip(bounds[:-1], bounds[1:]))
+
+
+def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
+                 channels: Sequence[str] | None = None) -> Rows:
+    """The rows in which the machine runs (``policy.running``), with ``channels`` only.
+
+    A non-finite value of a ``running`` channel is ``"non_finite"`` at its row (whether the
+    machine ran is unknown). Without ``policy.running``: every row.
+    """
+    keep = tuple(rows.channels if channels is None else channels)
+    if not policy.running:
+        return rows if keep == rows.channels else rows.take(slice(None), keep)
+    on = np.ones(len(rows), dtype=bool)
+    for name, low, high in policy.running:
+        v = rows.values[rows.channels.index(name)]
+        if not np.isfinite(v).all():
+            i = int(np.argmax(~np.isfinite(v)))
+            _fail(rows, asset_id, "non_finite",
+                  f"non-finite value in column {name!r}={float(v[i])!r} (a running channel)", i)
+        on &= (v >= low) & (v <= high)
+    return rows.take(on, keep)
 
 
 def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:

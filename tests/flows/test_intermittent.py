@@ -118,3 +118,22 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
     # the fault is in the flow channel's dynamics: both faulty nights alarm there
     flow_nights = {a["window_start"] for a in alerts if a["channel"] == "flow"}
     assert flow_nights == {day(k).isoformat() for k in range(BASELINE_DAYS, DAYS)}
+
+
+def test_intermittent_and_running_load_from_fleet_toml(tmp_path):
+    from flows.config import ConfigError, load_config
+    from flows.config.template import _grid_text
+
+    config = tmp_path / "fleet.toml"
+    text = CONFIG.format(root=tmp_path, db=tmp_path / "m.db")
+    config.write_text(text.replace("{ intermittent = true }",
+                                   "{ intermittent = true, running = { speed = [1, 100] } }"))
+    grid = load_config(config).classes["pump"].grid
+    assert grid.intermittent and grid.running == (("speed", 1.0, 100.0),)
+    assert "intermittent = true" in _grid_text({"intermittent": True})
+    config.write_text(text.replace("{ intermittent = true }", "{ running = { speed = [1] } }"))
+    with pytest.raises(ConfigError, match=r"classes.pump.grid.running: running\['speed'\]"):
+        load_config(config)
+    config.write_text(text.replace("{ intermittent = true }", '{ intermittent = "yes" }'))
+    with pytest.raises(ConfigError, match="classes.pump.grid.intermittent"):
+        load_config(config)

@@ -200,3 +200,40 @@ def test_calibration_pieces_are_cut_from_the_operating_periods():
     # fragments tile the kept periods in time order
     starts = [f.index[0] for f in fragments]
     assert starts == sorted(starts)
+
+
+def test_rows_of_a_stopped_machine_are_pauses_when_running_is_set(tmp_path):
+    """The pump writes rows all day; from 07:00 to 13:00 it stands still (speed 0, every
+    sensor frozen). Read as data that is a stuck sensor; with ``running`` those rows are
+    pauses, and the window is its two operating periods. ``running`` may name a channel
+    outside the model (here a ``motor_on`` flag)."""
+    rng = np.random.default_rng(11)
+    frame = period(T0 + pd.Timedelta(hours=6), 8 * 3600, rng, level=10.0)
+    off = (frame.timestamp >= T0 + pd.Timedelta(hours=7)) & \
+        (frame.timestamp < T0 + pd.Timedelta(hours=13))
+    frame.loc[off, list(PumpLoop.states)] = 0.0
+    frame["motor_on"] = np.where(off, 0.0, 1.0)
+    write_telemetry(tmp_path, "P-1", frame)
+    with pytest.raises(TelemetryError) as info:
+        read_window(tmp_path, "P-1", COLUMNS, policy=INTERMITTENT, inputs=INPUTS)
+    assert info.value.kind == "stuck_channel" and info.value.row == 3600
+    for running in ({"speed": [1.0, 100.0]}, {"motor_on": [0.5, 1.5]}):
+        window = read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS,
+                             policy=GridPolicy(intermittent=True, running=running))
+        assert [len(p) for p in window.periods()] == [3600, 3600]
+        assert list(window.frame.columns) == COLUMNS
+        assert window.periods()[1].index[0] == T0 + pd.Timedelta(hours=13)
+    # a whole window stopped is a night without data, not an error
+    with pytest.raises(TelemetryError) as info:
+        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS, start=T0 + pd.Timedelta(hours=8),
+                    end=T0 + pd.Timedelta(hours=12),
+                    policy=GridPolicy(intermittent=True, running={"motor_on": [0.5, 1.5]}))
+    assert info.value.kind == "no_data"
+    assert GridPolicy(running={"speed": [1.0, 100.0]}).intermittent  # implied
+    # a missing running value is an error naming its row (whether the pump ran is unknown)
+    frame.loc[5, "motor_on"] = np.nan
+    write_telemetry(tmp_path, "P-1", frame)
+    with pytest.raises(TelemetryError) as info:
+        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS,
+                    policy=GridPolicy(intermittent=True, running={"motor_on": [0.5, 1.5]}))
+    assert info.value.kind == "non_finite" and info.value.row == 5
