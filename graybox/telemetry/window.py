@@ -122,7 +122,8 @@ class TelemetryWindow:
         -------
         list of TelemetryWindow
             In time order. Each keeps the grid step; ``filled_samples`` counts the filled
-            points inside it and ``files`` the files its samples were interpolated from.
+            points inside it, ``files`` the files its samples were interpolated from, and
+            its operating periods are those of this window inside it.
         """
         if self._filled_mask is None:
             raise ValueError("this window has filled_samples > 0 but no _filled_mask; "

@@ -1,6 +1,6 @@
-"""A multichannel white box end to end through the command line: four pumps
+"""A multichannel white box end to end through the command line: three pumps
 (``graybox.models:PumpLoop``, four states and two inputs) running continuously at 5 s are
-baselined on days 1-3 (``baseline fit``) and checked on days 4-5 (``run``). From day 4 P-004's
+baselined on days 1-3 (``baseline fit``) and checked on days 4-5 (``run``). From day 4 P-003's
 coolant cools 25 % faster (``A_temperature_temperature`` -0.02 -> -0.025): its temperature
 channel alarms, and no healthy pump alarms.
 """
@@ -15,9 +15,9 @@ import pytest
 from plant_telemetry import pump_period
 
 START = pd.Timestamp("2026-05-01", tz="UTC")
-ASSETS = ["P-001", "P-002", "P-003", "P-004"]
+ASSETS = ["P-001", "P-002", "P-003"]
 BASELINE_DAYS, DAYS = 3, 5
-FAULTY = {"P-004": {"A_temperature_temperature": -0.025}}
+FAULTY = {"P-003": {"A_temperature_temperature": -0.025}}
 CONFIG = """
 [telemetry]
 root = "{root}"
@@ -68,7 +68,7 @@ def test_four_state_two_input_pumps_baseline_and_alarm_in_the_faulty_channel(har
     assert {a["asset_id"]: a["status"] for a in summary["assets"]} == \
         {asset: "ok" for asset in ASSETS}
     alerts = summary["alerts"]
-    assert {a["asset_id"] for a in alerts} == {"P-004"}
+    assert {a["asset_id"] for a in alerts} == {"P-003"}
     nights = {a["window_start"] for a in alerts if a["channel"] == "temperature"}
     assert nights == {day(k).isoformat() for k in range(BASELINE_DAYS, DAYS)}
 
