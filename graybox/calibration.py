@@ -41,13 +41,12 @@ from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
-import pandas as pd
 from scipy import stats
 
 from graybox import records
 from graybox.analysis_rate import decimation_factor
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
-from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.fleet_fit import FitRequest, fit_signatures, window_periods
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock
@@ -224,7 +223,10 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         for k in range(count):
             rest = rests[first + k]
             window = fresh[p].windows[k]
-            for piece in _split(window, calibration_pieces(sig, _length(window), settings)):
+            shortest = max(_piece_need(sig, settings),
+                           int(np.ceil(settings.shortest_period / sig.sample_interval)))
+            for piece in _split(window, calibration_pieces(sig, _length(window), settings),
+                                shortest):
                 piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
                                               warm_start=rest if isinstance(rest, Signature) else sig))
                 owners.append((p, first + k))
@@ -249,6 +251,12 @@ def calibration_pieces(baseline: Signature, n_samples: int, settings: GrayBoxSet
     channel's frozen structure (differencing, AR order, network delays) and
     ``settings.min_samples`` residual samples at the analysis interval.
     """
+    return int(np.clip(n_samples // _piece_need(baseline, settings), 1,
+                       settings.calibration_splits))
+
+
+def _piece_need(baseline: Signature, settings: GrayBoxSettings) -> int:
+    """Telemetry samples a piece needs: every channel's frozen structure plus min_samples."""
     factor = decimation_factor(baseline.analysis_step, baseline.sample_interval)
     need = 0
     for channel in baseline.channels:
@@ -256,18 +264,49 @@ def calibration_pieces(baseline: Signature, n_samples: int, settings: GrayBoxSet
         need = max(need, s.differencing.lost
                    + max(settings.min_samples, s.ar_order + s.embedding_dim * s.tau
                          + settings.min_samples // 2) + 2)
-    return int(np.clip(n_samples // (factor * need), 1, settings.calibration_splits))
+    return factor * need
 
 
 def _length(window) -> int:
-    return len(getattr(window, "frame", window))
+    return sum(len(p) for p in window_periods(window))
 
 
-def _split(window, parts: int) -> list[pd.DataFrame]:
-    """Cut a window into ``parts`` contiguous pieces of (nearly) equal length."""
-    frame = getattr(window, "frame", window)
-    bounds = np.linspace(0, len(frame), parts + 1).round().astype(int)
-    return [frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+def _split(window, parts: int, shortest: int = 1) -> list:
+    """Cut a window into ``parts`` contiguous pieces of (nearly) equal length.
+
+    A window of several operating periods is cut by operating samples, and a piece is the
+    tuple of its periods' fragments. A cut closer than ``shortest`` samples to a period's
+    edge moves to that edge, so no fragment is shorter; periods shorter than ``shortest``
+    are left out.
+    """
+    periods = window_periods(window)
+    if len(periods) > 1:
+        periods = [p for p in periods if len(p) >= shortest]
+        if not periods:
+            return []
+    if len(periods) == 1:
+        frame = periods[0]
+        bounds = np.linspace(0, len(frame), parts + 1).round().astype(int)
+        return [frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+    edges = np.cumsum([0] + [len(p) for p in periods])
+    cuts = []
+    for cut in np.linspace(0, edges[-1], parts + 1).round().astype(int):
+        k = min(int(np.searchsorted(edges, cut, side="right")) - 1, len(periods) - 1)
+        offset = cut - edges[k]
+        if offset < shortest:
+            cut = edges[k]
+        elif edges[k + 1] - cut < shortest:
+            cut = edges[k + 1]
+        cuts.append(int(cut))
+    pieces = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        if b <= a:
+            continue
+        fragments = tuple(period.iloc[max(a, lo) - lo:min(b, hi) - lo]
+                          for period, lo, hi in zip(periods, edges[:-1], edges[1:])
+                          if lo < b and hi > a)
+        pieces.append(fragments)
+    return pieces
 
 
 def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], windows: int,

@@ -40,9 +40,13 @@ class FitRequest:
     Attributes
     ----------
     model : WhiteBoxModel
-    windows : sequence of TelemetryWindow or DataFrame
-        Uniform-grid telemetry; each window is a separate segment (its residual, differences
-        and delays never cross into another window).
+    windows : sequence of TelemetryWindow, DataFrame or sequence of DataFrame
+        Uniform-grid telemetry. Each operating period of each window (a TelemetryWindow's
+        :meth:`~graybox.telemetry.TelemetryWindow.periods`; a sequence of frames is the
+        periods of one window) is a separate segment: its residual, differences and delays
+        never cross into another. In a window of several periods, a period shorter than
+        ``settings.shortest_period`` is left out; a window without any long enough is an
+        error.
     baseline : Signature, optional
         Frozen structure to fit with (a candidate). None fits a new baseline structure.
     warm_start : Signature, optional
@@ -82,12 +86,46 @@ class _Prepared:
     channels: list[_Channel] = field(default_factory=list)
 
 
-def _window_parts(window) -> tuple[pd.DataFrame, float, str | None]:
-    frame = getattr(window, "frame", window)
-    if not isinstance(frame, pd.DataFrame):
-        raise TypeError(f"expected a TelemetryWindow or DataFrame, got {type(window).__name__}")
-    interval = getattr(window, "sample_interval", None) or infer_sample_interval(frame.index)
-    return frame, float(interval), getattr(window, "asset_id", None)
+def window_periods(window) -> list[pd.DataFrame]:
+    """The operating periods of a window: a TelemetryWindow's, a DataFrame as one, or a
+    sequence of DataFrames as given."""
+    if hasattr(window, "periods"):
+        return window.periods()
+    frames = [window] if isinstance(window, pd.DataFrame) else list(window)
+    for frame in frames:
+        if not isinstance(frame, pd.DataFrame):
+            raise TypeError(f"expected a TelemetryWindow, a DataFrame or a sequence of "
+                            f"DataFrames, got {type(frame).__name__}")
+    return frames
+
+
+def _window_parts(window) -> tuple[list[pd.DataFrame], float, str | None]:
+    periods = window_periods(window)
+    if not periods:
+        raise InsufficientDataError("a window without any operating period")
+    interval = getattr(window, "sample_interval", None) or infer_sample_interval(periods[0].index)
+    return periods, float(interval), getattr(window, "asset_id", None)
+
+
+def _operating_segments(parts, settings: GrayBoxSettings, interval: float
+                        ) -> tuple[list[pd.DataFrame], list[int]]:
+    """Every window's periods as segments, with the window each belongs to. In a window of
+    several periods, those shorter than ``settings.shortest_period`` are left out."""
+    frames, owners = [], []
+    for k, (periods, _, _) in enumerate(parts):
+        if len(periods) > 1:
+            kept = [p for p in periods if len(p) * interval >= settings.shortest_period]
+            if not kept:
+                longest = max(len(p) for p in periods) * interval
+                raise InsufficientDataError(
+                    f"window {k} starting {periods[0].index[0].isoformat()}: none of its "
+                    f"{len(periods)} operating periods is long enough to fit (the longest "
+                    f"lasts {longest:g} s; a period needs ar_span + delay_span + "
+                    f"derivative_span = {settings.shortest_period:g} s)")
+            periods = kept
+        frames.extend(periods)
+        owners.extend([k] * len(periods))
+    return frames, owners
 
 
 def _prepare(request: FitRequest, settings: GrayBoxSettings,
@@ -105,7 +143,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
         if abs(baseline.sample_interval - interval) > 1e-9 * interval:
             raise GrayBoxError(f"baseline was sampled every {baseline.sample_interval} s, "
                                f"this telemetry every {interval} s")
-    frames = [frame for frame, _, _ in parts]
+    frames, owners = _operating_segments(parts, settings, interval)
     analysis = analysis_interval(request, settings, frames, interval)
     factor = decimation_factor(analysis, interval)
     window = settings.derivative_window(interval)
@@ -123,7 +161,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
         frozen = None if baseline is None else baseline.channel(name).structure
         with timed(clock, "stationarize_ar"):
             prepared.channels.append(_prepare_channel(name, decimated[name], frozen, settings,
-                                                      analysis, seed=request.seed * 1000 + index))
+                                                      analysis, seed=request.seed * 1000 + index,
+                                                      owners=owners))
     return prepared
 
 
@@ -139,23 +178,36 @@ def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
     return max(1, round(settings.analysis_interval / sample_interval)) * sample_interval
 
 
+def _per_window(lengths: Sequence[int], owners: Sequence[int]) -> np.ndarray:
+    """Sums of per-segment counts per window."""
+    return np.bincount(np.asarray(owners, dtype=np.intp), weights=np.asarray(lengths, float),
+                       minlength=max(owners) + 1).astype(int)
+
+
 def _prepare_channel(name: str, segments: list[np.ndarray], frozen: ChannelStructure | None,
-                     settings: GrayBoxSettings, interval: float, seed: int) -> _Channel:
+                     settings: GrayBoxSettings, interval: float, seed: int,
+                     owners: Sequence[int] | None = None) -> _Channel:
+    # owners[i]: the window of segment i (several segments per window: operating periods);
+    # the sample-count checks below apply to each window's segments together
+    owners = list(range(len(segments))) if owners is None else list(owners)
     selection = None
     if frozen is None:
         choice = choose_differencing(segments, settings.max_diff_order, settings.max_seasonal_order)
         differencing = choice.differencing
     else:
         differencing = frozen.differencing
-    too_short = [i for i, s in enumerate(segments) if len(s) <= differencing.lost + settings.min_samples]
+    lost = differencing.lost
+    usable = _per_window([max(0, len(s) - lost) for s in segments], owners)
+    too_short = [k for k, n in enumerate(usable) if n <= settings.min_samples]
     if too_short:
-        shortest = min(len(segments[i]) for i in too_short)
+        shortest = min(usable[k] for k in too_short) + lost
         raise InsufficientDataError(
             f"channel {name!r}: window(s) {too_short} have {shortest} residual samples at the "
             f"{interval:g}-s analysis interval; the method needs more than {differencing.lost} "
             f"for differencing plus min_samples = {settings.min_samples}: use longer windows "
             f"([nightly] window) or lower min_samples in the class's settings")
-    y = [differencing.apply(s) for s in segments]
+    # a segment too short to difference contributes nothing
+    y = [differencing.apply(s) if len(s) > lost else s[:0] for s in segments]
     if frozen is None:
         pooled = np.concatenate(y)
         center, scale = float(pooled.mean()), float(pooled.std())
@@ -188,9 +240,10 @@ def _prepare_channel(name: str, segments: list[np.ndarray], frozen: ChannelStruc
     else:
         structure = frozen
     span = structure.embedding_dim * structure.tau
-    if min(len(s) for s in w) <= span + settings.min_samples // 2:
+    pairs = _per_window([max(0, len(s) - span) for s in w], owners)
+    if pairs.min() <= settings.min_samples // 2:
         raise InsufficientDataError(
-            f"channel {name!r}: {min(len(s) for s in w)} samples are too few for the network's "
+            f"channel {name!r}: {int(pairs.min()) + span} samples are too few for the network's "
             f"{structure.embedding_dim} delays of {structure.tau} plus min_samples / 2 = "
             f"{settings.min_samples // 2}: use longer windows or lower min_samples")
     return _Channel(name, structure, linear, w, n_samples, selection)

@@ -125,6 +125,12 @@ class GrayBoxSettings:
         """The largest embedding delay tried at ``interval`` seconds."""
         return self.samples(self.delay_span, interval)
 
+    @property
+    def shortest_period(self) -> float:
+        """Seconds an operating period must last to be fitted, in a window of several
+        periods: ``ar_span + delay_span + derivative_span`` (shorter ones are left out)."""
+        return self.ar_span + self.delay_span + self.derivative_span
+
     def derivative_window(self, interval: float, polyorder: int = 3) -> int:
         """The odd Savitzky-Golay window covering about ``derivative_span`` at ``interval``."""
         half = int(self.derivative_span / (2 * interval))

@@ -90,6 +90,12 @@ def _grid_text(overrides: Mapping[str, Any] | None) -> str:
         bounds = ", ".join(f"{_toml_key(name)} = [{low!r}, {high!r}]"
                            for name, low, high in policy.ranges)
         parts.append(f"ranges = {{ {bounds} }}")
+    if policy.intermittent:
+        parts.append("intermittent = true")
+    if policy.running:
+        bounds = ", ".join(f"{_toml_key(name)} = [{low!r}, {high!r}]"
+                           for name, low, high in policy.running)
+        parts.append(f"running = {{ {bounds} }}")
     return ", ".join(parts)
 
 

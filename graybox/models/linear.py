@@ -79,3 +79,29 @@ class DriveTrain(LinearStateSpace):
         B=[[0.02],
            [0.0]],
     )
+
+
+class PumpLoop(LinearStateSpace):
+    """A pump in a cooling loop under pressure control, linearized: a four-state,
+    two-input example model.
+
+    States: ``speed`` (pump speed, rad/s), ``flow`` (m3/h), ``pdisch`` (discharge pressure,
+    bar) and ``temperature`` (coolant temperature, degC). Inputs: ``pdisch_setpoint`` (the
+    discharge-pressure setpoint, bar, which the controller raises the speed towards: it
+    holds for minutes at a time) and ``inlet_temperature`` (degC). The speed loop settles
+    in about 5 s, flow and pressure in 2-3 s, the temperature in about a minute.
+    """
+
+    states = ("speed", "flow", "pdisch", "temperature")
+    inputs = ("pdisch_setpoint", "inlet_temperature")
+    default_parameters = linear_parameters(
+        states, inputs,
+        A=[[-0.2, 0.0, -0.3, 0.0],
+           [0.5, -0.5, 0.0, 0.0],
+           [0.4, -0.3, -0.5, 0.0],
+           [0.0, 0.01, 0.0, -0.02]],
+        B=[[0.3, 0.0],
+           [0.0, 0.0],
+           [0.0, 0.0],
+           [0.0, 0.02]],
+    )

@@ -18,7 +18,9 @@ The path from store to model input is::
 ``read_raw`` returns the rows as stored, each tagged with its file and 0-based row, so that
 ``validate`` can name the file and row of the first bad sample (docs/design.md section 5.1).
 ``to_grid`` puts the validated rows on the uniform grid the tiers assume. The limits of
-:class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples.
+:class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples. An
+intermittent asset (``GridPolicy.intermittent``, ``running``) has windows made of operating
+periods, each on its own grid (docs/design.md section 4.11).
 
 Modules: :mod:`~graybox.telemetry.layout` (asset ids, partitions), ``reading``,
 ``policy`` (:class:`GridPolicy`), ``validation``, ``gridding``, ``window``
@@ -33,7 +35,8 @@ from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
                                       validate_asset_id)
 from graybox.telemetry.policy import GridPolicy, duration_seconds
 from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
-from graybox.telemetry.validation import validate, validate_rows
+from graybox.exceptions import TelemetryError
+from graybox.telemetry.validation import period_starts, running_rows, validate, validate_rows
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
@@ -58,7 +61,9 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     start, end : timestamp-like, optional
         Half-open range; naive values are UTC.
     policy : GridPolicy, optional
-        Validation limits and grid step.
+        Validation limits and grid step; with ``running``, the rows of a stopped machine are
+        dropped first (its ``running`` channels are read too), and a window without a
+        running row is ``"no_data"`` (skipped like a night without telemetry).
     inputs : collection of str, optional
         Columns exempt from the stuck check (``model.input_columns``: commands and setpoints
         may hold a value for hours). By default every column is checked.
@@ -75,6 +80,12 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
         See :func:`read_raw`, :func:`validate` and :func:`to_grid`.
     """
     validate_asset_id(asset_id)
-    rows = read_rows(root, asset_id, columns, start=start, end=end)
+    extra = [name for name, _, _ in policy.running if name not in columns]
+    rows = read_rows(root, asset_id, [*columns, *extra], start=start, end=end)
+    rows = running_rows(rows, asset_id, policy, channels=rows.channels[:len(rows.channels)
+                                                                       - len(extra)])
+    if len(rows) == 0:
+        raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
+                             f"(grid running)")
     dt_ns = validate_rows(rows, asset_id, policy, inputs)
-    return grid_rows(rows, asset_id, dt_ns)
+    return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))

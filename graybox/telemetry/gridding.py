@@ -8,7 +8,8 @@ from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND
 from graybox.telemetry.policy import GridPolicy
 from graybox.telemetry.rows import Rows
-from graybox.telemetry.validation import check_duration, check_order, grid_points, interval_ns
+from graybox.telemetry.validation import (check_duration, check_order, grid_points, interval_ns,
+                                          operating_points, period_starts, running_rows)
 from graybox.telemetry.window import TelemetryWindow
 
 
@@ -19,7 +20,8 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
     to the last raw timestamp (no extrapolation). Values at grid points are interpolated
     linearly in time between the raw samples around them, which also absorbs timestamp
     jitter. Grid points with no raw sample within ``dt / 2`` lie in a (short) gap and are
-    counted in ``filled_samples``.
+    counted in ``filled_samples``. With ``policy.intermittent``, each operating period (rows
+    between pauses longer than ``max_gap``) gets its own grid, from its first row to its last.
 
     Parameters
     ----------
@@ -28,7 +30,8 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
     asset_id : str
         The asset.
     policy : GridPolicy, optional
-        ``sample_interval`` (``None``: median raw step) and ``min_duration`` are used.
+        ``sample_interval`` (``None``: median raw step), ``min_duration``, and with
+        ``intermittent`` also ``max_gap``, are used.
 
     Returns
     -------
@@ -41,7 +44,7 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
         if timestamps are not increasing; ``"too_few_samples"`` if the interval cannot be
         inferred (one row) or the grid covers less than ``policy.min_duration``.
     """
-    rows = Rows.from_frame(raw)
+    rows = running_rows(Rows.from_frame(raw), asset_id, policy)
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", "no telemetry rows to put on a grid")
     check_order(rows, asset_id)  # interpolation needs increasing times
@@ -50,12 +53,34 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
                              "1 sample(s) in the window: two are needed to infer the "
                              "sample interval")
     dt_ns = interval_ns(rows.ts, policy)
-    check_duration(asset_id, grid_points(rows.ts, dt_ns), dt_ns, policy)
-    return grid_rows(rows, asset_id, dt_ns)
+    check_duration(asset_id, operating_points(rows.ts, dt_ns, policy), dt_ns, policy)
+    return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))
 
 
-def grid_rows(rows: Rows, asset_id: str, dt_ns: int) -> TelemetryWindow:
-    """:func:`to_grid` on validated, increasing :class:`Rows` at a step of ``dt_ns``."""
+def grid_rows(rows: Rows, asset_id: str, dt_ns: int, starts: np.ndarray | None = None
+              ) -> TelemetryWindow:
+    """:func:`to_grid` on validated, increasing :class:`Rows` at a step of ``dt_ns``; each
+    operating period (rows from ``starts[i]`` on; default: one period) on its own grid."""
+    if starts is None or len(starts) < 2:
+        return _grid_period(rows, asset_id, dt_ns)
+    bounds = np.append(starts, len(rows))
+    parts = [_grid_period(rows.slice(a, b), asset_id, dt_ns)
+             for a, b in zip(bounds[:-1], bounds[1:])]
+    sizes = [part.n_samples for part in parts]
+    span = None
+    if rows.file_index is not None:
+        span = np.concatenate([part._file_span for part in parts])
+    return TelemetryWindow(
+        asset_id=asset_id, frame=pd.concat([part.frame for part in parts]),
+        sample_interval=dt_ns / NS_PER_SECOND,
+        filled_samples=sum(part.filled_samples for part in parts),
+        files=rows.files if rows.file_index is not None else (),
+        _filled_mask=np.concatenate([part._filled_mask for part in parts]), _file_span=span,
+        _period_starts=np.cumsum([0] + sizes[:-1]))
+
+
+def _grid_period(rows: Rows, asset_id: str, dt_ns: int) -> TelemetryWindow:
+    """Rows without a pause on one grid (file spans index ``rows.files``)."""
     ts = rows.ts
     n = len(ts)
     n_grid = grid_points(ts, dt_ns)

@@ -124,6 +124,20 @@ class GridPolicy:
         of 98 % of the samples is the channel's own scale, unaffected by a few wild samples;
         a thousand times it is far beyond any physical excursion of a monitored process, but
         a corrupt sample (1e10) would dominate every least-squares fit. ``0`` disables it.
+    intermittent : bool, default False
+        The asset runs in operating periods (a few hours a day, say). ``True``: a time
+        between rows longer than ``max_gap`` ends one operating period and starts the next
+        instead of being an error (kind ``"gap"``); each period is gridded on its own (no
+        interpolation across a pause), a value held across a pause does not count as stuck,
+        and ``min_duration`` counts the operating time. The fits never let a residual,
+        difference or delay span a pause (:meth:`TelemetryWindow.periods`).
+    running : mapping of str to (low, high), optional
+        When the machine runs, for assets that write rows while stopped, e.g.
+        ``{"speed": [50, 5000]}``: rows with a listed channel outside its ``[low, high]`` are
+        the machine off and are dropped before the other checks (their values are not data;
+        a sensor frozen while stopped is not stuck), so they become pauses: ``running``
+        implies ``intermittent``. A listed channel need not be a model variable (it is read as
+        well); a non-finite value in it is an error (kind ``"non_finite"``).
 
     Raises
     ------
@@ -137,8 +151,15 @@ class GridPolicy:
     min_duration: float = 3600.0
     ranges: tuple[tuple[str, float, float], ...] = ()
     plausible_spread: float = 1000.0
+    intermittent: bool = False
+    running: tuple[tuple[str, float, float], ...] = ()
 
     def __post_init__(self):
+        if not isinstance(self.intermittent, bool):
+            raise ValueError(f"intermittent must be true or false, got {self.intermittent!r}")
+        object.__setattr__(self, "running", _ranges(self.running, "running"))
+        if self.running:  # the rows of a stopped machine are pauses between periods
+            object.__setattr__(self, "intermittent", True)
         if self.sample_interval is not None:
             interval = duration_seconds(self.sample_interval, "sample_interval")
             if interval <= 0:
@@ -187,22 +208,22 @@ def _stuck_limits(value) -> float | tuple[tuple[str, float], ...]:
     return tuple(sorted(limits.items()))
 
 
-def _ranges(value) -> tuple[tuple[str, float, float], ...]:
+def _ranges(value, what: str = "ranges") -> tuple[tuple[str, float, float], ...]:
     """A mapping channel -> (low, high) (or its stored tuple of triples) as sorted triples."""
     if isinstance(value, tuple) and all(isinstance(t, tuple) and len(t) == 3 for t in value):
         value = {name: (low, high) for name, low, high in value}
     if not isinstance(value, Mapping):
-        raise ValueError(f"ranges must map channel names to [low, high], got {value!r}")
+        raise ValueError(f"{what} must map channel names to [low, high], got {value!r}")
     out = []
     for channel, bounds in value.items():
         if not isinstance(channel, str) or not channel:
-            raise ValueError(f"ranges keys must be channel names, got {channel!r}")
+            raise ValueError(f"{what} keys must be channel names, got {channel!r}")
         try:
             low, high = (float(b) for b in bounds)
         except (TypeError, ValueError):
-            raise ValueError(f"ranges[{channel!r}] must be [low, high], got {bounds!r}") from None
+            raise ValueError(f"{what}[{channel!r}] must be [low, high], got {bounds!r}") from None
         if not (math.isfinite(low) and math.isfinite(high) and low < high):
-            raise ValueError(f"ranges[{channel!r}] must be finite with low < high, got "
+            raise ValueError(f"{what}[{channel!r}] must be finite with low < high, got "
                              f"{bounds!r}")
         out.append((channel, low, high))
     return tuple(sorted(out))

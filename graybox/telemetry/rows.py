@@ -51,6 +51,22 @@ class Rows:
         file = None if self.file_index is None else self.files[int(self.file_index[i])]
         return file, int(i) if self.file_row is None else int(self.file_row[i])
 
+    def take(self, index: np.ndarray, channels: tuple[str, ...] | None = None) -> "Rows":
+        """The rows at ``index`` (positions or a mask), with only ``channels`` if given."""
+        keep = list(range(len(self.channels))) if channels is None else \
+            [self.channels.index(c) for c in channels]
+        return Rows(self.ts[index], self.values[keep][:, index],
+                    self.channels if channels is None else tuple(channels), self.files,
+                    None if self.file_index is None else self.file_index[index],
+                    None if self.file_row is None else self.file_row[index])
+
+    def slice(self, start: int, stop: int) -> "Rows":
+        """Rows ``start`` to ``stop - 1``, still tagged against all of ``files``."""
+        part = np.s_[start:stop]
+        return Rows(self.ts[part], self.values[:, part], self.channels, self.files,
+                    None if self.file_index is None else self.file_index[part],
+                    None if self.file_row is None else self.file_row[part])
+
     @classmethod
     def from_frame(cls, raw: pd.DataFrame) -> "Rows":
         """Rows of a frame as :func:`read_raw` returns it (``_file``/``_row`` optional)."""

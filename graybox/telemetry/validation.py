@@ -4,7 +4,7 @@ The rules: docs/design.md section 5.1.
 """
 from __future__ import annotations
 
-from typing import Collection
+from typing import Collection, Sequence
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,9 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
              inputs: Collection[str] = ()) -> None:
     """Check raw telemetry rows; raise at the first bad row.
 
+    With ``policy.running``, the rows of a stopped machine are dropped first
+    (:func:`running_rows`).
+
     Checks run in this order, each over the whole window, and the first failing check raises
     at its first offending row, naming the file and the 0-based row in that file. ``dt`` is
     the sample interval (``policy.sample_interval`` or the median raw step); times between
@@ -36,9 +39,11 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
        ``policy.stuck_after`` (two or more identical consecutive samples), reported at the
        first row of the run;
     4. ``"gap"``: two consecutive rows more than ``policy.max_gap`` apart, reported at the
-       row after the gap;
+       row after the gap (with ``policy.intermittent`` such a pause separates two operating
+       periods instead, and a value held across it is not stuck);
     5. ``"too_few_samples"``: the rows cover less than ``policy.min_duration`` (first to last
-       row plus one interval), or there is one row and no ``sample_interval`` (no file or row).
+       row plus one interval; with ``policy.intermittent`` the sum over operating periods),
+       or there is one row and no ``sample_interval`` (no file or row).
 
     Parameters
     ----------
@@ -59,7 +64,7 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     TelemetryError
         On the first problem found.
     """
-    validate_rows(Rows.from_frame(raw), asset_id, policy, inputs)
+    validate_rows(running_rows(Rows.from_frame(raw), asset_id, policy), asset_id, policy, inputs)
 
 
 def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
@@ -75,8 +80,52 @@ def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collect
     dt_ns = interval_ns(rows.ts, policy)
     _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
     _check_gaps(rows, asset_id, policy, dt_ns)
-    check_duration(asset_id, grid_points(rows.ts, dt_ns), dt_ns, policy)
+    check_duration(asset_id, operating_points(rows.ts, dt_ns, policy), dt_ns, policy)
     return dt_ns
+
+
+def pauses(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
+    """Per step between consecutive rows: True where it is longer than ``policy.max_gap``
+    (a ``"gap"``, or with ``policy.intermittent`` a pause between operating periods)."""
+    # the longest step allowed, in whole intervals; consecutive samples are always fine
+    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
+    # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
+    return np.diff(ts) >= allowed * dt_ns + (dt_ns + 1) // 2
+
+
+def period_starts(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
+    """First row of every operating period: 0, and with ``policy.intermittent`` each row
+    after a pause (continuous telemetry is one period)."""
+    if not policy.intermittent or len(ts) < 2:
+        return np.zeros(1, dtype=np.intp)
+    return np.concatenate([[0], np.flatnonzero(pauses(ts, policy, dt_ns)) + 1])
+
+
+def operating_points(ts: np.ndarray, dt_ns: int, policy: GridPolicy) -> int:
+    """Grid points of the rows' operating periods (:func:`grid_points` of each)."""
+    bounds = np.append(period_starts(ts, policy, dt_ns), len(ts))
+    return sum(grid_points(ts[a:b], dt_ns) for a, b in zip(bounds[:-1], bounds[1:]))
+
+
+def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
+                 channels: Sequence[str] | None = None) -> Rows:
+    """The rows in which the machine runs (``policy.running``), with ``channels`` only.
+
+    A non-finite value of a ``running`` channel is ``"non_finite"`` at its row (whether the
+    machine ran is unknown). Without ``policy.running``: every row.
+    """
+    keep = tuple(rows.channels if channels is None else channels)
+    if not policy.running:
+        return rows if keep == rows.channels else rows.take(slice(None), keep)
+    on = np.ones(len(rows), dtype=bool)
+    for name, low, high in policy.running:
+        v = rows.values[rows.channels.index(name)]
+        if not np.isfinite(v).all():
+            i = int(np.argmax(~np.isfinite(v)))
+            _fail(rows, asset_id, "non_finite",
+                  f"non-finite value in column {name!r}={float(v[i])!r} (a running channel)", i)
+        on &= (v >= low) & (v <= high)
+    return rows.take(on, keep)
 
 
 def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:
@@ -190,20 +239,28 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
     if n < 2:
         return
     best = None  # (first row, channel, samples, held ns, limit s)
+    paused = pauses(ts, policy, dt_ns) if policy.intermittent else None
     for j, name in enumerate(rows.channels):
         limit = policy.stuck_limit(name)
         if name in inputs or limit == 0:
             continue
         v = rows.values[j]
         same = v[1:] == v[:-1]
+        if policy.intermittent:
+            same &= ~paused  # a value held across a pause is not stuck
         if not same.any():  # the usual sensor: no two equal neighbours
             continue
         # runs of True in ``same``: samples starts[r] .. ends[r] hold one value
         edges = np.diff(same.view(np.int8), prepend=0, append=0)
         starts = np.flatnonzero(edges == 1)
         ends = np.flatnonzero(edges == -1)
-        # a value holds until the next sample (or the end of the last interval)
-        until = np.where(ends + 1 < n, ts[np.minimum(ends + 1, n - 1)], ts[-1] + dt_ns)
+        # a value holds until the next sample (or the end of the last interval, or of its
+        # operating period)
+        nxt = np.minimum(ends + 1, n - 1)
+        until = np.where(ends + 1 < n, ts[nxt], ts[-1] + dt_ns)
+        if paused is not None:
+            cut = (ends + 1 < n) & paused[np.minimum(ends, n - 2)]
+            until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
         long = np.flatnonzero(held >= limit_intervals(limit, dt_ns))
         if long.size and (best is None or starts[long[0]] < best[0]):
@@ -220,13 +277,10 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
 
 def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:
     ts = rows.ts
-    if len(ts) < 2:
+    if len(ts) < 2 or policy.intermittent:
         return
-    # the longest step allowed, in whole intervals; consecutive samples are always fine
-    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
     steps = np.diff(ts)
-    # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
-    too_long = steps >= allowed * dt_ns + (dt_ns + 1) // 2
+    too_long = pauses(ts, policy, dt_ns)
     if not too_long.any():
         return
     i = int(np.argmax(too_long)) + 1

@@ -28,6 +28,12 @@ class TelemetryWindow:
         step). Points interpolated between jittered raw samples are not counted.
     files : tuple of str
         The files whose rows make up the window, in read order.
+
+    Notes
+    -----
+    An intermittent asset's window (``GridPolicy.intermittent``) holds its operating periods
+    one after another, each on its own uniform grid; :meth:`periods` gives them apart. A
+    continuous window is one period.
     """
 
     asset_id: str
@@ -40,6 +46,8 @@ class TelemetryWindow:
     # per grid point: indexes into files of the raw samples bracketing it (lets split name
     # the files each sub-window was made from)
     _file_span: np.ndarray | None = field(repr=False, compare=False, default=None)
+    # first grid point of each operating period (None: one period, the whole frame)
+    _period_starts: np.ndarray | None = field(repr=False, compare=False, default=None)
 
     def __post_init__(self):
         index = self.frame.index
@@ -55,12 +63,19 @@ class TelemetryWindow:
                 raise ValueError("_filled_mask does not match the frame or filled_samples")
         if self._file_span is not None and self._file_span.shape != (n, 2):
             raise ValueError("_file_span must have shape (n_samples, 2)")
+        if self._period_starts is not None:
+            starts = np.asarray(self._period_starts, dtype=np.intp)
+            if not (len(starts) and starts[0] == 0 and np.all(np.diff(starts) > 0)
+                    and starts[-1] < n):
+                raise ValueError("_period_starts must be increasing positions from 0")
+            object.__setattr__(self, "_period_starts", starts)
 
     def __repr__(self) -> str:
         return (f"TelemetryWindow(asset_id={self.asset_id!r}, start={self.start.isoformat()!r}, "
                 f"end={self.end.isoformat()!r}, n_samples={self.n_samples}, "
                 f"channels={list(self.frame.columns)!r}, sample_interval={self.sample_interval:g}, "
-                f"filled_samples={self.filled_samples}, files={len(self.files)})")
+                f"filled_samples={self.filled_samples}, files={len(self.files)}"
+                + (f", periods={self.n_periods})" if self.n_periods > 1 else ")"))
 
     @property
     def start(self) -> pd.Timestamp:
@@ -77,6 +92,21 @@ class TelemetryWindow:
         """Number of grid points."""
         return len(self.frame)
 
+    @property
+    def n_periods(self) -> int:
+        """Number of operating periods (1 for continuous telemetry)."""
+        return 1 if self._period_starts is None else len(self._period_starts)
+
+    def periods(self) -> list[pd.DataFrame]:
+        """The frame of each operating period, in time order, each on a uniform grid.
+
+        Residuals, differences, delays and calibration pieces never span two periods.
+        """
+        if self._period_starts is None:
+            return [self.frame]
+        bounds = np.append(self._period_starts, len(self.frame))
+        return [self.frame.iloc[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
     def split(self, period: str = "1D", min_samples: int = 1) -> list["TelemetryWindow"]:
         """Cut the window into consecutive sub-windows aligned to ``period`` boundaries.
 
@@ -92,7 +122,8 @@ class TelemetryWindow:
         -------
         list of TelemetryWindow
             In time order. Each keeps the grid step; ``filled_samples`` counts the filled
-            points inside it and ``files`` the files its samples were interpolated from.
+            points inside it, ``files`` the files its samples were interpolated from, and
+            its operating periods are those of this window inside it.
         """
         if self._filled_mask is None:
             raise ValueError("this window has filled_samples > 0 but no _filled_mask; "
@@ -112,8 +143,13 @@ class TelemetryWindow:
                 used = np.unique(span)
                 files = tuple(self.files[i] for i in used)
                 span = np.searchsorted(used, span)  # re-index into the sub-window's files
+            starts = None
+            if self._period_starts is not None:
+                inside = self._period_starts[(self._period_starts > a) & (self._period_starts < b)]
+                starts = np.concatenate([[0], inside - a]) if len(inside) else None
             windows.append(TelemetryWindow(
                 asset_id=self.asset_id, frame=self.frame.iloc[a:b].copy(),
                 sample_interval=self.sample_interval, filled_samples=int(mask.sum()),
-                files=files, _filled_mask=mask.copy(), _file_span=span))
+                files=files, _filled_mask=mask.copy(), _file_span=span,
+                _period_starts=starts))
         return windows

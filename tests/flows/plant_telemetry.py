@@ -1,0 +1,76 @@
+"""Telemetry of a linear white box's true plant, for the flow tests of multichannel and
+intermittent assets.
+
+The plant is the model's own ``dx/dt = A x + B u`` plus white process noise, integrated
+exactly over each sample with the inputs linear between samples (the first-order hold the
+one-step residual assumes), then observed with white sensor noise. Inputs are not noisy:
+the setpoint is a command, held for minutes at a time.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy.linalg import expm
+
+from graybox.models import LinearStateSpace
+
+
+def discretize(model: LinearStateSpace, dt: float, process_std) -> tuple:
+    """``(Phi, Gamma0, Gamma1, chol(Q))`` of ``x[k+1] = Phi x[k] + Gamma0 u[k] +
+    Gamma1 (u[k+1] - u[k]) / dt + w[k]``, ``w ~ N(0, Q)`` (Van Loan)."""
+    A, B = model.A, model.B
+    n, m = B.shape
+    block = np.zeros((n + 2 * m, n + 2 * m))
+    block[:n, :n], block[:n, n:n + m] = A, B
+    block[n:n + m, n + m:] = np.eye(m)
+    E = expm(block * dt)
+    phi, gamma0, gamma1 = E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+    qc = np.diag(np.asarray(process_std, float) ** 2)
+    loan = expm(np.block([[-A, qc], [np.zeros((n, n)), A.T]]) * dt)
+    q = loan[n:, n:].T @ loan[:n, n:]
+    return phi, gamma0, gamma1, np.linalg.cholesky((q + q.T) / 2)
+
+
+def simulate(model: LinearStateSpace, u: np.ndarray, dt: float, process_std, sensor_std,
+             rng: np.random.Generator) -> np.ndarray:
+    """Observed states (T, n_states) under inputs ``u`` (T, n_inputs), from equilibrium."""
+    phi, gamma0, gamma1, chol = discretize(model, dt, process_std)
+    x = -np.linalg.solve(model.A, model.B @ u[0])
+    du = np.diff(u, axis=0, append=u[-1:]) / dt
+    drive = u @ gamma0.T + du @ gamma1.T
+    noise = rng.standard_normal((len(u), len(x))) @ chol.T
+    out = np.empty((len(u), len(x)))
+    for k in range(len(u)):
+        out[k] = x
+        x = phi @ x + drive[k] + noise[k]
+    return out + rng.standard_normal(out.shape) * np.asarray(sensor_std, float)
+
+
+def holds(n: int, dt: float, rng: np.random.Generator, low: float, high: float,
+          shortest: float, longest: float) -> np.ndarray:
+    """A setpoint that holds each value for ``shortest`` to ``longest`` seconds."""
+    values = np.empty(n)
+    i = 0
+    while i < n:
+        length = int(rng.uniform(shortest, longest) / dt)
+        values[i:i + length] = round(rng.uniform(low, high), 2)
+        i += length
+    return values
+
+
+def pump_period(model: LinearStateSpace, start: pd.Timestamp, seconds: float, dt: float,
+                rng: np.random.Generator, longest_hold: float = 900.0) -> pd.DataFrame:
+    """One operating period of a :class:`~graybox.models.PumpLoop`: the pressure setpoint
+    held 5 to ``longest_hold / 60`` minutes at a time, a slowly varying inlet temperature."""
+    n = int(seconds / dt)
+    t = np.arange(n) * dt
+    day_seconds = ((start - start.normalize()).total_seconds() + t)
+    setpoint = holds(n, dt, rng, 4.0, 8.0, 300.0, longest_hold)
+    inlet = 18.0 + 4.0 * np.sin(2 * np.pi * day_seconds / 86_400.0)
+    u = np.column_stack([setpoint, inlet])
+    x = simulate(model, u, dt, process_std=[0.05, 0.05, 0.02, 0.01],
+                 sensor_std=[0.01, 0.01, 0.005, 0.005], rng=rng)
+    frame = pd.DataFrame(x, columns=list(model.states))
+    frame["pdisch_setpoint"], frame["inlet_temperature"] = setpoint, inlet
+    frame.insert(0, "timestamp", start + pd.to_timedelta(t, unit="s"))
+    return frame
