@@ -18,10 +18,8 @@ batches (which may run on many hosts) write nothing else. After every batch,
    channel, tier; :func:`flows.alerts.export_alerts`),
 
 so the file holds the run's alerts and those of an interrupted earlier run of the same
-windows. A run interrupted after its last watermark and before the export leaves the file
-behind the registry; the next run finds that run orphaned (:mod:`flows.run_guard`) and so
-exports from the earliest watermark minus ``[nightly] lookback`` too, even when every asset
-is up to date (``fleet-health alerts --export`` writes any range by hand).
+windows; a run interrupted after its last watermark and before the export leaves the file
+behind the registry until ``fleet-health alerts --export`` (or a later run of those windows).
 
 The watermark means "every window before it that had telemetry when a run passed it was
 analysed"; it only moves forward. Telemetry that arrives later (a day's partition uploaded
@@ -274,13 +272,8 @@ def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], 
 
 def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
                 as_of=None, assets: Sequence[str] | None = None,
-                vehicle_class: str | None = None, after_interrupted_run: bool = False
-                ) -> RunSummary:
-    """The nightly pass as plain Python calling the batch task (the flow's body).
-
-    ``after_interrupted_run``: an earlier run was found orphaned, so the alerts export also
-    covers the look-back before the watermarks (what that run may not have exported).
-    """
+                vehicle_class: str | None = None) -> RunSummary:
+    """The nightly pass as plain Python calling the batch task (the flow's body)."""
     as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
                 else pd.Timestamp.now(tz="UTC"))
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
@@ -289,30 +282,24 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
                              (config_path, tracking_uri, as_of_ts.isoformat()),
                              f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
                              vehicle_class)
-    export_night_alerts(config, summary, after_interrupted_run)
+    export_night_alerts(config, summary)
     return summary
 
 
-def export_since(summary: RunSummary, lookback: pd.Timedelta | None = None
-                 ) -> pd.Timestamp | None:
+def export_since(summary: RunSummary) -> pd.Timestamp | None:
     """Where the run started: the earliest of its windows' starts and of the watermarks of
-    the assets it fitted or failed (None when it fitted nothing). With ``lookback`` (after
-    an interrupted run), also the earliest watermark of any asset minus ``lookback``."""
+    the assets it fitted or failed (None when it fitted nothing)."""
     starts = [utc(w.window_start) for a in summary.assets for w in a.windows]
     starts += [utc(a.watermark_before) for a in summary.assets
                if a.watermark_before is not None and (a.windows or a.status == FAILED)]
-    if lookback is not None:
-        starts += [utc(mark) - lookback for a in summary.assets
-                   for mark in (a.watermark_before, a.watermark_after) if mark is not None]
     return min(starts) if starts else None
 
 
-def export_night_alerts(config: FleetConfig, summary: RunSummary,
-                        after_interrupted_run: bool = False) -> None:
+def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
     """Step 3 of the module docstring: the registry's alerts since the run's start, and the
     run's staleness alerts (which are not recorded in the registry: every run finds them again
     from the telemetry), into the JSON-lines file (in the flow's own process, after every
-    batch). After an interrupted run, from the look-back before the watermarks too.
+    batch).
 
     Raises
     ------
@@ -320,8 +307,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary,
         When the export fails; the night itself is committed in the registry, and
         ``fleet-health alerts --export`` writes the file again.
     """
-    since = export_since(summary, config.nightly.lookback_delta if after_interrupted_run
-                         else None)
+    since = export_since(summary)
     stale = [alert for a in summary.assets for alert in a.alerts if alert.kind == STALE_KIND]
     if since is None and not stale:
         return
@@ -371,7 +357,6 @@ def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "nightly") as guarded:
         summary = guarded.annotate(run_nightly(config, config_path, tracking_uri, as_of,
-                                               assets, vehicle_class,
-                                               after_interrupted_run=bool(guarded.orphans)))
+                                               assets, vehicle_class))
         publish_or_note(summary, config)      # the fleet heat map; never fails the night
     return flow_result(summary, config)

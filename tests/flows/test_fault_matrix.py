@@ -541,6 +541,8 @@ def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, coun
     it (those against the old one give the uninterrupted run's zetas), the alias ends where
     the promotion put it, nothing is recorded twice, the watermarks are those of a clean run,
     and the next run compares against the new baseline."""
+    from registry.store import file_lock
+
     asset, nights = "T-001", DAYS - BASELINE_DAYS
     old = workspace.registry().baseline(asset).version
     status, out, err = run(capsys, "--config", str(workspace.config), "baseline", "fit", asset,
@@ -553,21 +555,24 @@ def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, coun
     assert new != old and summary.candidate.calibrated and summary.baseline.version == old
     before = count(registry)
 
-    process = _start_cli(workspace, "run", "--as-of", day(DAYS - 1).isoformat(), "--json")
-    deadline = time.monotonic() + 600
-    while True:           # promote once the run has recorded a first candidate
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline
-        connection = sqlite3.connect(workspace.db)
-        (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
-        connection.close()
-        if versions > before["versions"]:
-            break
-        time.sleep(0.02)
-    status, out, err = run(capsys, "--config", str(workspace.config), "baseline", "promote",
-                           asset, "--version", str(new), "--reason", "refit on days 1-4")
-    assert status == 0, err
-    assert process.poll() is None, "the run ended before the promotion: nothing was tested"
+    # the run cannot end before the promotion: its alerts export waits for this lock
+    with file_lock(workspace.alerts.with_name(workspace.alerts.name + ".lock"), timeout=5):
+        process = _start_cli(workspace, "run", "--as-of", day(DAYS - 1).isoformat(), "--json")
+        deadline = time.monotonic() + 600
+        while True:           # promote once the run has recorded a first candidate
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline
+            connection = sqlite3.connect(workspace.db)
+            (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
+            connection.close()
+            if versions > before["versions"]:
+                break
+            time.sleep(0.02)
+        status, out, err = run(capsys, "--config", str(workspace.config), "baseline",
+                               "promote", asset, "--version", str(new), "--reason",
+                               "refit on days 1-4")
+        assert status == 0, err
+        assert process.poll() is None
     out, err = process.communicate(timeout=900)
     assert process.returncode == 0, err
     during = json.loads(out)
@@ -597,4 +602,8 @@ def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, coun
     assert registry.baseline(asset).version == new
     assert count(registry)["versions"] == before["versions"] + nights * len(ASSETS)
     assert {registry.watermark(a) for a in ASSETS} == {day(DAYS)}
-    assert _alert_lines(workspace.alerts) == sorted(set(_alert_lines(workspace.alerts)))
+    lines = _alert_lines(workspace.alerts)
+    assert lines == sorted(set(lines))
+    # the other assets' alerts are those of a run without any promotion
+    assert [a for a in lines if a[0] != asset] == \
+        [a for a in _alert_lines(uninterrupted.alerts) if a[0] != asset]

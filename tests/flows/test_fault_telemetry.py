@@ -245,3 +245,60 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
     assert _state(registry) == expected
     assert count(registry) == clean.counts
     assert _alert_lines(workspace.alerts) == clean.alerts
+
+
+@pytest.mark.slow
+def test_fault_bad_telemetry_in_baseline_days_leaves_the_baseline_untouched(
+        workspace, fleet, count, capsys):
+    """``baseline fit --all --promote`` over days 1-4 with T-002's second day truncated: T-002
+    fails naming the file, keeps its promoted baseline and gets no new version; the other
+    four get their new baseline; no watermark moves. With the file restored, the same
+    command fits T-002 once and finds the others' fits already recorded."""
+    from flows.cli import main
+
+    root = workspace.path / "telemetry"
+    shutil.copytree(fleet.root, root)
+    relative = f"asset_id={BAD_ASSET}/date={day(1):%Y-%m-%d}/part-0.parquet"
+    kind, _ = _truncated(root / relative)
+    workspace.configure(telemetry=root)
+    registry = workspace.registry()
+    old = {a: registry.baseline(a).version for a in ASSETS}
+    history = {a: len(registry.history(a)) for a in ASSETS}
+    counts = count(registry)
+    argv = ["--config", str(workspace.config), "baseline", "fit", "--all", "--start",
+            day(0).isoformat(), "--end", day(BASELINE_DAYS + 1).isoformat(), "--promote",
+            "--reason", "refit on days 1-4", "--json"]
+
+    status = main(argv)
+    captured = capsys.readouterr()
+    assert status == 1, captured.err
+    by_asset = {a["asset_id"]: a for a in json.loads(captured.out)["assets"]}
+    assert by_asset[BAD_ASSET]["status"] == "failed"
+    error = by_asset[BAD_ASSET]["error"]
+    assert (error["kind"], error["file"]) == (kind, str(root / relative))
+    assert f"fleet-health: {BAD_ASSET} failed: asset '{BAD_ASSET}', file {root / relative}" \
+        in captured.err
+    registry = workspace.registry()
+    assert registry.baseline(BAD_ASSET).version == old[BAD_ASSET]
+    assert len(registry.history(BAD_ASSET)) == history[BAD_ASSET]
+    fitted = {}
+    for asset in set(ASSETS) - {BAD_ASSET}:
+        assert by_asset[asset]["status"] == "ok"
+        baseline = registry.baseline(asset)
+        assert baseline.version != old[asset] and baseline.calibrated
+        assert (baseline.window_start, baseline.window_end) == (
+            day(0).isoformat(), day(BASELINE_DAYS + 1).isoformat())
+        assert len(registry.history(asset)) == history[asset] + 1
+        fitted[asset] = baseline.version
+    assert {registry.watermark(a) for a in ASSETS} == {None}
+    assert count(registry)["versions"] == counts["versions"] + len(ASSETS) - 1
+
+    shutil.copy(fleet.root / relative, root / relative)
+    status = main(argv)
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    registry = workspace.registry()
+    assert count(registry)["versions"] == counts["versions"] + len(ASSETS)
+    assert {a: registry.baseline(a).version for a in fitted} == fitted
+    assert registry.baseline(BAD_ASSET).version != old[BAD_ASSET]
+    assert {registry.watermark(a) for a in ASSETS} == {None}
