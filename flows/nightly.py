@@ -13,13 +13,16 @@ so an interruption anywhere leaves the watermark before anything not fully commi
 rerun repeats it without duplicates. The registry is the alerts' system of record: the
 batches (which may run on many hosts) write nothing else. After every batch,
 
-3. the flow's own process exports the registry's alerts of the windows the run started
-   from onwards to the JSON-lines file (``[alerts] jsonl``; idempotent on asset, window,
-   channel, tier; :func:`flows.alerts.export_alerts`),
+3. the flow's own process exports the registry's alerts of the windows from the run's
+   start (and from each asset's watermark minus ``[nightly] lookback``) onwards to the
+   JSON-lines file (``[alerts] jsonl``; idempotent on asset, window, channel, tier;
+   :func:`flows.alerts.export_alerts`),
 
 so the file holds the run's alerts and those of an interrupted earlier run of the same
-windows; a run interrupted after its last watermark and before the export leaves the file
-behind the registry until ``fleet-health alerts --export`` (or a later run of those windows).
+windows; a run interrupted after its last watermark and before the export (or whose export
+failed: the flow run then fails, naming the file and ``fleet-health alerts --export``) leaves
+the file behind the registry until the next run, which writes what was missed within the
+look-back, or ``fleet-health alerts --export``.
 
 The watermark means "every window before it that had telemetry when a run passed it was
 analysed"; it only moves forward. Telemetry that arrives later (a day's partition uploaded
@@ -286,12 +289,14 @@ def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None 
     return summary
 
 
-def export_since(summary: RunSummary) -> pd.Timestamp | None:
-    """Where the run started: the earliest of its windows' starts and of the watermarks of
-    the assets it fitted or failed (None when it fitted nothing)."""
+def export_since(summary: RunSummary, lookback: pd.Timedelta) -> pd.Timestamp | None:
+    """Where the export starts: the earliest of the run's windows' starts and of the assets'
+    watermarks minus ``lookback`` (None when no asset has either). Reaching back over the
+    look-back makes an export that failed self-healing: the next run writes what it missed.
+    """
     starts = [utc(w.window_start) for a in summary.assets for w in a.windows]
-    starts += [utc(a.watermark_before) for a in summary.assets
-               if a.watermark_before is not None and (a.windows or a.status == FAILED)]
+    starts += [utc(a.watermark_before) - max(lookback, pd.Timedelta(0))
+               for a in summary.assets if a.watermark_before is not None]
     return min(starts) if starts else None
 
 
@@ -307,7 +312,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
         When the export fails; the night itself is committed in the registry, and
         ``fleet-health alerts --export`` writes the file again.
     """
-    since = export_since(summary)
+    since = export_since(summary, config.nightly.lookback_delta)
     stale = [alert for a in summary.assets for alert in a.alerts if alert.kind == STALE_KIND]
     if since is None and not stale:
         return
