@@ -285,8 +285,8 @@ def test_fault_bad_telemetry_in_baseline_days_leaves_the_baseline_untouched(
     for asset in set(ASSETS) - {BAD_ASSET}:
         assert by_asset[asset]["status"] == "ok"
         baseline = registry.baseline(asset)
-        assert baseline.version != old[asset] and baseline.calibrated
-        assert (baseline.window_start, baseline.window_end) == (
+        assert baseline.version != old[asset] and baseline.calibration is not None
+        assert (baseline.info.window_start, baseline.info.window_end) == (
             day(0).isoformat(), day(BASELINE_DAYS + 1).isoformat())
         assert len(registry.history(asset)) == history[asset] + 1
         fitted[asset] = baseline.version
