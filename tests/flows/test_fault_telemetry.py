@@ -302,3 +302,37 @@ def test_fault_bad_telemetry_in_baseline_days_leaves_the_baseline_untouched(
     assert {a: registry.baseline(a).version for a in fitted} == fitted
     assert registry.baseline(BAD_ASSET).version != old[BAD_ASSET]
     assert {registry.watermark(a) for a in ASSETS} == {None}
+
+
+def test_fault_day_without_rows_is_said_and_analysed_once_its_rows_arrive(
+        workspace, fleet, clean, count, capsys):
+    """T-002's second night is a valid Parquet file without rows (an export that wrote
+    nothing): the night is skipped, but the asset's note names it (never silently), its
+    watermark does not pass it, and the others are committed as in a clean run. When the
+    rows arrive, the rerun analyses it: the state of one uninterrupted clean run."""
+    root = workspace.path / "telemetry"
+    shutil.copytree(fleet.root, root)
+    relative = f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet"
+    _rewrite(root / relative, lambda frame: frame.iloc[0:0])
+    workspace.configure(telemetry=root)
+
+    status, summary, err = _run(capsys, workspace.config)
+    assert status == 0, err
+    bad = {a["asset_id"]: a for a in summary["assets"]}[BAD_ASSET]
+    assert bad["status"] == "ok"
+    assert [w["window_start"] for w in bad["windows"]] == [day(BAD_DAY - 1).isoformat()]
+    assert (f"skipped 1 window(s) whose telemetry has no rows: {day(BAD_DAY).isoformat()}"
+            in bad["note"])
+    registry = workspace.registry()
+    state = _state(registry)
+    assert state["watermarks"] == {**clean.state["watermarks"], BAD_ASSET: day(BAD_DAY)}
+    assert state["baselines"] == clean.state["baselines"]
+    assert count(registry)["versions"] == clean.counts["versions"] - 1
+
+    shutil.copy(fleet.root / relative, root / relative)       # the rows arrive
+    status, summary, err = _run(capsys, workspace.config)
+    assert status == 0, err
+    registry = workspace.registry()
+    assert _state(registry) == clean.state
+    assert count(registry) == clean.counts
+    assert _alert_lines(workspace.alerts) == clean.alerts
