@@ -130,11 +130,12 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
          clock: StageClock | None = None) -> PendingAsset:
     """Read, validate and grid each window ``bounds`` of the asset (stage ``read``).
 
-    A window without any row is counted in ``empty`` and skipped. Another telemetry error
-    stops the reading when ``stop_at_error`` (the windows before it are kept: ``stop``);
-    otherwise it fails the asset and the other windows go on.
+    A window without any row is counted in ``empty``, named in the result's note, and
+    skipped. Another telemetry error stops the reading when ``stop_at_error`` (the windows
+    before it are kept: ``stop``); otherwise it fails the asset and the other windows go on.
     """
     model = asset.model
+    empty = []
     with timed(clock, "read"):
         for start, end in bounds:
             try:
@@ -144,6 +145,7 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
             except TelemetryError as error:
                 if error.kind == "no_data":
                     asset.empty += 1
+                    empty.append(start)
                     continue
                 if stop_at_error:
                     asset.stop, asset.stop_start = error, start
@@ -154,9 +156,14 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
         links = outside_links(config.telemetry_root, asset.asset_id,
                               {day.date() for start, end in bounds
                                for day in pd.date_range(start.floor("D"), end, freq="D")})
+    notes = []
+    if empty:   # a date partition without rows: said, never skipped silently
+        notes.append(f"skipped {len(empty)} window(s) whose telemetry has no rows: "
+                     f"{', '.join(start.isoformat() for start in empty)}")
     if links:
-        note = (f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
-                f"{', '.join(links)}")
+        notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
+                     f"{', '.join(links)}")
+    for note in notes:
         asset.result.note = note if not asset.result.note else f"{asset.result.note}; {note}"
     return asset
 

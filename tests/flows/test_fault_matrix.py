@@ -18,6 +18,7 @@ import sys
 import threading
 import time
 import uuid
+from types import SimpleNamespace
 
 import pytest
 
@@ -434,3 +435,172 @@ def test_run_lock_names_its_holder_and_never_swallows_the_runs_errors(tmp_path):
         with RunLock.of(uri).hold("nightly", "run-3", wait=0):
             raise RegistryError("the run's own error")
     assert RunLock.of(uri).holder() is None
+
+
+# -- kill -9 at more points ---------------------------------------------------------------------
+
+def _watermarks_committed(db: pathlib.Path) -> int:
+    connection = sqlite3.connect(db)
+    try:
+        (n,) = connection.execute("SELECT count(*) FROM registered_model_tags "
+                                  "WHERE key = 'fleet_health.watermark'").fetchone()
+    finally:
+        connection.close()
+    return n
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory, baselined, fleet, harness):
+    """The nightly run over days 4-6 once, uninterrupted, on a copy of the baselined store."""
+    from flows.nightly import nightly
+    from registry import Registry
+
+    directory = tmp_path_factory.mktemp("uninterrupted")
+    shutil.copy(baselined.db, directory / "mlflow.db")
+    config = write_config(directory / "fleet.toml", fleet.root, directory / "mlflow.db")
+    state = nightly(config_path=str(config), as_of=day(DAYS).isoformat(), return_state=True)
+    assert state.is_completed(), state.message
+    return SimpleNamespace(registry=Registry(f"sqlite:///{directory / 'mlflow.db'}"),
+                           alerts=directory / "alerts.jsonl")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("committed", [1, len(ASSETS)],
+                         ids=["one_watermark_committed", "every_watermark_committed"])
+def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
+        committed, workspace, uninterrupted, count, capsys):
+    """A run killed with SIGKILL once ``committed`` assets' watermarks are committed
+    (mid-fleet, or after the last one, before its alerts are exported): the rerun leaves the
+    store and the alerts file exactly as one uninterrupted run does (the registry is the
+    alerts' system of record: the rerun exports what the killed run did not).
+
+    The moment is made exact: the test holds the alerts file's lock (so the killed run
+    cannot have exported) and, once enough watermarks are seen, SQLite's exclusive lock (so
+    no further watermark is committed between looking and killing)."""
+    from registry.store import file_lock
+
+    assert _watermarks_committed(workspace.db) == 0
+    holder_file = workspace.db.parent / ".fleet-health-locks" / "fleet-run.json"
+    alerts_lock = workspace.alerts.with_name(workspace.alerts.name + ".lock")
+    connection = sqlite3.connect(workspace.db, isolation_level=None, timeout=60)
+    try:
+        with file_lock(alerts_lock, timeout=5):
+            process = _start_cli(workspace, "run", "--as-of", day(DAYS).isoformat())
+            deadline = time.monotonic() + 600
+            while _watermarks_committed(workspace.db) < committed:
+                assert process.poll() is None, process.communicate()
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+            connection.execute("BEGIN EXCLUSIVE")
+            at_kill = _watermarks_committed(workspace.db)
+            os.kill(process.pid, signal.SIGKILL)
+            process.communicate()
+            connection.execute("ROLLBACK")
+    finally:
+        connection.close()
+    assert process.returncode == -signal.SIGKILL
+    if committed < len(ASSETS):
+        assert committed <= at_kill < len(ASSETS), at_kill      # killed mid-fleet
+    else:
+        assert at_kill == len(ASSETS)
+    assert not workspace.alerts.exists()                  # the killed run exported nothing
+    killed = json.loads(holder_file.read_text())["flow_run_id"]
+    watermarks = _state(workspace.registry())["watermarks"]
+    assert sum(w == day(DAYS) for w in watermarks.values()) == at_kill
+
+    status, out, err = run(capsys, "--config", str(workspace.config), "run", "--as-of",
+                           day(DAYS).isoformat(), "--json")
+    assert status == 0, err
+    summary = json.loads(out)
+    assert [o["flow_run_id"] for o in summary["extra"]["orphans_crashed"]] == [killed]
+    assert summary["coverage"]["complete"]
+    registry = workspace.registry()
+    assert count(registry) == count(uninterrupted.registry)
+    assert _state(registry) == _state(uninterrupted.registry)
+    assert _alert_lines(workspace.alerts) == _alert_lines(uninterrupted.alerts)
+    assert not holder_file.exists()
+
+
+# -- promotion during a run -----------------------------------------------------------------------
+
+def _zetas(registry, asset: str) -> dict:
+    """(window start, channel, tier) -> (zeta, baseline version) of the asset's candidates."""
+    frame = registry.zeta_history(asset)
+    keys = list(zip(frame["window_start"].astype(str), frame["channel"], frame["tier"]))
+    assert len(keys) == len(set(keys)), "a window is recorded twice"
+    return dict(zip(keys, zip(frame["zeta"], frame["baseline_version"].astype(int))))
+
+
+@pytest.mark.slow
+def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, count, capsys):
+    """``baseline promote`` of another calibrated version of T-001 while a nightly run records
+    its candidates: each window is compared with exactly one baseline version, recorded with
+    it (those against the old one give the uninterrupted run's zetas), the alias ends where
+    the promotion put it, nothing is recorded twice, the watermarks are those of a clean run,
+    and the next run compares against the new baseline."""
+    from registry.store import file_lock
+
+    asset, nights = "T-001", DAYS - BASELINE_DAYS
+    old = workspace.registry().baseline(asset).version
+    status, out, err = run(capsys, "--config", str(workspace.config), "baseline", "fit", asset,
+                           "--start", day(0).isoformat(),
+                           "--end", day(BASELINE_DAYS + 1).isoformat())
+    assert status == 0, err
+    registry = workspace.registry()
+    (summary,) = [s for s in registry.list_baselines() if s.asset_id == asset]
+    new = summary.candidate.version
+    assert new != old and summary.candidate.calibrated and summary.baseline.version == old
+    before = count(registry)
+
+    # the run cannot end before the promotion: its alerts export waits for this lock
+    with file_lock(workspace.alerts.with_name(workspace.alerts.name + ".lock"), timeout=5):
+        process = _start_cli(workspace, "run", "--as-of", day(DAYS - 1).isoformat(), "--json")
+        deadline = time.monotonic() + 600
+        while True:           # promote once the run has recorded a first candidate
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline
+            connection = sqlite3.connect(workspace.db)
+            (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
+            connection.close()
+            if versions > before["versions"]:
+                break
+            time.sleep(0.02)
+        status, out, err = run(capsys, "--config", str(workspace.config), "baseline",
+                               "promote", asset, "--version", str(new), "--reason",
+                               "refit on days 1-4")
+        assert status == 0, err
+        assert process.poll() is None
+    out, err = process.communicate(timeout=900)
+    assert process.returncode == 0, err
+    during = json.loads(out)
+    assert during["coverage"]["complete"]
+
+    registry = workspace.registry()
+    assert registry.baseline(asset).version == new
+    assert count(registry)["versions"] == before["versions"] + (nights - 1) * len(ASSETS)
+    assert {registry.watermark(a) for a in ASSETS} == {day(DAYS - 1)}
+    zetas, expected = _zetas(registry, asset), _zetas(uninterrupted.registry, asset)
+    by_window: dict = {}
+    for (start, channel, tier), (zeta, version) in zetas.items():
+        by_window.setdefault(start, set()).add(version)
+        if version == old:
+            assert zeta == pytest.approx(expected[start, channel, tier][0]), (start, channel)
+    assert len(by_window) == nights - 1
+    assert all(len(v) == 1 and v <= {old, new} for v in by_window.values()), by_window
+
+    status, out, err = run(capsys, "--config", str(workspace.config), "run", "--as-of",
+                           day(DAYS).isoformat(), "--json")
+    assert status == 0, err
+    registry = workspace.registry()
+    last = day(DAYS - 1).isoformat()
+    latest = {v for (start, _, _), (_, v) in _zetas(registry, asset).items()
+              if start.startswith(last[:10])}
+    assert latest == {new}
+    assert registry.baseline(asset).version == new
+    assert count(registry)["versions"] == before["versions"] + nights * len(ASSETS)
+    assert {registry.watermark(a) for a in ASSETS} == {day(DAYS)}
+    lines = _alert_lines(workspace.alerts)
+    assert lines == sorted(set(lines))
+    # the other assets' alerts are those of a run without any promotion
+    assert [a for a in lines if a[0] != asset] == \
+        [a for a in _alert_lines(uninterrupted.alerts) if a[0] != asset]
