@@ -30,7 +30,7 @@ from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
 from registry.cli import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError
-from registry.store import is_locked_error
+from registry.retry import is_locked_error
 
 logger = logging.getLogger(__name__)
 

@@ -48,7 +48,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
     from registry.exceptions import NotFoundError, PromotionError, RegistryError
     from registry.registry import Registry
-    from registry.store import RetryPolicy
+    from registry.retry import RetryPolicy
     from registry.submission import FitSubmission
 
 

@@ -2,7 +2,7 @@
 :mod:`registry.records` and :mod:`registry.baselines` share.
 
 No global MLflow state is touched: every call goes through an ``MlflowClient`` created with
-an explicit tracking and registry URI, wrapped in :class:`registry.store.RetryingClient`.
+an explicit tracking and registry URI, wrapped in :class:`registry.retry.RetryingClient`.
 """
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ from mlflow.protos.databricks_pb2 import (RESOURCE_ALREADY_EXISTS, RESOURCE_DOES
 
 from registry import naming
 from registry.exceptions import NotFoundError, RegistryError
-from registry.store import (RetryingClient, RetryPolicy, Store, call_with_retry, prepare_store,
-                            relax_commit_sync, resolve_store)
+from registry.retry import RetryingClient, RetryPolicy, call_with_retry
+from registry.store import Store, prepare_store, relax_commit_sync, resolve_store
 
 logger = logging.getLogger(__name__)
 

@@ -25,7 +25,7 @@ from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_f
 from registry.artifacts import DRIFT_FILE
 from registry.backend import Backend, is_not_found
 from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
-from registry.store import call_with_retry
+from registry.retry import call_with_retry
 
 VERSION_QUERY_RUNS = 50         # run ids per model-version search (``run_id IN (...)``)
 HISTORY_COLUMNS = ("window_start", "window_end", "channel", "tier", "zeta", "epsilon", "ratio",

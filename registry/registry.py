@@ -11,7 +11,7 @@ from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
 from registry.backend import Backend
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
 from registry.model_files import PyfuncTemplate
-from registry.store import RetryPolicy
+from registry.retry import RetryPolicy
 from registry.submission import FitSubmission
 
 

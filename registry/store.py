@@ -31,7 +31,7 @@ SQLite and concurrent writers
     processes open a new file together (MLflow PR #20014 and its issue are the known cases).
     So: the file is switched to write-ahead logging (``PRAGMA journal_mode=WAL``, persistent)
     and its tables are created under a file lock before any MLflow writer opens it, and every
-    MLflow call the registry makes goes through :func:`call_with_retry`, which retries only
+    MLflow call the registry makes goes through :func:`registry.retry.call_with_retry`, which retries only
     "database is locked"/"database is busy" errors, with exponential backoff and jitter,
     logging each retry. The same errors relayed by an ``mlflow server`` (HTTP 500 with that
     message) are retried the same way.
@@ -52,143 +52,30 @@ Locks
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import logging
 import os
 import pathlib
-import random
 import sqlite3
-import time
 import urllib.parse
 import urllib.request
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, TypeVar
+from typing import Iterator
 
 from graybox.telemetry import validate_asset_id
-from registry.exceptions import RegistryError
+from registry.locks import advisory_lock, file_lock
+from registry.retry import RetryPolicy, call_with_retry
 
 logger = logging.getLogger(__name__)
-
-T = TypeVar("T")
 
 DEFAULT_DB_NAME = "mlflow.db"
 ARTIFACTS_DIR_NAME = "mlartifacts"
 LOCKS_DIR_NAME = ".fleet-health-locks"
-
-_LOCKED_MESSAGES = ("database is locked", "database is busy", "database table is locked",
-                    # PostgreSQL asks for the transaction to be run again
-                    "deadlock detected", "could not serialize access")
 POSTGRES_SCHEMES = ("postgresql", "postgres", "postgresql+psycopg")
 #: a PostgreSQL database whose advisory locks serialize the writers of an ``mlflow server``
 LOCK_URI_VARIABLE = "FLEET_HEALTH_LOCK_URI"
 SCHEMA_LOCK = "fleet-health/schema"
 
-
-@dataclass(frozen=True)
-class RetryPolicy:
-    """Backoff of :func:`call_with_retry`.
-
-    Attributes
-    ----------
-    attempts : int
-        Tries in all (the first call included).
-    base_delay : float
-        Seconds before the second try; doubled after each further failure.
-    max_delay : float
-        Cap on one wait, before jitter.
-    jitter : float
-        Each wait is multiplied by a uniform factor in ``[1 - jitter, 1 + jitter]``.
-    """
-
-    attempts: int = 12
-    base_delay: float = 0.05
-    max_delay: float = 2.0
-    jitter: float = 0.5
-
-    def delay(self, failures: int) -> float:
-        """Seconds to wait after ``failures`` consecutive failures (>= 1)."""
-        raw = min(self.max_delay, self.base_delay * 2 ** (failures - 1))
-        return raw * random.uniform(1 - self.jitter, 1 + self.jitter)
-
-
-def is_locked_error(error: BaseException) -> bool:
-    """Whether ``error`` (or an exception it was raised from) is SQLite's "database is locked"
-    (or PostgreSQL's deadlock or serialization failure: the transaction should be retried)."""
-    seen = set()
-    current: BaseException | None = error
-    while current is not None and id(current) not in seen:
-        seen.add(id(current))
-        text = str(current).lower()
-        if any(message in text for message in _LOCKED_MESSAGES):
-            return True
-        current = current.__cause__ or current.__context__
-    return False
-
-
-def call_with_retry(function: Callable[..., T], *args, policy: RetryPolicy = RetryPolicy(),
-                    what: str | None = None, **kwargs) -> T:
-    """Call ``function(*args, **kwargs)``, retrying only "database is locked" errors.
-
-    Parameters
-    ----------
-    function : callable
-    policy : RetryPolicy, optional
-    what : str, optional
-        Name used in the log message (defaults to the function's name).
-
-    Returns
-    -------
-    Whatever ``function`` returns.
-
-    Raises
-    ------
-    Exception
-        The last error once ``policy.attempts`` tries failed, or at once any other error.
-    """
-    name = what or getattr(function, "__name__", repr(function))
-    for attempt in range(1, policy.attempts + 1):
-        try:
-            return function(*args, **kwargs)
-        except Exception as error:
-            if not is_locked_error(error) or attempt == policy.attempts:
-                raise
-            wait = policy.delay(attempt)
-            logger.warning("%s: database is locked (attempt %d of %d); retrying in %.3f s",
-                           name, attempt, policy.attempts, wait)
-            time.sleep(wait)
-    raise AssertionError("unreachable")  # pragma: no cover
-
-
-class RetryingClient:
-    """An ``MlflowClient`` whose every method call goes through :func:`call_with_retry`.
-
-    Parameters
-    ----------
-    client : mlflow.MlflowClient
-    policy : RetryPolicy, optional
-    """
-
-    def __init__(self, client: Any, policy: RetryPolicy = RetryPolicy()):
-        self._client = client
-        self._policy = policy
-
-    @property
-    def wrapped(self) -> Any:
-        """The underlying ``MlflowClient``."""
-        return self._client
-
-    def __getattr__(self, name: str) -> Any:
-        attribute = getattr(self._client, name)
-        if not callable(attribute):
-            return attribute
-
-        def call(*args, **kwargs):
-            return call_with_retry(attribute, *args, policy=self._policy, what=f"mlflow {name}",
-                                   **kwargs)
-
-        call.__name__ = name
-        return call
 
 
 @dataclass(frozen=True)
@@ -276,79 +163,6 @@ class Store:
 
 def _file_uri_path(uri: str) -> str:
     return urllib.request.url2pathname(urllib.parse.urlparse(uri).path)
-
-
-def advisory_key(name: str) -> int:
-    """The signed 64-bit key of a PostgreSQL advisory lock named ``name``."""
-    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "big", signed=True)
-
-
-@contextlib.contextmanager
-def advisory_lock(conninfo: str, name: str, timeout: float = 120.0,
-                  what: str | None = None) -> Iterator[None]:
-    """An exclusive PostgreSQL advisory lock, held on a connection of its own.
-
-    The wait is bounded by ``lock_timeout``; the lock goes with the connection, so a
-    holder that dies releases it.
-
-    Raises
-    ------
-    RegistryError
-        If the lock is not acquired within ``timeout`` seconds.
-    ConnectionError
-        If the database cannot be reached (a transient error: the flows retry the batch).
-    """
-    import psycopg
-
-    key = advisory_key(name)
-    try:
-        connection = psycopg.connect(conninfo, autocommit=True, connect_timeout=30)
-    except psycopg.OperationalError as error:
-        raise ConnectionError(f"could not connect to PostgreSQL to lock {what or name}: "
-                              f"{error}") from error
-    with connection:
-        connection.execute("SELECT set_config('lock_timeout', %s, false)",
-                           (f"{max(1, int(timeout * 1000))}ms",))
-        try:
-            connection.execute("SELECT pg_advisory_lock(%s)", (key,))
-        except psycopg.errors.LockNotAvailable:
-            raise RegistryError(f"could not lock {what or name} within {timeout:g} s "
-                                f"(PostgreSQL advisory lock {key})") from None
-        try:
-            yield
-        finally:
-            try:
-                connection.execute("SELECT pg_advisory_unlock(%s)", (key,))
-            except psycopg.Error:     # a broken connection: closing it releases the lock
-                logger.warning("could not release advisory lock %d (%s); the connection's "
-                               "end releases it", key, what or name)
-
-
-@contextlib.contextmanager
-def file_lock(path: pathlib.Path, timeout: float = 120.0, what: str | None = None) -> Iterator[None]:
-    """An exclusive ``flock`` on ``path`` (created if needed), polled until ``timeout``.
-
-    ``flock`` locks belong to the open file, so two threads of one process exclude each
-    other as two processes do.
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    deadline = time.monotonic() + timeout
-    with open(path, "a+") as handle:
-        delay = 0.005
-        while True:
-            try:
-                fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                if time.monotonic() > deadline:
-                    raise RegistryError(f"could not lock {what or path} within {timeout:g} s "
-                                        f"(lock file {path})") from None
-                time.sleep(delay)
-                delay = min(0.1, delay * 2)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
 def default_tracking_uri(workdir: str | os.PathLike | None = None) -> str:

@@ -219,7 +219,7 @@ def check_runs(config: FleetConfig) -> list[Finding]:
     from flows.orphans import crash_orphans
     from flows.run_lock import RunLock
     from registry.exceptions import RegistryError
-    from registry.store import file_lock
+    from registry.locks import file_lock
 
     lock = RunLock.of(config.tracking_uri)
     findings = []

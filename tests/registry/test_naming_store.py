@@ -11,8 +11,9 @@ import pytest
 from graybox.exceptions import InvalidAssetIdError
 from registry import naming
 from registry.exceptions import RegistryError
-from registry.store import (RetryPolicy, call_with_retry, file_lock, is_locked_error,
-                            resolve_store)
+from registry.locks import file_lock
+from registry.retry import RetryPolicy, call_with_retry, is_locked_error
+from registry.store import resolve_store
 
 
 def test_names_follow_the_design():

@@ -11,7 +11,8 @@ import pytest
 
 from postgres_server import subprocess_env
 from registry.exceptions import RegistryError
-from registry.store import advisory_key, resolve_store
+from registry.locks import advisory_key
+from registry.store import resolve_store
 from test_parallel_writers import WORKER, _check_store, record_from_threads
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")
