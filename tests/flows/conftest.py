@@ -24,6 +24,7 @@ import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
 from flowtest_config import write_config  # noqa: E402
+from flowtest_store import count_records  # noqa: E402
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day  # noqa: E402
 
 
@@ -121,15 +122,7 @@ def corrupt(tmp_path, fleet):
 @pytest.fixture
 def count():
     """``count(registry)``: active runs, model versions and registry alerts of a store."""
-    def counts(registry) -> dict:
-        client = registry.backend.client
-        experiments = registry.backend.experiment_ids()
-        runs = (list(registry.backend.paged(client.search_runs, experiments, ""))
-                if experiments else [])
-        versions = list(registry.backend.paged(client.search_model_versions, ""))
-        return {"runs": len(runs), "versions": len(versions),
-                "alerts": len(registry.alerts())}
-    return counts
+    return count_records
 
 
 @pytest.fixture

@@ -29,6 +29,7 @@ from flowtest_config import write_config
 from flows.run_lock import LOCK_WAIT_ENV, RunLock, RunLockTimeout
 from registry.exceptions import RegistryError
 from flows.store_probe import MLFLOW_HTTP_DEFAULTS, STORE_TIMEOUT_ENV, bound_mlflow_requests
+from flowtest_store import committed_state
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
 
 
@@ -38,13 +39,6 @@ def run(capsys, *argv):
     return status, captured.out, captured.err
 
 
-def _state(registry) -> dict:
-    """Everything a run commits: watermarks, baseline aliases, and the alerts."""
-    return {"watermarks": {a: registry.watermark(a) for a in ASSETS},
-            "baselines": {a: (registry.baseline(a).version if registry.baseline(a) else None)
-                          for a in ASSETS},
-            "alerts": sorted((a.asset_id, a.window_start, a.channel, a.tier)
-                             for a in registry.alerts())}
 
 
 # -- coverage ---------------------------------------------------------------------------------
@@ -90,7 +84,7 @@ def test_fault_baseline_fit_without_data_reports_every_asset_failed(workspace, c
     """Every fit fails (no telemetry in the range): the summary, its JSON and the exit
     status say so, nothing is recorded and the promoted baselines are untouched."""
     registry = workspace.registry()
-    before = _state(registry)
+    before = committed_state(registry)
     start, end = day(DAYS + 10), day(DAYS + 14)
     status, out, err = run(capsys, "--config", str(workspace.config), "baseline", "fit",
                            "--all", "--start", f"{start:%Y-%m-%d}", "--end", f"{end:%Y-%m-%d}")
@@ -104,7 +98,7 @@ def test_fault_baseline_fit_without_data_reports_every_asset_failed(workspace, c
                          "--json")
     data = json.loads(out)
     assert status == 1 and data["coverage"]["failed"] == 5 and data["coverage"]["up_to_date"] == 0
-    assert _state(workspace.registry()) == before
+    assert committed_state(workspace.registry()) == before
 
 
 def test_fault_alerts_file_unwritable_loses_nothing(workspace, capsys, count):
@@ -160,7 +154,7 @@ def test_fault_store_unreachable_fails_fast_naming_the_uri(workspace, capsys, mo
                                                             count):
     """A dead MLflow server (a closed port): the run stops within the bound with one line
     naming the URI; nothing is done and the real store is untouched."""
-    before = _state(workspace.registry()), count(workspace.registry())
+    before = committed_state(workspace.registry()), count(workspace.registry())
     uri = f"http://127.0.0.1:{_closed_port()}"
     monkeypatch.setenv(STORE_TIMEOUT_ENV, "2")
     started = time.monotonic()
@@ -181,7 +175,7 @@ def test_fault_store_unreachable_fails_fast_naming_the_uri(workspace, capsys, mo
                     as_of=day(DAYS).isoformat(), return_state=True)
     assert state.is_failed() and time.monotonic() - started < 60
     assert f"the MLflow tracking server {uri} did not answer within 2 s" in state.message
-    assert (_state(workspace.registry()), count(workspace.registry())) == before
+    assert (committed_state(workspace.registry()), count(workspace.registry())) == before
     assert not workspace.alerts.exists()
 
 
@@ -234,7 +228,7 @@ def test_fault_store_read_only_fails_every_asset_and_the_rerun_commits_once(work
     from flows.nightly import nightly
 
     registry = workspace.registry()
-    before, counts = _state(registry), count(registry)
+    before, counts = committed_state(registry), count(registry)
     connection = sqlite3.connect(workspace.db)
     connection.execute("CREATE TRIGGER read_only BEFORE INSERT ON runs BEGIN "
                        "SELECT RAISE(ABORT, 'attempt to write a readonly database'); END")
@@ -246,7 +240,7 @@ def test_fault_store_read_only_fails_every_asset_and_the_rerun_commits_once(work
     assert summary["coverage"]["failed"] == len(ASSETS) and summary["exit_status"] == 1
     for asset in summary["assets"]:
         assert "readonly database" in asset["error"]["message"], asset
-    assert _state(workspace.registry()) == before
+    assert committed_state(workspace.registry()) == before
     assert count(workspace.registry()) == counts
     connection.execute("DROP TRIGGER read_only")
     connection.commit()
@@ -272,6 +266,21 @@ def _start_cli(workspace, *argv) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "flows", "--config", str(workspace.config),
                              *argv], cwd=workspace.path, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_versions(process, db: pathlib.Path, versions_before: int) -> None:
+    """Poll the running ``process``'s SQLite store until it holds more model versions than
+    ``versions_before`` (the run recorded a candidate)."""
+    deadline = time.monotonic() + 600
+    while True:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline
+        connection = sqlite3.connect(db)
+        (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
+        connection.close()
+        if versions > versions_before:
+            return
+        time.sleep(0.02)
 
 
 def _alert_lines(path: pathlib.Path) -> list[tuple]:
@@ -336,16 +345,7 @@ def test_fault_kill_9_then_rerun_equals_uninterrupted_run(workspace, baselined, 
     versions_before = count(workspace.registry())["versions"]
     holder_file = workspace.db.parent / ".fleet-health-locks" / "fleet-run.json"
     process = _start_cli(workspace, "run", "--as-of", as_of)
-    deadline = time.monotonic() + 600
-    while True:           # kill it once it has recorded a first candidate
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline
-        connection = sqlite3.connect(workspace.db)
-        (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
-        connection.close()
-        if versions > versions_before:
-            break
-        time.sleep(0.05)
+    _wait_for_versions(process, workspace.db, versions_before)   # a first candidate
     os.kill(process.pid, signal.SIGKILL)
     process.communicate()
     killed = json.loads(holder_file.read_text())["flow_run_id"]
@@ -364,7 +364,7 @@ def test_fault_kill_9_then_rerun_equals_uninterrupted_run(workspace, baselined, 
 
     registry = workspace.registry()
     assert count(registry) == count(expected)
-    assert _state(registry) == _state(expected)
+    assert committed_state(registry) == committed_state(expected)
     assert _alert_lines(workspace.alerts) == _alert_lines(reference / "alerts.jsonl")
     assert not holder_file.exists()
 
@@ -394,7 +394,7 @@ def test_fault_artifacts_unwritable_fail_the_assets_and_the_rerun_commits_once(w
     from flows.nightly import nightly
 
     registry = workspace.registry()
-    before, counts = _state(registry), count(registry)
+    before, counts = committed_state(registry), count(registry)
     blocked = workspace.path / "artifacts-blocked"
     blocked.write_text("a file where the artifact directory should be")
     connection = sqlite3.connect(workspace.db)
@@ -410,7 +410,7 @@ def test_fault_artifacts_unwritable_fail_the_assets_and_the_rerun_commits_once(w
     for asset in summary["assets"]:
         assert asset["error"]["message"], asset
     registry = workspace.registry()
-    assert _state(registry) == before
+    assert committed_state(registry) == before
     assert count(registry)["versions"] == counts["versions"]
     assert not workspace.alerts.exists()
     blocked.unlink()
@@ -505,7 +505,7 @@ def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
         assert at_kill == len(ASSETS)
     assert not workspace.alerts.exists()                  # the killed run exported nothing
     killed = json.loads(holder_file.read_text())["flow_run_id"]
-    watermarks = _state(workspace.registry())["watermarks"]
+    watermarks = committed_state(workspace.registry())["watermarks"]
     assert sum(w == day(DAYS) for w in watermarks.values()) == at_kill
 
     status, out, err = run(capsys, "--config", str(workspace.config), "run", "--as-of",
@@ -516,7 +516,7 @@ def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
     assert summary["coverage"]["complete"]
     registry = workspace.registry()
     assert count(registry) == count(uninterrupted.registry)
-    assert _state(registry) == _state(uninterrupted.registry)
+    assert committed_state(registry) == committed_state(uninterrupted.registry)
     assert _alert_lines(workspace.alerts) == _alert_lines(uninterrupted.alerts)
     assert not holder_file.exists()
 
@@ -555,16 +555,7 @@ def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, coun
     # the run cannot end before the promotion: its alerts export waits for this lock
     with file_lock(workspace.alerts.with_name(workspace.alerts.name + ".lock"), timeout=5):
         process = _start_cli(workspace, "run", "--as-of", day(DAYS - 1).isoformat(), "--json")
-        deadline = time.monotonic() + 600
-        while True:           # promote once the run has recorded a first candidate
-            assert process.poll() is None, process.communicate()
-            assert time.monotonic() < deadline
-            connection = sqlite3.connect(workspace.db)
-            (versions,) = connection.execute("SELECT count(*) FROM model_versions").fetchone()
-            connection.close()
-            if versions > before["versions"]:
-                break
-            time.sleep(0.02)
+        _wait_for_versions(process, workspace.db, before["versions"])   # a first candidate
         status, out, err = run(capsys, "--config", str(workspace.config), "baseline",
                                "promote", asset, "--version", str(new), "--reason",
                                "refit on days 1-4")

@@ -18,7 +18,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from conftest import write_config
+from flowtest_config import write_config
+from flowtest_store import committed_state, count_records
 from flowtest_fleet import ASSETS, BASELINE_DAYS, day
 
 BAD_ASSET = "T-002"
@@ -27,13 +28,6 @@ AS_OF = day(BASELINE_DAYS + 2).isoformat()
 NIGHTS = 2
 
 
-def _state(registry) -> dict:
-    """Everything a run commits: watermarks, baseline aliases, and the alerts."""
-    return {"watermarks": {a: registry.watermark(a) for a in ASSETS},
-            "baselines": {a: (registry.baseline(a).version if registry.baseline(a) else None)
-                          for a in ASSETS},
-            "alerts": sorted((a.asset_id, a.window_start, a.channel, a.tier)
-                             for a in registry.alerts())}
 
 
 def _alert_lines(path) -> list[tuple]:
@@ -63,22 +57,14 @@ def clean(tmp_path_factory, harness, baselined, fleet, count):
     registry = Registry(f"sqlite:///{directory / 'mlflow.db'}")
     alerts = _alert_lines(directory / "alerts.jsonl")
     assert {a[0] for a in alerts} == {"T-002", "T-004"}     # the reference has alerts to lose
-    return types.SimpleNamespace(state=_state(registry), counts=count(registry),
+    return types.SimpleNamespace(state=committed_state(registry), counts=count(registry),
                                  alerts=alerts)
 
 
 @pytest.fixture(scope="module")
 def count():
     """``count(registry)``: active runs, model versions and registry alerts of a store."""
-    def counts(registry) -> dict:
-        client = registry.backend.client
-        experiments = registry.backend.experiment_ids()
-        runs = (list(registry.backend.paged(client.search_runs, experiments, ""))
-                if experiments else [])
-        versions = list(registry.backend.paged(client.search_model_versions, ""))
-        return {"runs": len(runs), "versions": len(versions),
-                "alerts": len(registry.alerts())}
-    return counts
+    return count_records
 
 
 # -- the breakages: each rewrites one file and returns (kind, row or None) -----------------
@@ -219,7 +205,7 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
     assert summary["coverage"]["failed"] == 1 and summary["exit_status"] == 1
 
     registry = workspace.registry()
-    state = _state(registry)
+    state = committed_state(registry)
     expected = clean.state
     # the bad asset stops before the bad night; its first night is committed
     assert state["watermarks"] == {**expected["watermarks"], BAD_ASSET: day(BAD_DAY)}
@@ -242,7 +228,7 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
                for a in summary["assets"]}
     assert windows == {**{a: [] for a in ASSETS}, BAD_ASSET: [day(BAD_DAY).isoformat()]}
     registry = workspace.registry()
-    assert _state(registry) == expected
+    assert committed_state(registry) == expected
     assert count(registry) == clean.counts
     assert _alert_lines(workspace.alerts) == clean.alerts
 
@@ -324,7 +310,7 @@ def test_fault_day_without_rows_is_said_and_analysed_once_its_rows_arrive(
     assert (f"skipped 1 window(s) whose telemetry has no rows: {day(BAD_DAY).isoformat()}"
             in bad["note"])
     registry = workspace.registry()
-    state = _state(registry)
+    state = committed_state(registry)
     assert state["watermarks"] == {**clean.state["watermarks"], BAD_ASSET: day(BAD_DAY)}
     assert state["baselines"] == clean.state["baselines"]
     assert count(registry)["versions"] == clean.counts["versions"] - 1
@@ -333,6 +319,6 @@ def test_fault_day_without_rows_is_said_and_analysed_once_its_rows_arrive(
     status, summary, err = _run(capsys, workspace.config)
     assert status == 0, err
     registry = workspace.registry()
-    assert _state(registry) == clean.state
+    assert committed_state(registry) == clean.state
     assert count(registry) == clean.counts
     assert _alert_lines(workspace.alerts) == clean.alerts

@@ -1,0 +1,23 @@
+"""What the flow tests read back from a store: record counts and the committed state."""
+from __future__ import annotations
+
+from flowtest_fleet import ASSETS
+
+
+def count_records(registry) -> dict:
+    """Active runs, model versions and registry alerts of a store."""
+    client = registry.backend.client
+    experiments = registry.backend.experiment_ids()
+    runs = (list(registry.backend.paged(client.search_runs, experiments, ""))
+            if experiments else [])
+    versions = list(registry.backend.paged(client.search_model_versions, ""))
+    return {"runs": len(runs), "versions": len(versions), "alerts": len(registry.alerts())}
+
+
+def committed_state(registry, assets=ASSETS) -> dict:
+    """Everything a run commits: watermarks, baseline aliases, and the alerts."""
+    return {"watermarks": {a: registry.watermark(a) for a in assets},
+            "baselines": {a: (registry.baseline(a).version if registry.baseline(a) else None)
+                          for a in assets},
+            "alerts": sorted((a.asset_id, a.window_start, a.channel, a.tier)
+                             for a in registry.alerts())}
