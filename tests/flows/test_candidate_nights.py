@@ -126,6 +126,13 @@ def test_two_night_windows_catch_what_one_night_misses_and_reruns_add_nothing(
     spans = {(pd.Timestamp(s), pd.Timestamp(e)) for s, e in zip(history["window_start"],
                                                                 history["window_end"])}
     assert spans == {(day(3), day(4)), (day(3), day(5))}
+    # the fleet heat map draws a span on its last night
+    from flows.fleet_view import collect_view
+
+    view = collect_view(two.registry, f"{day(4):%Y-%m-%d}", 2)
+    assert view.nights == (f"{day(3):%Y-%m-%d}", f"{day(4):%Y-%m-%d}")
+    row = {r.asset_id: r for r in view.rows}[FAULTY]
+    assert row.ratios[0] < 1 < row.ratios[1]
 
     # a rerun, and a rerun from an earlier as-of: nothing new anywhere
     before = count(two.registry)
