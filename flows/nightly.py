@@ -39,7 +39,9 @@ never before the baseline's window) that have a date partition but no recorded c
 and analyses them first, against the same baseline, with their alerts. Recording is
 idempotent, so a rerun finds them recorded and adds nothing; a window arriving later than
 the look-back is left alone (``fleet-health reanalyze`` covers any range). This costs one
-registry query per asset and run (the asset's newest recorded windows).
+registry query per asset and run (the asset's newest recorded windows). With
+``candidate_nights`` > 1 the candidates of later nights already recorded are not refitted
+with the late night (``fleet-health reanalyze --candidate-nights N`` does that).
 
 Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
 stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
