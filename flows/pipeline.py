@@ -57,6 +57,12 @@ class PendingWindow:
     telemetry: object                     #: graybox.telemetry.TelemetryWindow (the last night)
     fit: Signature | GrayBoxError | None = None
     earlier: tuple = ()                   #: TelemetryWindows of the earlier nights, in order
+    night_start: pd.Timestamp | None = None   #: start of the last night (None: ``start``)
+
+    @property
+    def night(self) -> pd.Timestamp:
+        """Start of the night the candidate is for (where a failure is reported)."""
+        return self.start if self.night_start is None else self.night_start
 
     @property
     def parts(self) -> list:
@@ -194,7 +200,7 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                 asset.fail(error, start)
                 continue
             asset.windows.append(PendingWindow(span[0][0], end, telemetry,
-                                               earlier=tuple(earlier)))
+                                               earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
                               {day.date() for start, end in spans
                                for day in pd.date_range(start.floor("D"), end, freq="D")})
@@ -338,7 +344,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
     out: list[Alert] = []
     for window in asset.windows:
         if isinstance(window.fit, GrayBoxError):
-            asset.fail(window.fit, window.start)
+            asset.fail(window.fit, window.night)
             if stop_at_error:
                 break
             continue
@@ -354,7 +360,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
         except Exception as error:  # noqa: BLE001 - one window never stops the batch
             guard_asset_error(error, asset.ref, f"recording the window from "
                                                 f"{window.start.isoformat()}")
-            asset.fail(error, window.start)
+            asset.fail(error, window.night)
             if stop_at_error:
                 break
             continue
