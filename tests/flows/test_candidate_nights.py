@@ -2,8 +2,8 @@
 
 A small fleet of its own (6 vehicles, seed 11, 30-s samples, 5 days; baselines of days
 1-3, nights 4-5; only T-001 .. T-003 are fitted): T-003's sensor noise grows by x2.5
-(noise 1.5) from day 4. Probed once (``tests/flows/test_candidate_nights.py`` with
-``candidate_nights`` 1 and 2): one-night windows give T-003 the worst ratios 0.87 and 0.84
+(noise 1.5) from day 4. Chosen by a probe of several fault sizes through the nightly batch
+with ``candidate_nights`` 1 and 2 (this test repeats it): one-night windows give T-003 the worst ratios 0.87 and 0.84
 (no alarm on either night); the two-night window of days 4-5 gives 1.36 (an alarm); the
 healthy assets' two-night windows stay below 0.4.
 """
