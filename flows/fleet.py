@@ -18,7 +18,9 @@ Windows
     The nightly run takes, per asset, every whole window that starts at or after the asset's
     watermark (or, before its first nightly run, the end of its baseline's window) and ends
     at or before the run's as-of time, in the date partitions present. A window still being
-    filled (ending after as-of) waits for the next run.
+    filled (ending after as-of) waits for the next run. With ``[nightly] candidate_nights =
+    N`` the candidate of a window is fitted on it and the N - 1 windows before it
+    (:func:`trailing_nights`); its window is that whole span.
 """
 from __future__ import annotations
 
@@ -240,3 +242,23 @@ def range_windows(start: pd.Timestamp, end: pd.Timestamp, window: pd.Timedelta,
             out.append((max(s, start), min(e, end)))
         s = e
     return out
+
+
+def trailing_nights(start: pd.Timestamp, end: pd.Timestamp, nights: int, window: pd.Timedelta,
+                    earliest: pd.Timestamp | None = None
+                    ) -> list[tuple[pd.Timestamp, pd.Timestamp]]:
+    """The windows a candidate of the night ``[start, end)`` is fitted on, oldest first.
+
+    The night and the ``nights - 1`` windows before it (cut at window boundaries), none
+    starting before ``earliest`` (the reference's window end; a night that itself starts
+    before it is fitted alone). The candidate's window is ``(result[0][0], end)``.
+    """
+    if nights < 1:
+        raise ValueError(f"nights must be >= 1, got {nights}")
+    start, end = utc(start), utc(end)
+    first = start - (nights - 1) * window
+    if earliest is not None:
+        first = max(first, min(utc(earliest), start))
+    if first >= start:
+        return [(start, end)]
+    return range_windows(first, start, window, whole_only=False) + [(start, end)]

@@ -256,8 +256,9 @@ def night_document(summary: RunSummary) -> dict:
     """What a nightly run keeps of its night with the fleet-level run: the night, its marks,
     its coverage counts and the nights it recorded windows in (JSON types)."""
     night = night_of(summary.as_of)
-    recorded = sorted({pd.Timestamp(w.window_start).strftime("%Y-%m-%d")
-                       for a in summary.assets for w in a.windows})
+    from registry.fleet_ratios import night_of_window
+
+    recorded = sorted({night_of_window(w.window_end) for a in summary.assets for w in a.windows})
     return {"night": night, "as_of": summary.as_of, "flow_run_id": summary.flow_run_id,
             "coverage": coverage_counts(summary), "nights_recorded": recorded,
             "marks": [mark.to_dict() for mark in summary_marks(summary, night)]}

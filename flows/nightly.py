@@ -24,6 +24,13 @@ failed: the flow run then fails, naming the file and ``fleet-health alerts --exp
 the file behind the registry until the next run, which writes what was missed within the
 look-back, or ``fleet-health alerts --export``.
 
+With ``[nightly] candidate_nights = N`` (default 1) the candidate of each window is fitted
+on it and the N - 1 windows before it that have telemetry (never before the baseline's
+window end), and is recorded and alerted under the whole span ``(start of the first, end
+of the night)``: each night still gives one candidate, a rerun finds it recorded, and the
+watermark still advances one window at a time to the night's end. Epsilon is scaled to the
+span's sample count (:mod:`graybox.epsilon_scaling`).
+
 The watermark means "every window before it that had telemetry when a run passed it was
 analysed"; it only moves forward. Telemetry that arrives later (a day's partition uploaded
 after the run over the days around it) is found by the look-back: each run also takes the
@@ -32,7 +39,9 @@ never before the baseline's window) that have a date partition but no recorded c
 and analyses them first, against the same baseline, with their alerts. Recording is
 idempotent, so a rerun finds them recorded and adds nothing; a window arriving later than
 the look-back is left alone (``fleet-health reanalyze`` covers any range). This costs one
-registry query per asset and run (the asset's newest recorded windows).
+registry query per asset and run (the asset's newest recorded windows). With
+``candidate_nights`` > 1 the candidates of later nights already recorded are not refitted
+with the late night (``fleet-health reanalyze --candidate-nights N`` does that).
 
 Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
 stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
@@ -143,7 +152,8 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
                        f"{', '.join(f'{s:%Y-%m-%d %H:%M}' for s, _ in late)}")
     start_after = watermark if watermark is not None else baseline_end
     bounds = late + pending_windows(dates, start_after, as_of, window)
-    pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock)
+    pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock,
+                           nights=config.nightly.candidate_nights)
     if pending is None:
         return result, None
     if not pending.windows:
@@ -160,7 +170,11 @@ def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark:
                  ) -> list[tuple[pd.Timestamp, pd.Timestamp]]:
     """Whole windows starting in ``[watermark - lookback, watermark)`` that have a date
     partition but no recorded candidate: telemetry that arrived after the run that moved the
-    watermark past it. One registry query, only when such partitions exist."""
+    watermark past it. One registry query, only when such partitions exist.
+
+    A night counts as recorded when a candidate ends with it and starts at most
+    ``[nightly] candidate_nights - 1`` windows before it (the candidate of a multi-night
+    span is keyed by the whole span)."""
     lookback = config.nightly.lookback_delta
     if lookback <= pd.Timedelta(0):
         return []
@@ -174,9 +188,12 @@ def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark:
     newest = int(-(-(utc(as_of) - earliest) // window)) + 1
     with timed(clock, "registry"):
         history = registry.zeta_history(asset_id, last=newest)
-    recorded = {(utc(s), utc(e)) for s, e in zip(history["window_start"],
-                                                 history["window_end"])}
-    return [(s, e) for s, e in bounds if (s, e) not in recorded]
+    starts: dict[pd.Timestamp, list[pd.Timestamp]] = {}
+    for s, e in zip(history["window_start"], history["window_end"]):
+        starts.setdefault(utc(e), []).append(utc(s))
+    reach = (config.nightly.candidate_nights - 1) * window
+    return [(s, e) for s, e in bounds
+            if not any(s - reach <= first <= s for first in starts.get(e, ()))]
 
 
 def staleness(config: FleetConfig, ref: AssetRef, as_of: pd.Timestamp) -> Alert | None:

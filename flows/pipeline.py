@@ -36,7 +36,7 @@ from graybox.telemetry.layout import outside_links
 from flows import progress
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig
-from flows.fleet import AssetRef
+from flows.fleet import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
@@ -46,17 +46,38 @@ from registry.submission import FitSubmission
 
 @dataclass
 class PendingWindow:
-    """One window of an asset to process, and what became of it."""
+    """One window of an asset to process, and what became of it.
+
+    With ``[nightly] candidate_nights`` > 1, ``start`` is the start of the whole span and
+    ``earlier`` holds the telemetry of the nights before the last one (those with rows).
+    """
 
     start: pd.Timestamp
     end: pd.Timestamp
-    telemetry: object                     #: graybox.telemetry.TelemetryWindow
+    telemetry: object                     #: graybox.telemetry.TelemetryWindow (the last night)
     fit: Signature | GrayBoxError | None = None
+    earlier: tuple = ()                   #: TelemetryWindows of the earlier nights, in order
+    night_start: pd.Timestamp | None = None   #: start of the last night (None: ``start``)
+
+    @property
+    def night(self) -> pd.Timestamp:
+        """Start of the night the candidate is for (where a failure is reported)."""
+        return self.start if self.night_start is None else self.night_start
+
+    @property
+    def parts(self) -> list:
+        """The telemetry the candidate is fitted on, oldest first."""
+        return [*self.earlier, self.telemetry]
+
+    @property
+    def recorded_data(self):
+        """What the registry hashes: the night's telemetry, or the list of all nights."""
+        return self.parts if self.earlier else self.telemetry
 
     @property
     def nbytes(self) -> int:
-        frame = self.telemetry.frame
-        return int(frame.memory_usage(index=True, deep=False).sum())
+        # every candidate holds its nights while fitted, shared or not
+        return int(sum(p.frame.memory_usage(index=True, deep=False).sum() for p in self.parts))
 
 
 @dataclass
@@ -127,21 +148,49 @@ def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:
 
 def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
          bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]], stop_at_error: bool,
-         clock: StageClock | None = None) -> PendingAsset:
+         clock: StageClock | None = None, nights: int = 1,
+         earliest: pd.Timestamp | None = None) -> PendingAsset:
     """Read, validate and grid each window ``bounds`` of the asset (stage ``read``).
 
     A window without any row is counted in ``empty``, named in the result's note, and
     skipped. Another telemetry error stops the reading when ``stop_at_error`` (the windows
     before it are kept: ``stop``); otherwise it fails the asset and the other windows go on.
+
+    With ``nights`` > 1 each window's candidate also holds the ``nights - 1`` windows before
+    it that have rows, not before ``earliest`` (:func:`flows.fleet.trailing_nights`); its
+    window is the whole span. Each night is read once; a bad earlier night is an error of
+    the window, as above.
     """
     model = asset.model
     empty = []
+    found: dict = {}
+
+    def night(start, end):
+        if (start, end) not in found:
+            try:
+                found[start, end] = read_window(config.telemetry_root, asset.asset_id,
+                                                model.required_columns, start=start, end=end,
+                                                policy=grid, inputs=model.input_columns)
+            except TelemetryError as error:
+                found[start, end] = error
+        if isinstance(found[start, end], TelemetryError):
+            raise found[start, end]
+        return found[start, end]
+
+    spans = []
     with timed(clock, "read"):
         for start, end in bounds:
+            span = trailing_nights(start, end, nights, config.nightly.window_delta, earliest)
+            spans += span
             try:
-                telemetry = read_window(config.telemetry_root, asset.asset_id,
-                                        model.required_columns, start=start, end=end,
-                                        policy=grid, inputs=model.input_columns)
+                telemetry = night(start, end)
+                earlier = []
+                for s, e in span[:-1]:
+                    try:
+                        earlier.append(night(s, e))
+                    except TelemetryError as error:
+                        if error.kind != "no_data":   # an idle night is left out
+                            raise
             except TelemetryError as error:
                 if error.kind == "no_data":
                     asset.empty += 1
@@ -152,9 +201,10 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                     break
                 asset.fail(error, start)
                 continue
-            asset.windows.append(PendingWindow(start, end, telemetry))
+            asset.windows.append(PendingWindow(span[0][0], end, telemetry,
+                                               earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
-                              {day.date() for start, end in bounds
+                              {day.date() for start, end in spans
                                for day in pd.date_range(start.floor("D"), end, freq="D")})
     notes = []
     if empty:   # a date partition without rows: said, never skipped silently
@@ -170,15 +220,19 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
 
 def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
                  reference: LoadedVersion, bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]],
-                 stop_at_error: bool, clock: StageClock | None = None) -> PendingAsset | None:
-    """The asset's windows read with ``reference``'s white box and grid (see :func:`read`);
-    None, with ``result`` failed, when reading raised something other than bad telemetry."""
+                 stop_at_error: bool, clock: StageClock | None = None,
+                 nights: int = 1) -> PendingAsset | None:
+    """The asset's windows read with ``reference``'s white box and grid (see :func:`read`;
+    ``nights`` per candidate, none before the reference's window end); None, with
+    ``result`` failed, when reading raised something other than bad telemetry."""
     try:
         pending = PendingAsset(ref, result,
                                reference_model(reference, configured_models(config, ref)),
                                reference)
         grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
-        return read(config, pending, grid, bounds, stop_at_error, clock)
+        earliest = reference.info.window_end
+        return read(config, pending, grid, bounds, stop_at_error, clock, nights,
+                    None if earliest is None else utc(earliest))
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
         guard_asset_error(error, ref, "reading its telemetry")
         result.status, result.error = FAILED, describe_error(error)
@@ -232,7 +286,7 @@ def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None]
 def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
     """One batched fit of every window of every asset against its reference's frozen
     structure; sets each window's ``fit`` (a Signature or the GrayBoxError that stopped it)."""
-    work = [(window, FitRequest(asset.model, [window.telemetry],
+    work = [(window, FitRequest(asset.model, window.parts,
                                 baseline=asset.reference.signature, asset_id=asset.asset_id))
             for asset in assets for window in asset.windows]
     fits = fit_signatures([request for _, request in work], clock=clock) if work else []
@@ -297,7 +351,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
     out: list[Alert] = []
     for window in asset.windows:
         if isinstance(window.fit, GrayBoxError):
-            asset.fail(window.fit, window.start)
+            asset.fail(window.fit, window.night)
             if stop_at_error:
                 break
             continue
@@ -307,13 +361,13 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             with timed(clock, "registry"):
                 record = registry.record_fit(FitSubmission(
                     asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
-                    drift=drift, window=window.telemetry, window_start=window.start,
+                    drift=drift, window=window.recorded_data, window_start=window.start,
                     window_end=window.end, baseline_version=reference.version,
                     plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis))
         except Exception as error:  # noqa: BLE001 - one window never stops the batch
             guard_asset_error(error, asset.ref, f"recording the window from "
                                                 f"{window.start.isoformat()}")
-            asset.fail(error, window.start)
+            asset.fail(error, window.night)
             if stop_at_error:
                 break
             continue

@@ -3,7 +3,9 @@
 The range ``[start, end)`` is cut at window boundaries (``[nightly] window``, aligned to UTC
 midnight; partial windows at the edges are kept, and their epsilon is scaled up for their
 fewer samples). Each window is refitted with the reference version's frozen structure and
-compared with it, exactly as the nightly run does, and recorded as a **reanalysis run**
+compared with it, exactly as the nightly run does (with ``--candidate-nights N``, default
+``[nightly] candidate_nights``, each window's candidate also holds the N - 1 windows before
+it, never before the reference's window end, and is keyed by the whole span), and recorded as a **reanalysis run**
 (MLflow run tagged ``fleet_health.reanalysis=true``, linked to the reference version): no
 model version is registered, no alias moves, no watermark moves, and neither the nightly
 alert file nor :meth:`registry.Registry.alerts` sees it. Running the same reanalysis again
@@ -48,7 +50,8 @@ def _reference(version):
 
 
 def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
-           clock: StageClock | None = None) -> tuple[AssetResult, PendingAsset | None]:
+           clock: StageClock | None = None, nights: int = 1
+           ) -> tuple[AssetResult, PendingAsset | None]:
     """An asset's windows of the range, read against the reference version (bad windows are
     reported and skipped; the others go on)."""
     asset = ref.asset_id
@@ -65,7 +68,7 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
         return AssetResult(asset, ref.vehicle_class, FAILED, error=describe_error(error)), None
     result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
     pending = read_against(config, ref, result, loaded, windows, stop_at_error=False,
-                           clock=clock)
+                           clock=clock, nights=nights)
     if pending is not None and not pending.windows and not result.failed:
         note = (f"0 windows: no telemetry in [{windows[0][0]:%Y-%m-%d %H:%M}, "
                 f"{windows[-1][1]:%Y-%m-%d %H:%M}) UTC")
@@ -73,14 +76,28 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
     return result, (pending if pending is not None and pending.windows else None)
 
 
+def _nights(config: FleetConfig, candidate_nights: int | None) -> int:
+    """``candidate_nights`` when given (>= 1), else ``[nightly] candidate_nights``."""
+    if candidate_nights is None:
+        return config.nightly.candidate_nights
+    if isinstance(candidate_nights, bool) or int(candidate_nights) != candidate_nights \
+            or candidate_nights < 1:
+        raise ValueError(f"candidate_nights must be an integer >= 1, got {candidate_nights!r}")
+    return int(candidate_nights)
+
+
 def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
-                             version=None, registry=None, clock: StageClock | None = None
+                             version=None, candidate_nights: int | None = None,
+                             registry=None, clock: StageClock | None = None
                              ) -> list[AssetResult]:
-    """Reanalyse one batch of assets over ``[start, end)`` against ``version``."""
+    """Reanalyse one batch of assets over ``[start, end)`` against ``version``, each
+    candidate on ``candidate_nights`` windows (default ``[nightly] candidate_nights``)."""
     registry = registry or config.registry()
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
+    nights = _nights(config, candidate_nights)
     results: dict[str, AssetResult] = {}
-    load = loader(results, lambda ref: select(config, registry, ref, windows, version, clock))
+    load = loader(results, lambda ref: select(config, registry, ref, windows, version, clock,
+                                              nights))
     budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
     for group in memory_groups(refs, load, budget):
         fit_candidates(group, clock)
@@ -96,24 +113,29 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
       retry_condition_fn=retry_transient,
       task_run_name="reanalyze {label}")
 def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                     end: str, version: str | None, label: str) -> dict:
+                     end: str, version: str | None, candidate_nights: int | None,
+                     label: str) -> dict:
     """One batch of reanalyses (a Prefect task: retried on transient errors)."""
     return batch_task_body(process_reanalysis_batch, config_path, tracking_uri, refs, start,
-                           end, version)
+                           end, version, candidate_nights)
 
 
 def run_reanalysis(config: FleetConfig, config_path: str, start, end,
                    tracking_uri: str | None = None, assets: Sequence[str] | None = None,
-                   vehicle_class: str | None = None, version=None) -> RunSummary:
+                   vehicle_class: str | None = None, version=None,
+                   candidate_nights: int | None = None) -> RunSummary:
     """The reanalysis flow's body."""
     range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
+    nights = _nights(config, candidate_nights)
     summary = RunSummary("reanalyze", now_iso(), config=str(config.path),
                          tracking_uri=config.tracking_uri,
                          extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
-                                "version": str(_reference(version))})
+                                "version": str(_reference(version)),
+                                "candidate_nights": nights})
     return run_over_fleet(summary, reanalysis_batch, config,
                           (config_path, tracking_uri, utc(start).isoformat(),
-                           utc(end).isoformat(), None if version is None else str(version)),
+                           utc(end).isoformat(), None if version is None else str(version),
+                           nights),
                           f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
                           assets, vehicle_class)
 
@@ -122,7 +144,8 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
       on_crashed=[notify_hook])
 def reanalyze(start: str, end: str, assets: list[str] | None = None,
               config_path: str = "fleet.toml", vehicle_class: str | None = None,
-              version: str | None = None, tracking_uri: str | None = None):
+              version: str | None = None, tracking_uri: str | None = None,
+              candidate_nights: int | None = None):
     """Reanalyse assets over ``[start, end)`` against their baseline or a named version.
 
     Parameters
@@ -136,6 +159,8 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     version : str, optional
         A version number or alias (default ``baseline``).
     tracking_uri : str, optional
+    candidate_nights : int, optional
+        Windows each candidate is fitted on (default ``[nightly] candidate_nights``).
 
     Returns
     -------
@@ -146,5 +171,6 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "reanalyze") as guarded:
         summary = guarded.annotate(run_reanalysis(config, config_path, start, end,
-                                                  tracking_uri, assets, vehicle_class, version))
+                                                  tracking_uri, assets, vehicle_class, version,
+                                                  candidate_nights))
     return flow_result(summary, config)

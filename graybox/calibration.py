@@ -23,7 +23,8 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
    uncertainty of a small sample is part of the threshold, not ignored.
 5. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
-   gets epsilon scaled up by the ratio of sample counts.
+   gets epsilon scaled up by the ratio of sample counts, a longer one (several nights)
+   scaled down (:mod:`graybox.epsilon_scaling`).
 
 The number of pieces q adapts to the telemetry's rate: at most ``calibration_splits``, and
 no more than leave each piece enough residual samples for the frozen structure (differencing,
@@ -45,6 +46,7 @@ from scipy import stats
 
 from graybox import records
 from graybox.analysis_rate import decimation_factor
+from graybox.epsilon_scaling import epsilon_scale
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
 from graybox.fleet_fit import FitRequest, fit_signatures, window_periods
 from graybox.settings import GrayBoxSettings
@@ -98,11 +100,14 @@ class Calibration:
                 return entry
         raise KeyError(f"no calibrated threshold for channel {channel!r}, tier {tier!r}")
 
-    def epsilon(self, channel: str, tier: str, n_samples: int | None = None) -> float:
-        """Epsilon for a candidate of ``n_samples`` residual samples (scaled up if shorter)."""
+    def epsilon(self, channel: str, tier: str, n_samples: int | None = None,
+                baseline_samples: int | None = None) -> float:
+        """Epsilon for a candidate of ``n_samples`` residual samples: scaled up if shorter
+        than a night, down if longer and ``baseline_samples`` is given
+        (:func:`graybox.epsilon_scaling.epsilon_scale`)."""
         value = self.threshold(channel, tier).epsilon
         if n_samples:
-            value *= max(1.0, self.reference_samples / n_samples)
+            value *= epsilon_scale(n_samples, self.reference_samples, baseline_samples)
         return value
 
     def to_dict(self) -> dict:

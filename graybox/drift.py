@@ -138,7 +138,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     candidate, baseline : Signature
         Fitted with the same frozen structure (checked).
     calibration : graybox.calibration.Calibration, optional
-        Supplies epsilon per tier and channel (scaled to the candidate's sample count).
+        Supplies epsilon per tier and channel (scaled to the candidate's sample count and
+        the baseline's, see :mod:`graybox.epsilon_scaling`).
     top : int, default 3
         Parameter changes kept per entry as a root-cause hint.
 
@@ -159,7 +160,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
                                             float(contributions[i])) for i in order)
             epsilon = (None if calibration is None else
-                       calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples))
+                       calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples,
+                                           baseline_samples=healthy.n_samples))
             entries.append(TierDrift(channel.channel, tier, float(contributions.sum()), epsilon,
                                      changes))
     return Drift(tuple(entries), candidate.n_samples)

@@ -1,11 +1,14 @@
 """The fleet's recorded worst ratios per asset and night, read in a few searches.
 
-A night is the UTC date a candidate's window starts on; its ratio is the run's
+A night is the UTC date of a candidate window's last instant (the date its window starts
+on, unless ``[nightly] candidate_nights`` > 1 spans it over earlier nights: its night is the
+last one, :func:`night_of_window`); its ratio is the run's
 ``max_ratio`` metric (the largest zeta/epsilon over the tiers and channels of the window;
 the largest over the windows when a night has several). Runs are read with one (paged)
-``search_runs`` over every vehicle class's experiment per night (``window_start LIKE
-'YYYY-MM-DD%'``: MLflow compares tags only with ``=`` and ``LIKE``), so exactly the runs
-of those nights are read, never one call per asset. Only complete nightly candidates count, one per asset and window
+``search_runs`` over every vehicle class's experiment per date a window may end on
+(``window_end LIKE 'YYYY-MM-DD%'``: MLflow compares tags only with ``=`` and ``LIKE``;
+the nights and the day after the last), so exactly the runs of those nights are read,
+never one call per asset. Only complete nightly candidates count, one per asset and window
 (the latest recorded); reanalyses are left out.
 """
 from __future__ import annotations
@@ -51,12 +54,16 @@ def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
     for day in sorted(wanted):
         if _DATE.fullmatch(day) is None:
             raise ValueError(f"a night is a date YYYY-MM-DD, not {day!r}")
+    # a window of night d ends on d (a window shorter than a day) or at midnight after d
+    ends = wanted | {(pd.Timestamp(d) + pd.Timedelta(days=1)).strftime("%Y-%m-%d")
+                     for d in wanted}
+    for day in sorted(ends):
         runs = _asset_runs(backend, experiment_ids, [
             f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'",
-            f"tags.`{naming.TAG_WINDOW_START}` LIKE '{day}%'"])
+            f"tags.`{naming.TAG_WINDOW_END}` LIKE '{day}%'"])
         for run in runs:
             tags = run.data.tags
-            night = pd.Timestamp(tags[naming.TAG_WINDOW_START]).strftime("%Y-%m-%d")
+            night = night_of_window(tags[naming.TAG_WINDOW_END])
             if night not in wanted:
                 continue
             ratio = run.data.metrics.get("max_ratio")
@@ -78,8 +85,14 @@ def latest_candidate_night(backend: Backend) -> str | None:
     runs = backend.client.search_runs(
         experiment_ids, f"tags.`{naming.TAG_COMPLETE}` = 'true' and "
                         f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'",
-        order_by=[f"tags.`{naming.TAG_WINDOW_START}` DESC"], max_results=50)
+        order_by=[f"tags.`{naming.TAG_WINDOW_END}` DESC"], max_results=50)
     for run in runs:
         if run.data.tags.get(naming.TAG_REANALYSIS) != "true":
-            return pd.Timestamp(run.data.tags[naming.TAG_WINDOW_START]).strftime("%Y-%m-%d")
+            return night_of_window(run.data.tags[naming.TAG_WINDOW_END])
     return None
+
+
+def night_of_window(window_end) -> str:
+    """The night (``YYYY-MM-DD``) of a window ending at ``window_end`` (exclusive): the date
+    of its last instant, so a multi-night window counts on its last night."""
+    return (pd.Timestamp(window_end) - pd.Timedelta(microseconds=1)).strftime("%Y-%m-%d")

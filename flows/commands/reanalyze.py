@@ -27,10 +27,24 @@ def add_reanalyze_command(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--end", required=True, metavar="WHEN", help="end (UTC, exclusive)")
     parser.add_argument("--version", metavar="N|ALIAS",
                         help="compare with this version number or alias (default: baseline)")
+    parser.add_argument("--candidate-nights", type=_nights, metavar="N",
+                        help="fit each window's candidate on it and the N - 1 windows before "
+                             "it (default: [nightly] candidate_nights)")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     config_options(parser)
     parser.set_defaults(handler=guarded(reanalyze))
     return parser
+
+
+def _nights(text: str) -> int:
+    """``--candidate-nights``: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
 
 
 def reanalyze(args: argparse.Namespace) -> int:
@@ -49,7 +63,8 @@ def reanalyze(args: argparse.Namespace) -> int:
         summary = run_flow(args, lambda: reanalyze_flow(
             start=start.isoformat(), end=end.isoformat(), assets=args.assets,
             config_path=str(config.path), vehicle_class=args.vehicle_class,
-            version=args.version, tracking_uri=args.tracking_uri, return_state=True))
+            version=args.version, tracking_uri=args.tracking_uri,
+            candidate_nights=args.candidate_nights, return_state=True))
     except FlowFailed as error:
         _error(f"the reanalysis failed: {error}")
         return EXIT_FAILED

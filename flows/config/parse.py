@@ -157,7 +157,7 @@ def _positive_duration(check: Checker, key: str, text: str, example: str,
 def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
                                   "retry_delay_seconds", "memory_budget", "lookback",
-                                  "task_runner"))
+                                  "task_runner", "candidate_nights"))
     default = NightlySettings()
     batch = check.integer("nightly.batch_size", table.get("batch_size", default.batch_size),
                           low=1)
@@ -192,8 +192,10 @@ def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     if runner not in TASK_RUNNERS:
         raise check.error("nightly.task_runner", f"must be one of {', '.join(TASK_RUNNERS)}, "
                                                  f"got {runner!r}")
+    nights = check.integer("nightly.candidate_nights",
+                           table.get("candidate_nights", default.candidate_nights), low=1)
     return NightlySettings(batch, window, plots, retries, delay, budget, lookback,
-                           task_runner=runner)
+                           task_runner=runner, candidate_nights=nights)
 
 
 def _dask(check: Checker, table: Mapping) -> DaskSettings:

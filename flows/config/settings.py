@@ -96,6 +96,8 @@ class NightlySettings:
     #: how far before the watermark a run looks for late-arriving windows ("0D": not at all)
     lookback: str = "7D"
     task_runner: str = "sequential"
+    #: nightly windows each candidate is fitted on: the night and the N - 1 before it
+    candidate_nights: int = 1
 
     @property
     def window_delta(self) -> pd.Timedelta:

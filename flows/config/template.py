@@ -53,6 +53,7 @@ plots = "{plots}"                    # candidate plots: "alarms", "all" or "none
 retries = {nightly.retries}                          # retries of a batch after a transient error
 retry_delay_seconds = {retry_delay_seconds:g}
 lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
+candidate_nights = {nightly.candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
 
 [schedule]
 cron = "{cron}"                  # nightly deployment (fleet-health serve)
