@@ -30,7 +30,7 @@ from graybox.fleet_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
-from graybox.telemetry import GridPolicy, read_window
+from graybox.telemetry import GridPolicy, list_dates, read_window
 from graybox.telemetry.layout import outside_links
 
 from flows import progress
@@ -42,6 +42,8 @@ from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_
 from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
 from registry.entities import LoadedVersion
 from registry.submission import FitSubmission
+
+DAY = pd.Timedelta(days=1)
 
 
 @dataclass
@@ -152,8 +154,8 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
          earliest: pd.Timestamp | None = None) -> PendingAsset:
     """Read, validate and grid each window ``bounds`` of the asset (stage ``read``).
 
-    A window without any row is counted in ``empty``, named in the result's note, and
-    skipped. Another telemetry error stops the reading when ``stop_at_error`` (the windows
+    A window without any row is counted in ``empty`` and skipped; when a date partition is
+    there without rows, the window is named in the result's note. Another telemetry error stops the reading when ``stop_at_error`` (the windows
     before it are kept: ``stop``); otherwise it fails the asset and the other windows go on.
 
     With ``nights`` > 1 each window's candidate also holds the ``nights - 1`` windows before
@@ -163,6 +165,7 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
     """
     model = asset.model
     empty = []
+    dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
 
     def night(start, end):
@@ -194,7 +197,11 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
             except TelemetryError as error:
                 if error.kind == "no_data":
                     asset.empty += 1
-                    empty.append(start)
+                    if dates is None:
+                        dates = [pd.Timestamp(d, tz="UTC")
+                                 for d in list_dates(config.telemetry_root, asset.asset_id)]
+                    if any(start < d + DAY and d < end for d in dates):
+                        empty.append(start)      # a partition is there, without rows
                     continue
                 if stop_at_error:
                     asset.stop, asset.stop_start = error, start
