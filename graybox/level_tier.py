@@ -13,7 +13,10 @@ carries the whole bias. With a wrong white box it also carries the model error, 
 depends on the operating condition and so moves with each night's load. The tier therefore
 regresses ``e`` on the operating condition (the prediction itself and the inputs, centred at
 the baseline's means) and keeps the intercept: the channel's level at the baseline's
-operating point. A bias step moves it by ``b``; a wrong white box moves only the slopes.
+operating point. Candidates keep the baseline's centre and slopes and refit only the level,
+the mean error after the baseline's operating-condition share is taken out. A bias step
+moves it by ``b``; a night at another load does not, as long as the baseline's relation
+holds there.
 
 Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), about ``k``
 times the one-step residual, plus one small least-squares fit per channel.
@@ -45,9 +48,10 @@ class LevelTier:
         Intercept of the error's regression on the centred operating features: the mean
         error at the baseline's operating point (in the channel's units).
     slopes : tuple of float
-        Regression coefficients of the features (never compared: the model error's share).
+        Regression coefficients of the features, fitted by the baseline (the model error's
+        share; a candidate keeps its baseline's).
     center : tuple of float
-        Feature means of the baseline (a candidate uses its baseline's, so levels compare).
+        Feature means of the baseline (a candidate keeps its baseline's, so levels compare).
     residual_std : float
         Standard deviation of the regression's residual; the unit of the tier's changes.
     horizon : int
@@ -149,8 +153,9 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     horizon : int
         ``k`` the errors were computed with (recorded).
     baseline : LevelTier, optional
-        A candidate's baseline: its centre is used, so both intercepts are levels at the
-        same operating point. None centres at these features' means.
+        A candidate's baseline: its centre and slopes are kept and only the level is
+        refitted, so both are levels at the same operating point. None fits centre (the
+        features' means), slopes and level.
 
     Returns
     -------
@@ -163,12 +168,18 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     if len(errors) <= features.shape[1] + 2:
         raise InsufficientDataError(f"{len(errors)} finite k-step errors are too few for the "
                                     f"level tier")
-    center = features.mean(axis=0) if baseline is None else np.asarray(baseline.center, float)
-    centred = features - center
-    # a feature without spread (a constant input) has no slope; lstsq gives it 0
-    design = np.column_stack([np.ones(len(errors)), centred])
-    coefficients, *_ = np.linalg.lstsq(design, errors, rcond=None)
-    residual = errors - design @ coefficients
-    return LevelTier(float(coefficients[0]), tuple(float(c) for c in coefficients[1:]),
-                     tuple(float(c) for c in center), float(residual.std()), int(horizon),
-                     int(len(errors)))
+    if baseline is None:
+        center = features.mean(axis=0)
+        # a feature without spread (a constant input) has no slope; lstsq gives it 0
+        design = np.column_stack([np.ones(len(errors)), features - center])
+        coefficients, *_ = np.linalg.lstsq(design, errors, rcond=None)
+        level, slopes = float(coefficients[0]), coefficients[1:]
+    else:
+        # the baseline's relation to the operating condition, only the offset refitted: a
+        # night (or a calibration piece) covering part of the load range would otherwise
+        # extrapolate its own slopes to the baseline's centre
+        center, slopes = np.asarray(baseline.center, float), np.asarray(baseline.slopes, float)
+        level = float(np.mean(errors - (features - center) @ slopes))
+    residual = errors - level - (features - center) @ slopes
+    return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
+                     float(residual.std()), int(horizon), int(len(errors)))
