@@ -179,3 +179,16 @@ def test_the_level_tier_catches_a_bias_step_with_the_white_box_20_percent_off():
                 window_end="e", version=None, baseline_version=1, run_id=None)
                 if a.tier == "level"]
             assert alert.hint().startswith("level moved from ")
+
+
+def test_a_level_alerts_hint_says_where_the_level_moved():
+    baseline = make_signature((dataclasses.replace(make_channel(), level=_level(129.02)),))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=_level(129.49)),))
+    drift = compute_drift(candidate, baseline)
+    entry = drift.get("omega", "level")
+    flagged = type(drift)((dataclasses.replace(entry, epsilon=1.0),), drift.n_samples)
+    [alert] = alerts_from_drift(flagged, asset_id="T-001", vehicle_class="turbine",
+                                window_start="s", window_end="e", version=2,
+                                baseline_version=1, run_id=None)
+    assert (alert.channel, alert.tier) == ("omega", "level")
+    assert alert.hint() == "level moved from 129.02 to 129.49 (+0.47)"
