@@ -190,7 +190,13 @@ def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
             return {}
         horizon = next(iter(references.values())).horizon
     data = level_data(request.model, frames, interval, horizon)
-    return {name: fit_level(*data[name], horizon, references[name]) for name in states}
+    levels = {}
+    for name in states:
+        try:
+            levels[name] = fit_level(*data[name], horizon, references[name])
+        except InsufficientDataError as error:
+            raise InsufficientDataError(f"channel {name!r}: level tier: {error}") from None
+    return levels
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
