@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 from graybox.analysis_rate import choose_analysis_interval
-from graybox.level_tier import fit_level, horizon_samples, level_data
+from graybox.level_tier import fit_level, horizon_samples, level_data, start_stride
 from graybox.models.gas_turbine import GasTurbineShaft
 from graybox.residual import residual_frame
 from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
@@ -23,7 +23,8 @@ def main() -> None:
         step = choose_analysis_interval(model, [frame], dt)
         k = horizon_samples(step)
         start = time.perf_counter()
-        errors, features = level_data(model, [frame.iloc[::round(step / dt)]], step, k)["omega"]
+        errors, features = level_data(model, [frame.iloc[::round(step / dt)]], step, k,
+                                      start_stride(step))["omega"]
         fit_level(errors, features, k)
         level = time.perf_counter() - start
         start = time.perf_counter()

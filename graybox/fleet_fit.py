@@ -21,7 +21,8 @@ from threadpoolctl import threadpool_limits
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
-from graybox.level_tier import LevelTier, fit_level, horizon_samples, level_data
+from graybox.level_tier import (LevelTier, fit_level, horizon_samples, level_data,
+                                start_stride)
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
@@ -189,7 +190,7 @@ def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
         if any(level is None for level in references.values()):
             return {}
         horizon = next(iter(references.values())).horizon
-    data = level_data(request.model, frames, interval, horizon)
+    data = level_data(request.model, frames, interval, horizon, start_stride(interval))
     levels = {}
     for name in states:
         try:

@@ -18,8 +18,9 @@ the mean error after the baseline's operating-condition share is taken out. A bi
 moves it by ``b``; a night at another load does not, as long as the baseline's relation
 holds there.
 
-Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), about ``k``
-times the one-step residual, plus one small least-squares fit per channel.
+Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), started every
+10 s at most, so at most 12 one-step residuals' worth at 10 s and about 2 at 1 s, plus one
+small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis steps.
 """
 from __future__ import annotations
 
@@ -36,6 +37,12 @@ from graybox.rk4 import rk4_step
 #: how far ahead the prediction runs, in seconds; several time constants of the shaft
 #: models (1 / gamma ~ 17 s), so the start's bias has decayed to rounding level
 LEVEL_HORIZON_SECONDS = 120.0
+#: most RK4 sample steps of a prediction: bounds the cost at fast analysis intervals (a
+#: shorter horizon keeps the part ``1 - J^k`` of a bias, still a level change)
+LEVEL_MAX_STEPS = 12
+#: least seconds between two predictions' starting points: the level moves far slower than
+#: a sample, and the cost is steps times starting points
+LEVEL_START_SPACING = 10.0
 
 
 @dataclass(frozen=True)
@@ -69,12 +76,18 @@ class LevelTier:
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
-    """``k`` for telemetry sampled every ``sample_interval`` seconds (at least 1)."""
-    return max(1, int(np.ceil(seconds / sample_interval - 1e-9)))
+    """``k`` for samples every ``sample_interval`` seconds: ``seconds`` ahead, at least 1 and
+    at most :data:`LEVEL_MAX_STEPS`."""
+    return int(np.clip(np.ceil(seconds / sample_interval - 1e-9), 1, LEVEL_MAX_STEPS))
+
+
+def start_stride(sample_interval: float) -> int:
+    """Samples between two predictions' starting points (:data:`LEVEL_START_SPACING`)."""
+    return max(1, int(round(LEVEL_START_SPACING / sample_interval)))
 
 
 def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: float, k: int,
-                      substeps: int = 2) -> np.ndarray:
+                      substeps: int = 2, stride: int = 1) -> np.ndarray:
     """Free-run prediction of every sample from the observed state ``k`` samples earlier.
 
     Parameters
@@ -88,21 +101,23 @@ def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: fl
         Samples predicted ahead (``k = 1`` is the one-step prediction of Eqs. 2-3).
     substeps : int, default 2
         RK4 steps per sample (inputs linear inside a sample).
+    stride : int, default 1
+        Predict only every ``stride``-th sample.
 
     Returns
     -------
-    ndarray of shape (T - k, n_states)
-        The predictions of samples ``k .. T-1``.
+    ndarray of shape (ceil((T - k) / stride), n_states)
+        The predictions of samples ``k, k + stride, ... <= T-1``.
     """
     x = np.asarray(x, dtype=float)
     u = np.asarray(u, dtype=float).reshape(len(x), -1)
     if len(x) <= k:
         raise InsufficientDataError(f"a {k}-step prediction needs more than {k} samples")
     n = len(x) - k
-    state = x[:n].copy()
+    state = x[:n:stride].copy()
     h = dt / substeps
     for j in range(k):
-        u0, u1 = u[j:j + n], u[j + 1:j + 1 + n]
+        u0, u1 = u[j:j + n:stride], u[j + 1:j + 1 + n:stride]
         for step in range(substeps):
             begin = step / substeps
             state = rk4_step(model.derivatives, state, u0 + (u1 - u0) * begin,
@@ -111,10 +126,11 @@ def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: fl
     return state
 
 
-def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, k: int
-               ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, k: int,
+               stride: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per state channel, the k-step errors and their operating features, pooled over
-    segments (a prediction never crosses a segment border).
+    segments (a prediction never crosses a segment border); one prediction every
+    ``stride`` samples.
 
     Returns
     -------
@@ -129,10 +145,10 @@ def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, 
         u = frame.loc[:, list(model.input_columns)].to_numpy(dtype=float).reshape(len(frame), -1)
         if len(x) <= k:
             continue
-        predicted = k_step_prediction(model, x, u, dt, k)
+        predicted = k_step_prediction(model, x, u, dt, k, stride=stride)
         for i, name in enumerate(model.states):
-            errors[name].append(x[k:, i] - predicted[:, i])
-            features[name].append(np.column_stack([predicted[:, i], u[k:]]))
+            errors[name].append(x[k::stride, i] - predicted[:, i])
+            features[name].append(np.column_stack([predicted[:, i], u[k::stride]]))
     out = {}
     for name in model.states:
         if not errors[name]:
