@@ -156,8 +156,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
         decimated = {name: [decimate(r[name].to_numpy(), factor) for r in residuals]
                      for name in request.model.states}
         del residuals
-        # the level tier at the analysis interval too: a 1-Hz window costs 7 times fewer RK4
-        # steps and loses nothing (the level moves far slower than a sample)
+        # the level tier at the analysis interval too: a 1-Hz window costs several times fewer
+        # RK4 steps and loses nothing (the level moves far slower than a sample)
         levels = _fit_levels(request, [frame.iloc[::factor] for frame in frames], analysis)
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]

@@ -19,7 +19,7 @@ moves it by ``b``; a night at another load does not, as long as the baseline's r
 holds there.
 
 Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), started every
-10 s at most, so at most 12 one-step residuals' worth at 10 s and about 2 at 1 s, plus one
+10 s at most, so at most 12 one-step residuals' worth at 10 s and about one at 1 s, plus one
 small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis steps.
 """
 from __future__ import annotations
