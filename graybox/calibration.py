@@ -318,12 +318,15 @@ def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], wi
                false_alarm_rate: float) -> Calibration:
     """Epsilons from (rest, piece) pairs: a piece of a window against the baseline refitted
     without that window, rescaled to a night against the full baseline."""
-    alpha = false_alarm_rate / (len(baseline.channels) * len(TIER_KINDS))
+    tests = sum(kind.present(c) for c in baseline.channels for kind in TIER_KINDS)
+    alpha = false_alarm_rate / tests
     total = baseline.n_samples
     reference = total / windows
     thresholds = []
     for channel in baseline.channel_names:
         for kind in TIER_KINDS:
+            if not kind.present(baseline.channel(channel)):
+                continue
             deltas = []
             for rest, piece in pairs:
                 delta = kind.deltas(piece.channel(channel), rest.channel(channel))

@@ -152,6 +152,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
         for kind in TIER_KINDS:
+            if not (kind.present(channel) and kind.present(healthy)):
+                continue  # a tier one of them was stored without
             tier = kind.name
             names, current = kind.parameters(channel)
             _, reference = kind.parameters(healthy)

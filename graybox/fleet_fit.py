@@ -21,6 +21,8 @@ from threadpoolctl import threadpool_limits
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.level_tier import (LevelTier, fit_level, horizon_samples, level_data,
+                                start_stride)
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
@@ -73,6 +75,7 @@ class _Channel:
     n_samples: int
     selection: Selection | None = None
     nonlinear: NonlinearTier | None = None
+    level: LevelTier | None = None
 
 
 @dataclass
@@ -152,7 +155,10 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
                      for frame in frames]
         decimated = {name: [decimate(r[name].to_numpy(), factor) for r in residuals]
                      for name in request.model.states}
-    del residuals
+        del residuals
+        # the level tier at the analysis interval too: a 1-Hz window costs several times fewer
+        # RK4 steps and loses nothing (the level moves far slower than a sample)
+        levels = _fit_levels(request, [frame.iloc[::factor] for frame in frames], analysis)
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
     prepared = _Prepared(request, interval, analysis, min(starts).isoformat(),
@@ -163,7 +169,35 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
             prepared.channels.append(_prepare_channel(name, decimated[name], frozen, settings,
                                                       analysis, seed=request.seed * 1000 + index,
                                                       owners=owners))
+            prepared.channels[-1].level = levels.get(name)
     return prepared
+
+
+def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
+                interval: float) -> dict[str, LevelTier]:
+    """The level tier of every channel (:mod:`graybox.level_tier`) of ``frames`` sampled
+    every ``interval`` seconds (the analysis interval: every ``factor``-th telemetry sample).
+
+    A candidate uses its baseline's horizon and operating centre; a candidate of a baseline
+    stored without the tier gets none.
+    """
+    baseline = request.baseline
+    states = request.model.states
+    if baseline is None:
+        horizon, references = horizon_samples(interval), {name: None for name in states}
+    else:
+        references = {name: baseline.channel(name).level for name in states}
+        if any(level is None for level in references.values()):
+            return {}
+        horizon = next(iter(references.values())).horizon
+    data = level_data(request.model, frames, interval, horizon, start_stride(interval))
+    levels = {}
+    for name in states:
+        try:
+            levels[name] = fit_level(*data[name], horizon, references[name])
+        except InsufficientDataError as error:
+            raise InsufficientDataError(f"channel {name!r}: level tier: {error}") from None
+    return levels
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
@@ -342,7 +376,8 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
         else:
             noise = [s[span:] for s in channel.w_segments]
         channels.append(ChannelSignature(channel.name, structure, channel.linear, channel.nonlinear,
-                                         describe_noise(noise), channel.n_samples, channel.selection))
+                                         describe_noise(noise), channel.n_samples, channel.selection,
+                                         channel.level))
     return Signature(tuple(channels), ModelSpec.from_model(item.request.model), settings.residual,
                      item.sample_interval, channels[0].n_samples, settings, item.asset_id,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval)

@@ -18,6 +18,9 @@ A ``float`` must be finite (JSON's ``NaN`` and ``Infinity`` are refused: a NaN e
 weight would silently disable alarms or break a fit), except in the fields a record names
 in its class attribute ``non_finite_fields`` (diagnostics such as a test statistic).
 
+Fields a record names in its class attribute ``omitted_when_none`` are left out of the dict
+while None (a field added later: records without it are written as older code wrote them).
+
 A record that reads dicts stored by older code defines a classmethod ``migrate(data) ->
 dict`` that turns such a dict into today's fields; :func:`from_dict` applies it first,
 wherever the record is nested. (The pattern follows the ``to_dict`` / ``from_dict`` of
@@ -46,7 +49,9 @@ def to_dict(record: Any) -> dict:
     """
     if not (dataclasses.is_dataclass(record) and not isinstance(record, type)):
         raise TypeError(f"to_dict needs a dataclass record, got {type(record).__name__}")
-    return {f.name: _encode(getattr(record, f.name)) for f in dataclasses.fields(record)}
+    omitted = getattr(record, "omitted_when_none", frozenset())
+    return {f.name: _encode(getattr(record, f.name)) for f in dataclasses.fields(record)
+            if not (f.name in omitted and getattr(record, f.name) is None)}
 
 
 def from_dict(cls: type, data: Any):

@@ -11,6 +11,7 @@ import numpy as np
 
 from graybox import records
 from graybox.exceptions import ArtifactError
+from graybox.level_tier import LevelTier
 from graybox.linear_tier import LinearTier
 from graybox.models.spec import ModelSpec
 from graybox.noise_tier import NoiseTier
@@ -83,7 +84,11 @@ class Selection:
 
 @dataclass(frozen=True)
 class ChannelSignature:
-    """The three tiers of one residual channel."""
+    """The tiers of one residual channel.
+
+    ``level`` (:mod:`graybox.level_tier`) is None in signatures stored before the level tier
+    existed; that tier is then absent and its drift not computed.
+    """
 
     channel: str
     structure: ChannelStructure
@@ -92,6 +97,10 @@ class ChannelSignature:
     noise: NoiseTier
     n_samples: int
     selection: Selection | None = None
+    level: LevelTier | None = None
+
+    #: written only when present, so signatures without the tier read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level"})
 
 
 @dataclass(frozen=True)
@@ -161,11 +170,14 @@ class Signature:
         """All tier parameters as one flat vector with a name per entry.
 
         Names look like ``omega.linear.a1``, ``omega.nonlinear.W1_3``,
-        ``omega.nonlinear.w_3_2`` (hidden unit 3, delay 2) and ``omega.noise.variance``.
+        ``omega.nonlinear.w_3_2`` (hidden unit 3, delay 2), ``omega.noise.variance`` and
+        ``omega.level.level`` (absent from signatures without the level tier).
         """
         names, values = [], []
         for channel in self.channels:
             for kind in TIER_KINDS:
+                if not kind.present(channel):
+                    continue
                 tier_names, tier_values = kind.parameters(channel)
                 names += [f"{channel.channel}.{kind.name}.{n}" for n in tier_names]
                 values.append(tier_values)
@@ -264,3 +276,10 @@ def check_consistent(signature: Signature) -> None:
                                 f"(hidden_units, embedding_dim) = ({s.hidden_units}, "
                                 f"{s.embedding_dim}), got rows of lengths "
                                 f"{[len(row) for row in network.input_weights]}")
+        level = channel.level
+        if level is not None and (len(level.slopes) != len(level.center) or level.horizon < 1
+                                  or not level.residual_std >= 0):
+            raise ArtifactError(f"{where}: level must have as many slopes as centre values, "
+                                f"horizon >= 1 and residual_std >= 0, got {len(level.slopes)} "
+                                f"slopes, {len(level.center)} centre values, horizon "
+                                f"{level.horizon}, residual_std {level.residual_std}")

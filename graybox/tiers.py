@@ -1,4 +1,4 @@
-"""The three tier kinds: which parameters a tier has, and how zeta scales their changes.
+"""The tier kinds: which parameters a tier has, and how zeta scales their changes.
 
 One small object per kind (as ``ruptures`` has one ``BaseCost`` subclass per cost), so that
 code which needs "the parameters of tier X" or "the changes of tier X" asks the kind instead
@@ -33,6 +33,19 @@ class Tier:
     """
 
     name: str = ""
+
+    def present(self, channel: ChannelSignature) -> bool:
+        """Whether ``channel`` has this tier (signatures stored before a tier existed lack it).
+
+        Parameters
+        ----------
+        channel : ChannelSignature
+
+        Returns
+        -------
+        bool
+        """
+        return True
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         """Names and values of this tier's parameters in ``channel``.
@@ -124,8 +137,34 @@ class NoiseTierKind(Tier):
         return delta * np.sqrt(MOMENT_WEIGHTS)
 
 
+class LevelTierKind(Tier):
+    """The level tier (:mod:`graybox.level_tier`): the channel's level at the baseline's
+    operating point.
+
+    One parameter, ``level``; its change is in units of the baseline's regression residual
+    standard deviation. Absent from signatures stored before the tier existed.
+    """
+
+    name = "level"
+
+    def present(self, channel: ChannelSignature) -> bool:
+        return channel.level is not None
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        if channel.level is None:
+            raise StructureMismatchError(f"channel {channel.channel!r} has no level tier (a "
+                                         f"signature stored before the tier existed)")
+        return ["level"], np.array([channel.level.level])
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        delta = super().deltas(candidate, baseline)
+        spread = baseline.level.residual_std
+        return delta / spread if spread > 0 else delta
+
+
 #: the tier kinds, in the order of every table, plot and parameter vector
-TIER_KINDS: tuple[Tier, ...] = (LinearTierKind(), NonlinearTierKind(), NoiseTierKind())
+TIER_KINDS: tuple[Tier, ...] = (LinearTierKind(), NonlinearTierKind(), NoiseTierKind(),
+                                LevelTierKind())
 
 #: their names, in the same order
 TIERS: tuple[str, ...] = tuple(kind.name for kind in TIER_KINDS)

@@ -110,9 +110,15 @@ class Alert:
         return (self.asset_id, self.window_start, self.window_end, self.channel, self.tier)
 
     def hint(self, count: int = 3) -> str:
-        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``."""
+        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``; for the level tier
+        ``level moved from 129.02 to 129.49 (+0.47)`` (the channel's k-step prediction error
+        at the baseline's operating point, in the channel's units)."""
         if self.kind == STALE:
             return f"no telemetry since {self.window_end} ({self.zeta:.1f} days)"
+        if self.tier == "level" and self.top_changes:
+            change = self.top_changes[0]
+            a, b = change["baseline"], change["candidate"]
+            return f"level moved from {a:.6g} to {b:.6g} ({b - a:+.3g})"
         return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
                          for c in self.top_changes[:count])
 

@@ -37,7 +37,7 @@ from safetensors.numpy import save as save_tensors
 
 from graybox.calibration import Calibration
 from graybox.exceptions import ArtifactError
-from graybox.signature import TIERS, Signature, tier_parameters
+from graybox.signature import TIER_KINDS, TIERS, Signature, tier_parameters
 
 SIGNATURE_FILE = "signature.json"
 CALIBRATION_FILE = "calibration.json"
@@ -77,7 +77,8 @@ def weight_tensors(signature: Signature) -> dict[str, np.ndarray]:
     """Every tier's parameters as float64 arrays, named ``<channel>.<tier>.<part>``.
 
     ``<channel>.nonlinear.input_weights`` has shape (J, m), ``.output_weights`` (J,),
-    ``<channel>.linear.coefficients`` (n,), ``<channel>.noise.moments`` (4,).
+    ``<channel>.linear.coefficients`` (n,), ``<channel>.noise.moments`` (4,) and, when the
+    channel has the level tier, ``<channel>.level.level`` (1,).
     """
     tensors: dict[str, np.ndarray] = {}
     for channel in signature.channels:
@@ -88,7 +89,10 @@ def weight_tensors(signature: Signature) -> dict[str, np.ndarray]:
         tensors[f"{channel.channel}.linear.coefficients"] = np.ascontiguousarray(coefficients, np.float64)
         _, moments = tier_parameters(channel, "noise")
         tensors[f"{channel.channel}.noise.moments"] = np.ascontiguousarray(moments, np.float64)
-    assert set(TIERS) == {"linear", "nonlinear", "noise"}
+        if channel.level is not None:
+            _, level = tier_parameters(channel, "level")
+            tensors[f"{channel.channel}.level.level"] = np.ascontiguousarray(level, np.float64)
+    assert set(TIERS) == {"linear", "nonlinear", "noise", "level"}
     return tensors
 
 
@@ -198,7 +202,8 @@ def read_bundle(directory: str | pathlib.Path, where: str | None = None,
         except ArtifactError as error:
             raise fail(CALIBRATION_FILE, str(error)) from None
     if calibration is not None:
-        needed = {(c, t) for c in signature.channel_names for t in TIERS}
+        needed = {(c.channel, kind.name) for c in signature.channels for kind in TIER_KINDS
+                  if kind.present(c)}
         given = {(t.channel, t.tier) for t in calibration.thresholds}
         if given != needed:
             raise fail(CALIBRATION_FILE, f"thresholds must cover exactly the signature's "

@@ -117,6 +117,9 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
         for name in ("mean", "variance", "skewness", "excess_kurtosis", "ljung_box_statistic",
                      "ljung_box_pvalue"):
             metrics[f"noise.{c}.{name}"] = getattr(noise, name)
+        if channel.level is not None:
+            metrics[f"level.{c}.level"] = channel.level.level
+            metrics[f"level.{c}.residual_std"] = channel.level.residual_std
     if calibration is not None:
         metrics["calibration.false_alarm_rate"] = calibration.false_alarm_rate
         metrics["calibration.n_windows"] = calibration.n_windows

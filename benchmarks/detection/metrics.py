@@ -23,14 +23,15 @@ from scipy import stats
 
 from benchmarks.detection.classic import DETECTORS
 
-TIERS = ("linear", "nonlinear", "noise")
+TIERS = ("linear", "nonlinear", "noise", "level")
 GRAYBOX = "graybox"
 GRAYBOX_TIERS = tuple(f"graybox.{t}" for t in TIERS)
 ALL_DETECTORS = DETECTORS + (GRAYBOX,) + GRAYBOX_TIERS
 LABELS = {"redline": "3-sigma redline", "adaptive": "adaptive (rolling) threshold",
           "cusum_mean": "CUSUM mean", "cusum_var": "CUSUM variance", "glr": "GLR mean/variance",
           GRAYBOX: "gray box (any tier)", "graybox.linear": "gray box: linear tier",
-          "graybox.nonlinear": "gray box: nonlinear tier", "graybox.noise": "gray box: noise tier"}
+          "graybox.nonlinear": "gray box: nonlinear tier", "graybox.noise": "gray box: noise tier",
+          "graybox.level": "gray box: level tier"}
 
 
 def ratio(table: pd.DataFrame, detector: str) -> pd.Series:

@@ -19,7 +19,7 @@ STYLE = {"redline": ("tab:red", "o", "-"), "adaptive": ("tab:orange", "s", "-"),
          "cusum_mean": ("tab:purple", "^", "-"), "cusum_var": ("tab:brown", "v", "-"),
          "glr": ("tab:gray", "D", "-"), "graybox": ("tab:blue", "*", "-"),
          "graybox.linear": ("tab:cyan", "", "--"), "graybox.nonlinear": ("tab:olive", "", "--"),
-         "graybox.noise": ("tab:green", "", "--")}
+         "graybox.noise": ("tab:green", "", "--"), "graybox.level": ("tab:pink", "", "--")}
 
 
 @dataclass

@@ -16,7 +16,7 @@ import pandas as pd
 from benchmarks.detection.classic import DETECTORS, ClassicSettings, calibrate, night_statistics
 from benchmarks.detection.grid import Grid, VehicleData, asset_id, simulate_seed
 
-TIERS = ("linear", "nonlinear", "noise")
+TIERS = ("linear", "nonlinear", "noise", "level")
 CHANNEL = "omega"
 
 

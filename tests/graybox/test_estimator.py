@@ -35,7 +35,7 @@ def test_baseline_has_structure_tiers_and_calibration(baseline):
     assert channel.linear.is_stationary
     assert channel.nonlinear.heldout_gain is not None
     assert calibration.n_windows == 4 * GrayBoxSettings().calibration_splits
-    assert {t.tier for t in calibration.thresholds} == {"linear", "nonlinear", "noise"}
+    assert {t.tier for t in calibration.thresholds} == {"linear", "nonlinear", "noise", "level"}
     assert Signature.from_json(sig.to_json()) == sig
     assert sig.window_start.startswith("2026-01-01") and sig.window_end.startswith("2026-01-05")
 
@@ -52,7 +52,7 @@ def test_candidate_uses_the_frozen_structure_and_settings(fleet, model, baseline
     assert candidate.channel("omega").selection is None
     drift = compute_drift(candidate, baseline.signature_, baseline.calibration_)
     assert {(e.channel, e.tier) for e in drift.entries} == {
-        ("omega", "linear"), ("omega", "nonlinear"), ("omega", "noise")}
+        ("omega", "linear"), ("omega", "nonlinear"), ("omega", "noise"), ("omega", "level")}
     with pytest.raises(GrayBoxError, match="baseline's settings"):
         GrayBox(model, baseline=baseline.signature_,
                 settings=GrayBoxSettings(hidden_units=4)).fit(fleet["A"][4])

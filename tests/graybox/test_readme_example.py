@@ -15,4 +15,4 @@ def test_readme_python_api_example_runs(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "README.md", "exec"), {})
     out = capsys.readouterr().out
-    assert out.count("zeta=") == 3 and '"channels"' in out
+    assert out.count("zeta=") == 4 and '"channels"' in out

@@ -5,7 +5,7 @@ from graybox.tiers import TIER_KINDS, NoiseTierKind, Tier, tier_kind
 
 
 def test_tier_kinds_are_registered_in_table_order():
-    assert TIERS == ("linear", "nonlinear", "noise")
+    assert TIERS == ("linear", "nonlinear", "noise", "level")
     assert tuple(kind.name for kind in TIER_KINDS) == TIERS
     assert all(isinstance(kind, Tier) for kind in TIER_KINDS)
 

@@ -151,7 +151,7 @@ def test_candidate_model_lives_in_its_run_and_loads(registry, rec, fits):
     loaded = registry.load_version("T-01", record.version)
     assert loaded.signature == fits.candidate and loaded.calibration is None
     model = registry.load_pyfunc("T-01", record.version)
-    assert set(model.predict(fits.night)["tier"]) == {"linear", "nonlinear", "noise"}
+    assert set(model.predict(fits.night)["tier"]) == {"linear", "nonlinear", "noise", "level"}
     previous = mlflow.get_tracking_uri(), mlflow.get_registry_uri()
     mlflow.set_tracking_uri(registry.tracking_uri)
     mlflow.set_registry_uri(registry.tracking_uri)

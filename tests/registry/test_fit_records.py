@@ -183,14 +183,14 @@ def test_zeta_history_and_alerts(rec, registry, fits):
     other = rec.candidate(asset_id="T-02", night=6, alarmed=True)
     history = registry.zeta_history("T-01")
     assert list(history.columns[:5]) == ["window_start", "window_end", "channel", "tier", "zeta"]
-    assert len(history) == 2 * 3
+    assert len(history) == 2 * 4                       # two windows, four tiers
     assert history["window_end"].is_monotonic_increasing
     first = history[history["window_end"] == history["window_end"].iloc[0]]
     assert first.set_index("tier")["zeta"].to_dict() == pytest.approx(
         {e.tier: e.zeta for e in fits.drift.entries})
     assert registry.zeta_history("T-99").empty
     latest = registry.zeta_history("T-01", last=1)
-    assert len(latest) == 3 and set(latest["window_end"]) == {history["window_end"].iloc[-1]}
+    assert len(latest) == 4 and set(latest["window_end"]) == {history["window_end"].iloc[-1]}
     assert latest["exceeded"].all()
     # one Alert per exceeded (channel, tier) of each alarmed window, oldest window first
     alerts = registry.alerts()

@@ -1,0 +1,201 @@
+"""The level tier: each channel's level against the white box's k-step prediction, per
+operating condition.
+
+A sensor bias ``b`` is invisible to the one-step residual ``x(t+1) - f(x(t))``: the offset
+enters the prediction's starting point too, so only ``(1 - J) b`` is left (``J`` the
+one-step Jacobian), and differencing removes even that. A prediction started ``k`` samples
+earlier forgets its start (``J^k b`` vanishes once ``k`` spans a few of the model's time
+constants), so the k-step prediction error
+
+.. math:: e(t) = x^*(t) - \\hat x(t \\mid x^*(t - k), u)
+
+carries the whole bias. With a wrong white box it also carries the model error, which
+depends on the operating condition and so moves with each night's load. The tier therefore
+regresses ``e`` on the operating condition (the prediction itself and the inputs, centred at
+the baseline's means) and keeps the intercept: the channel's level at the baseline's
+operating point. Candidates keep the baseline's centre and slopes and refit only the level,
+the mean error after the baseline's operating-condition share is taken out. A bias step
+moves it by ``b``; a night at another load does not, as long as the baseline's relation
+holds there.
+
+Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), started every
+10 s at most, so at most 12 one-step residuals' worth at 10 s and about one at 1 s, plus one
+small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis steps.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from graybox.exceptions import InsufficientDataError
+from graybox.models.base import WhiteBoxModel
+from graybox.rk4 import rk4_step
+
+#: how far ahead the prediction runs, in seconds; several time constants of the shaft
+#: models (1 / gamma ~ 17 s), so the start's bias has decayed to rounding level
+LEVEL_HORIZON_SECONDS = 120.0
+#: most RK4 sample steps of a prediction: bounds the cost at fast analysis intervals (a
+#: shorter horizon keeps the part ``1 - J^k`` of a bias, still a level change)
+LEVEL_MAX_STEPS = 12
+#: least seconds between two predictions' starting points: the level moves far slower than
+#: a sample, and the cost is steps times starting points
+LEVEL_START_SPACING = 10.0
+
+
+@dataclass(frozen=True)
+class LevelTier:
+    """The level of one channel's k-step prediction error at the baseline's operating point.
+
+    Attributes
+    ----------
+    level : float
+        Intercept of the error's regression on the centred operating features: the mean
+        error at the baseline's operating point (in the channel's units).
+    slopes : tuple of float
+        Regression coefficients of the features, fitted by the baseline (the model error's
+        share; a candidate keeps its baseline's).
+    center : tuple of float
+        Feature means of the baseline (a candidate keeps its baseline's, so levels compare).
+    residual_std : float
+        Standard deviation of the regression's residual; the unit of the tier's changes.
+    horizon : int
+        ``k``, in telemetry samples.
+    n_obs : int
+        Error samples the fit used.
+    """
+
+    level: float
+    slopes: tuple[float, ...]
+    center: tuple[float, ...]
+    residual_std: float
+    horizon: int
+    n_obs: int
+
+
+def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
+    """``k`` for samples every ``sample_interval`` seconds: ``seconds`` ahead, at least 1 and
+    at most :data:`LEVEL_MAX_STEPS`."""
+    return int(np.clip(np.ceil(seconds / sample_interval - 1e-9), 1, LEVEL_MAX_STEPS))
+
+
+def start_stride(sample_interval: float) -> int:
+    """Samples between two predictions' starting points (:data:`LEVEL_START_SPACING`)."""
+    return max(1, int(round(LEVEL_START_SPACING / sample_interval)))
+
+
+def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: float, k: int,
+                      substeps: int = 2, stride: int = 1) -> np.ndarray:
+    """Free-run prediction of every sample from the observed state ``k`` samples earlier.
+
+    Parameters
+    ----------
+    model : WhiteBoxModel
+    x : ndarray of shape (T, n_states)
+    u : ndarray of shape (T, n_inputs)
+    dt : float
+        Sample interval in seconds.
+    k : int
+        Samples predicted ahead (``k = 1`` is the one-step prediction of Eqs. 2-3).
+    substeps : int, default 2
+        RK4 steps per sample (inputs linear inside a sample).
+    stride : int, default 1
+        Predict only every ``stride``-th sample.
+
+    Returns
+    -------
+    ndarray of shape (ceil((T - k) / stride), n_states)
+        The predictions of samples ``k, k + stride, ... <= T-1``.
+    """
+    x = np.asarray(x, dtype=float)
+    u = np.asarray(u, dtype=float).reshape(len(x), -1)
+    if len(x) <= k:
+        raise InsufficientDataError(f"a {k}-step prediction needs more than {k} samples")
+    n = len(x) - k
+    state = x[:n:stride].copy()
+    h = dt / substeps
+    for j in range(k):
+        u0, u1 = u[j:j + n:stride], u[j + 1:j + 1 + n:stride]
+        for step in range(substeps):
+            begin = step / substeps
+            state = rk4_step(model.derivatives, state, u0 + (u1 - u0) * begin,
+                             u0 + (u1 - u0) * (begin + 0.5 / substeps),
+                             u0 + (u1 - u0) * (begin + 1.0 / substeps), h)
+    return state
+
+
+def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, k: int,
+               stride: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per state channel, the k-step errors and their operating features, pooled over
+    segments (a prediction never crosses a segment border); one prediction every
+    ``stride`` samples.
+
+    Returns
+    -------
+    dict of str to (errors, features)
+        ``errors`` of shape (N,), ``features`` of shape (N, 1 + n_inputs): the channel's
+        prediction, then the inputs at the predicted sample.
+    """
+    errors = {name: [] for name in model.states}
+    features = {name: [] for name in model.states}
+    for frame in frames:
+        x = frame.loc[:, list(model.state_columns)].to_numpy(dtype=float)
+        u = frame.loc[:, list(model.input_columns)].to_numpy(dtype=float).reshape(len(frame), -1)
+        if len(x) <= k:
+            continue
+        predicted = k_step_prediction(model, x, u, dt, k, stride=stride)
+        for i, name in enumerate(model.states):
+            errors[name].append(x[k::stride, i] - predicted[:, i])
+            features[name].append(np.column_stack([predicted[:, i], u[k::stride]]))
+    out = {}
+    for name in model.states:
+        if not errors[name]:
+            raise InsufficientDataError(f"channel {name!r}: no segment is longer than the "
+                                        f"level tier's horizon of {k} samples")
+        out[name] = (np.concatenate(errors[name]), np.concatenate(features[name]))
+    return out
+
+
+def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
+              baseline: LevelTier | None = None) -> LevelTier:
+    """Regress the k-step errors on the centred operating features; keep the intercept.
+
+    Parameters
+    ----------
+    errors : ndarray of shape (N,)
+    features : ndarray of shape (N, p)
+    horizon : int
+        ``k`` the errors were computed with (recorded).
+    baseline : LevelTier, optional
+        A candidate's baseline: its centre and slopes are kept and only the level is
+        refitted, so both are levels at the same operating point. None fits centre (the
+        features' means), slopes and level.
+
+    Returns
+    -------
+    LevelTier
+    """
+    errors = np.asarray(errors, dtype=float)
+    features = np.asarray(features, dtype=float).reshape(len(errors), -1)
+    finite = np.isfinite(errors) & np.isfinite(features).all(axis=1)
+    errors, features = errors[finite], features[finite]
+    if len(errors) <= features.shape[1] + 2:
+        raise InsufficientDataError(f"{len(errors)} finite k-step errors are too few for the "
+                                    f"level tier")
+    if baseline is None:
+        center = features.mean(axis=0)
+        # a feature without spread (a constant input) has no slope; lstsq gives it 0
+        design = np.column_stack([np.ones(len(errors)), features - center])
+        coefficients, *_ = np.linalg.lstsq(design, errors, rcond=None)
+        level, slopes = float(coefficients[0]), coefficients[1:]
+    else:
+        # the baseline's relation to the operating condition, only the offset refitted: a
+        # night (or a calibration piece) covering part of the load range would otherwise
+        # extrapolate its own slopes to the baseline's centre
+        center, slopes = np.asarray(baseline.center, float), np.asarray(baseline.slopes, float)
+        level = float(np.mean(errors - (features - center) @ slopes))
+    residual = errors - level - (features - center) @ slopes
+    return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
+                     float(residual.std()), int(horizon), int(len(errors)))

@@ -1,0 +1,194 @@
+"""The level tier: its statistic, its record, its drift and calibration, and the bias step
+it exists for (the white box 20 % off)."""
+import dataclasses
+import json
+import pathlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from graybox import Calibration, FitRequest, Signature, compute_drift, fit_baselines, fit_signatures
+from graybox.level_tier import (LevelTier, fit_level, horizon_samples, k_step_prediction,
+                                level_data)
+from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
+from graybox.residual import one_step_residual
+from graybox.rk4 import rk4_step
+from graybox.signature import check_consistent
+from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
+from graybox.tiers import tier_kind
+from registry.alert import alerts_from_drift
+from tests.graybox.conftest import make_channel, make_signature
+
+DATA = pathlib.Path(__file__).parent / "data"
+DT = 10.0
+
+
+def _free_run(model, x0, u, dt=DT, substeps=2):
+    """The model's own trajectory from x0 under inputs u (the sequential reference)."""
+    x = np.empty((len(u), 1))
+    x[0] = x0
+    h = dt / substeps
+    for t in range(1, len(u)):
+        state = x[t - 1:t].copy()
+        u0, u1 = u[t - 1:t], u[t:t + 1]
+        for step in range(substeps):
+            b = step / substeps
+            state = rk4_step(model.derivatives, state, u0 + (u1 - u0) * b,
+                             u0 + (u1 - u0) * (b + 0.5 / substeps),
+                             u0 + (u1 - u0) * (b + 1.0 / substeps), h)
+        x[t] = state[0]
+    return x
+
+
+def _langevin_frame(bias=0.0, n=3000, seed=0):
+    model = LangevinShaft()
+    rng = np.random.default_rng(seed)
+    t = np.arange(n)
+    fuel = 1.0 + 0.2 * np.sin(2 * np.pi * t / 700) + 0.05 * rng.standard_normal(n).cumsum() / 30
+    u = fuel.reshape(-1, 1)
+    x = _free_run(model, model.default_parameters["omega_ref"], u)
+    index = pd.date_range("2026-01-01", periods=n, freq="10s", tz="UTC")
+    return model, pd.DataFrame({"omega": x[:, 0] + bias, "fuel_rate": fuel}, index=index)
+
+
+def test_one_step_prediction_is_the_residuals_prediction():
+    model, frame = _langevin_frame(n=400)
+    x, u = frame[["omega"]].to_numpy(), frame[["fuel_rate"]].to_numpy()
+    predicted = k_step_prediction(model, x, u, DT, 1)
+    np.testing.assert_allclose(x[1:] - predicted, one_step_residual(model, x, u, DT), atol=1e-12)
+
+
+def test_k_step_prediction_of_the_models_own_trajectory_is_exact():
+    model, frame = _langevin_frame(n=400)
+    x, u = frame[["omega"]].to_numpy(), frame[["fuel_rate"]].to_numpy()
+    np.testing.assert_allclose(k_step_prediction(model, x, u, DT, 12), x[12:], atol=1e-9)
+
+
+def test_the_level_of_a_biased_sensor_is_its_bias():
+    # the white box's own trajectory plus a constant bias: the 12-step prediction starts from
+    # the biased state and forgets it (gamma 0.06 1/s over 120 s), so the error is the bias
+    model, frame = _langevin_frame(bias=0.5)
+    k = horizon_samples(DT)
+    assert k == 12
+    errors, features = level_data(model, [frame], DT, k)["omega"]
+    level = fit_level(errors, features, k)
+    assert level.level == pytest.approx(0.5 * (1 - np.exp(-0.06 * 120)), rel=0.02)
+    assert level.n_obs == len(frame) - k and level.horizon == 12
+
+
+def test_fit_level_returns_the_intercept_at_the_baselines_operating_point():
+    rng = np.random.default_rng(1)
+    features = rng.normal([100.0, 1.0], [5.0, 0.2], size=(5000, 2))
+    errors = 0.7 + 0.3 * (features[:, 0] - 100.0) - 2.0 * (features[:, 1] - 1.0)
+    baseline = fit_level(errors + 1e-3 * rng.standard_normal(5000), features, 12)
+    assert baseline.level == pytest.approx(0.7 + 0.3 * (baseline.center[0] - 100.0)
+                                           - 2.0 * (baseline.center[1] - 1.0), abs=1e-4)
+    assert baseline.slopes == pytest.approx((0.3, -2.0), abs=1e-4)
+    assert baseline.residual_std == pytest.approx(1e-3, rel=0.05)
+    # a candidate at another operating point, with the same relation plus a step of 0.25:
+    # its level, read at the baseline's centre with the baseline's slopes, moves by the step
+    shifted = features[:800] + [8.0, 0.1]
+    candidate_errors = 0.95 + 0.3 * (shifted[:, 0] - 100.0) - 2.0 * (shifted[:, 1] - 1.0)
+    candidate = fit_level(candidate_errors, shifted, 12, baseline)
+    assert (candidate.center, candidate.slopes) == (baseline.center, baseline.slopes)
+    assert candidate.level - baseline.level == pytest.approx(0.25, abs=1e-3)
+    assert candidate.n_obs == 800
+
+
+def _level(value, std=0.05):
+    return LevelTier(value, (0.1, -0.2), (100.0, 1.0), std, 12, 8000)
+
+
+def test_a_signature_with_the_level_tier_round_trips_json():
+    signature = make_signature((dataclasses.replace(make_channel(), level=_level(0.4)),))
+    again = Signature.from_json(signature.to_json())
+    assert again == signature
+    assert again.channel("omega").level == _level(0.4)
+    names, values = signature.parameter_vector()
+    assert names[-1] == "omega.level.level" and values[-1] == 0.4
+
+
+def test_an_older_signature_without_the_tier_loads_and_has_no_level_drift():
+    text = (DATA / "signature_v1.json").read_text().strip()
+    old = Signature.from_json(text)
+    assert all(c.level is None for c in old.channels)
+    assert "level" not in json.loads(text)["channels"][0]
+    assert old.to_json() == text                       # written back as the old code did
+    calibration = Calibration.from_json((DATA / "calibration_v1.json").read_text())
+    assert "level" not in {t.tier for t in calibration.thresholds}   # older calibrations load
+    drift = compute_drift(old, old)
+    assert {e.tier for e in drift.entries} == {"linear", "nonlinear", "noise"}
+    # a candidate with the tier against a baseline without it: the tier is not compared
+    new = dataclasses.replace(old, channels=tuple(dataclasses.replace(c, level=_level(0.1))
+                                                  for c in old.channels))
+    assert "level" not in {e.tier for e in compute_drift(new, old).entries}
+
+
+def test_inconsistent_level_record_is_refused():
+    bad = LevelTier(0.1, (0.1,), (100.0, 1.0), 0.05, 12, 8000)
+    with pytest.raises(Exception, match="level must have as many slopes"):
+        check_consistent(make_signature((dataclasses.replace(make_channel(), level=bad),)))
+
+
+def test_level_drift_is_the_squared_move_in_residual_standard_deviations():
+    baseline = make_signature((dataclasses.replace(make_channel(), level=_level(0.40)),))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=_level(0.55)),))
+    assert tier_kind("level").deltas(candidate.channels[0], baseline.channels[0]) == \
+        pytest.approx([3.0])
+    entry = compute_drift(candidate, baseline).get("omega", "level")
+    assert entry.zeta == pytest.approx(9.0)
+    assert (entry.top_changes[0].baseline, entry.top_changes[0].candidate) == (0.40, 0.55)
+
+
+def _turbine_days(model_error, faults, days, vehicles=1):
+    specs = []
+    for i in range(vehicles):
+        specs += [VehicleSpec(f"H{i}", seed=4100 + i),
+                  VehicleSpec(f"B{i}", seed=4100 + i, faults=faults)]
+    frames = simulate_fleet(FleetSpec(tuple(specs), days=days, sample_interval=DT))
+    per_day = int(86400 / DT)
+    split = {name: [f.set_index("timestamp").iloc[d * per_day:(d + 1) * per_day]
+                    for d in range(days)] for name, f in frames.items()}
+    model = GasTurbineShaft(white_box_parameters(model_error), columns={"omega": "shaft_speed"})
+    return model, split
+
+
+@pytest.mark.slow
+def test_the_level_tier_catches_a_bias_step_with_the_white_box_20_percent_off():
+    baseline_days, onset, days = 4, 7, 9
+    model, split = _turbine_days(0.2, (Fault("bias", float(onset), 0.5),), days)
+    [(signature, calibration)] = fit_baselines(
+        [FitRequest(model, split["H0"][:baseline_days], asset_id="H0")])
+    assert calibration.threshold("omega", "level").epsilon > 0
+    nights = ([("healthy", d, split["H0"][d]) for d in range(baseline_days, days)]
+              + [("bias", d, split["B0"][d]) for d in range(onset, days)])
+    candidates = fit_signatures([FitRequest(model, [frame], baseline=signature)
+                                 for _, _, frame in nights])
+    for (kind, day, _), candidate in zip(nights, candidates):
+        drift = compute_drift(candidate, signature, calibration)
+        level = drift.get("omega", "level")
+        if kind == "healthy":
+            assert not level.exceeded, f"healthy night {day}: level ratio {level.ratio:.2f}"
+        else:
+            assert level.exceeded, f"bias night {day}: level ratio {level.ratio:.2f}"
+            move = level.top_changes[0].candidate - level.top_changes[0].baseline
+            assert move == pytest.approx(0.5, abs=0.1)
+            [alert] = [a for a in alerts_from_drift(
+                drift, asset_id="B0", vehicle_class="turbine", window_start="s",
+                window_end="e", version=None, baseline_version=1, run_id=None)
+                if a.tier == "level"]
+            assert alert.hint().startswith("level moved from ")
+
+
+def test_a_level_alerts_hint_says_where_the_level_moved():
+    baseline = make_signature((dataclasses.replace(make_channel(), level=_level(129.02)),))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=_level(129.49)),))
+    drift = compute_drift(candidate, baseline)
+    entry = drift.get("omega", "level")
+    flagged = type(drift)((dataclasses.replace(entry, epsilon=1.0),), drift.n_samples)
+    [alert] = alerts_from_drift(flagged, asset_id="T-001", vehicle_class="turbine",
+                                window_start="s", window_end="e", version=2,
+                                baseline_version=1, run_id=None)
+    assert (alert.channel, alert.tier) == ("omega", "level")
+    assert alert.hint() == "level moved from 129.02 to 129.49 (+0.47)"
