@@ -178,7 +178,7 @@ def test_pyfunc_from_the_models_uri_returns_zeta_per_tier(rec, registry, fits):
     result = model.predict(fits.night)
     assert list(result.columns) == ["channel", "tier", "zeta", "epsilon", "ratio", "exceeded"]
     assert [(r.channel, r.tier) for r in result.itertuples()] == [
-        ("omega", "linear"), ("omega", "nonlinear"), ("omega", "noise")]
+        ("omega", "linear"), ("omega", "nonlinear"), ("omega", "noise"), ("omega", "level")]
     expected = {(e.channel, e.tier): e for e in fits.drift.entries}
     for row in result.itertuples():
         assert row.zeta == pytest.approx(expected[row.channel, row.tier].zeta, rel=1e-6, abs=1e-12)

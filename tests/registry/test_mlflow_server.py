@@ -86,7 +86,7 @@ def test_record_promote_load_round_trip_through_a_server(server, fits, monkeypat
     assert registry.watermark("S-01") == pd.Timestamp(night.window_end)
     assert {a.asset_id for a in registry.alerts()} == {"S-01"}
     assert {a.version for a in registry.alerts()} == {night.version}
-    assert len(registry.zeta_history("S-01")) == 3
+    assert len(registry.zeta_history("S-01")) == 4          # one channel, four tiers
     plots = {a.path for a in registry.backend.client.list_artifacts(night.run_id, "plots")}
     assert {"plots/residual_acf.png", "plots/tier_fits.png", "plots/zeta_trend.png"} <= plots
     previous = mlflow.get_tracking_uri(), mlflow.get_registry_uri()
