@@ -1,6 +1,8 @@
 # Two commands: `make demo` installs and runs the demo, `make test` installs and runs the tests.
 PYTHON ?= python3
 VENV ?= .venv
+# the suite runs its test files on two processes (2 cores: 6.5 min instead of 10.5)
+TEST_WORKERS ?= 2
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
@@ -18,7 +20,7 @@ demo: install
 	$(BIN)/fleet-health demo
 
 test: install
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 clean:
 	rm -rf $(VENV) .pytest_cache

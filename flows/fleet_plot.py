@@ -65,7 +65,7 @@ def fleet_heatmap_figure(view: FleetView, top: int = DEFAULT_TOP, title: str = "
             axis.text(j, i, MARK_STYLE[MARKED[int(codes[i, j])]][1], ha="center", va="center",
                       color="white", fontsize=7, fontweight="bold", zorder=3)
     axis.set_xlim(-0.5, nights - 0.5)
-    axis.set_ylim(rows - 0.5, -0.5)
+    axis.set_ylim(max(rows, 1) - 0.5, -0.5)      # an empty view keeps a valid axis
     axis.set_xticks(range(nights), [night[5:] for night in view.nights], rotation=90,
                     fontsize=8)
     axis.set_yticks(range(rows), labels, fontsize=8 if rows <= 60 else 6)
