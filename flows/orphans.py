@@ -15,12 +15,12 @@ runner and a server-side automation; ``fleet-health run`` has neither.)
 from __future__ import annotations
 
 import logging
-import os
 import uuid
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from types import SimpleNamespace
 
+from flows.env_seconds import env_seconds
 from flows.run_lock import Holder
 
 logger = logging.getLogger(__name__)
@@ -46,13 +46,7 @@ class Orphan:
 
 def orphan_after() -> timedelta:
     """``$FLEET_HEALTH_ORPHAN_AFTER`` (seconds) as a timedelta."""
-    text = os.environ.get(ORPHAN_AFTER_ENV)
-    try:
-        seconds = DEFAULT_ORPHAN_AFTER if not text else float(text)
-    except ValueError:
-        raise ValueError(f"${ORPHAN_AFTER_ENV} must be a number of seconds, got {text!r}") \
-            from None
-    return timedelta(seconds=seconds)
+    return timedelta(seconds=env_seconds(ORPHAN_AFTER_ENV, DEFAULT_ORPHAN_AFTER))
 
 
 def crash_orphans(dead_holder: Holder | None = None, current: str | None = None,

@@ -27,6 +27,7 @@ import time
 from dataclasses import asdict, dataclass
 from typing import Iterator
 
+from flows.env_seconds import env_seconds
 from flows.results import now_iso
 from registry.exceptions import RegistryError
 from registry.locks import file_lock
@@ -170,9 +171,4 @@ class RunLock:
 
 def lock_wait() -> float:
     """Seconds a run waits for the lock (``$FLEET_HEALTH_RUN_LOCK_WAIT``)."""
-    text = os.environ.get(LOCK_WAIT_ENV)
-    try:
-        return DEFAULT_LOCK_WAIT if not text else max(0.0, float(text))
-    except ValueError:
-        raise RunLockTimeout(f"${LOCK_WAIT_ENV} must be a number of seconds, "
-                             f"got {text!r}") from None
+    return env_seconds(LOCK_WAIT_ENV, DEFAULT_LOCK_WAIT, RunLockTimeout)

@@ -15,6 +15,8 @@ import time
 import urllib.error
 import urllib.request
 
+from flows.env_seconds import env_seconds
+
 #: MLflow's HTTP retry settings the command line sets unless already set: a request to a
 #: dead server gives up after 1 + 2 + 4 s of backoff, a hanging one after 4 x 20 s
 MLFLOW_HTTP_DEFAULTS = {"MLFLOW_HTTP_REQUEST_MAX_RETRIES": "3",
@@ -38,12 +40,7 @@ def bound_mlflow_requests(environ: dict = os.environ) -> None:
 
 def store_timeout() -> float:
     """Seconds :func:`require_store` waits (``$FLEET_HEALTH_STORE_TIMEOUT``)."""
-    text = os.environ.get(STORE_TIMEOUT_ENV)
-    try:
-        return DEFAULT_STORE_TIMEOUT if not text else max(0.0, float(text))
-    except ValueError:
-        raise StoreUnavailable(f"${STORE_TIMEOUT_ENV} must be a number of seconds, "
-                               f"got {text!r}") from None
+    return env_seconds(STORE_TIMEOUT_ENV, DEFAULT_STORE_TIMEOUT, StoreUnavailable)
 
 
 def http_answers(uri: str, timeout: float) -> str | None:

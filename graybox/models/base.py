@@ -201,6 +201,28 @@ def _check_declarations(cls) -> None:
         raise ModelSpecError(f"{name} must implement derivatives(x, u)")
 
 
+def import_spec(spec: str, what: str = "model spec") -> object:
+    """The object named ``package.module:Name`` (the module is imported).
+
+    Raises
+    ------
+    ModelSpecError
+        If the spec is malformed, the module cannot be imported, or it has no such name;
+        the message starts with ``what`` and the spec.
+    """
+    if not isinstance(spec, str) or not _SPEC.match(spec):
+        raise ModelSpecError(f"{what} {spec!r} is not of the form 'package.module:ClassName'")
+    module_name, class_name = spec.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ModelSpecError(f"{what} {spec!r}: cannot import {module_name!r}: {error}") from None
+    found = getattr(module, class_name, None)
+    if found is None:
+        raise ModelSpecError(f"{what} {spec!r}: module {module_name!r} has no {class_name!r}")
+    return found
+
+
 def load_model(spec: str, parameters: Mapping[str, float] | None = None,
                columns: Mapping[str, str] | None = None) -> WhiteBoxModel:
     """Import and instantiate a physics model named ``package.module:ClassName``.
@@ -224,16 +246,8 @@ def load_model(spec: str, parameters: Mapping[str, float] | None = None,
         If the spec is malformed, the module or class does not exist, the class is not a
         concrete :class:`WhiteBoxModel`, or a parameter or column is unknown or invalid.
     """
-    if not isinstance(spec, str) or not _SPEC.match(spec):
-        raise ModelSpecError(f"model spec {spec!r} is not of the form 'package.module:ClassName'")
-    module_name, class_name = spec.split(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as error:
-        raise ModelSpecError(f"model spec {spec!r}: cannot import {module_name!r}: {error}") from None
-    cls = getattr(module, class_name, None)
-    if cls is None:
-        raise ModelSpecError(f"model spec {spec!r}: module {module_name!r} has no {class_name!r}")
+    cls = import_spec(spec)
+    class_name = spec.split(":")[1]
     if not (isinstance(cls, type) and issubclass(cls, WhiteBoxModel)):
         raise ModelSpecError(f"model spec {spec!r}: {class_name} is not a WhiteBoxModel subclass")
     if cls._abstract:

@@ -39,14 +39,13 @@ from __future__ import annotations
 import functools
 import importlib
 import numbers
-import re
 import warnings
 from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
 from graybox.exceptions import ModelSpecError
-from graybox.models.base import WhiteBoxModel
+from graybox.models.base import WhiteBoxModel, import_spec
 
 #: white-box parameter prefix of the value an unobserved state is held at
 HOLD_PREFIX = "x0_"
@@ -54,7 +53,6 @@ HOLD_PREFIX = "x0_"
 DEFAULT_DERIVATIVE_STEP = 1e-3
 _NOT_PARAMETERS = frozenset({"process_noise", "measurement_noise", "process_noise_dist",
                              "measurement_noise_dist", "x0"})
-_SPEC = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*$")
 _INSTALL = "install it with: pip install 'fleet-health[progpy]'"
 
 
@@ -74,14 +72,7 @@ def resolve_progpy_class(spec: str) -> type:
         If progpy is missing, the spec is malformed, or it names no ``PrognosticsModel``.
     """
     progpy = _import_progpy()
-    if not isinstance(spec, str) or not _SPEC.match(spec):
-        raise ModelSpecError(f"ProgPy model {spec!r} is not of the form 'package.module:ClassName'")
-    module_name, class_name = spec.split(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as error:
-        raise ModelSpecError(f"ProgPy model {spec!r}: cannot import {module_name!r}: {error}") from None
-    cls = getattr(module, class_name, None)
+    cls = import_spec(spec, what="ProgPy model")
     if not (isinstance(cls, type) and issubclass(cls, progpy.PrognosticsModel)):
         raise ModelSpecError(f"ProgPy model {spec!r} is not a progpy.PrognosticsModel subclass")
     return cls
