@@ -204,14 +204,8 @@ def list_assets(root) -> list[str]:
 
 
 def list_dates(root, asset_id: str) -> list[datetime.date]:
-    """Partition dates present for one asset.
-
-    Parameters
-    ----------
-    root : str or path-like
-        The telemetry root.
-    asset_id : str
-        The asset.
+    """Partition dates present for the asset ``asset_id`` under the telemetry root ``root``
+    (a path).
 
     Returns
     -------

@@ -32,10 +32,8 @@ def read_raw(root, asset_id: str, columns: Sequence[str], start=None, end=None) 
 
     Parameters
     ----------
-    root : str or path-like
-        The telemetry root.
-    asset_id : str
-        The asset.
+    root, asset_id : path-like, str
+        The telemetry root and the asset.
     columns : sequence of str
         Channel columns to read (a repeated name is read once).
     start, end : timestamp-like, optional

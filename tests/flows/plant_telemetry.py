@@ -14,6 +14,25 @@ from scipy.linalg import expm
 
 from graybox.models import LinearStateSpace
 
+#: a fleet.toml of PumpLoop pumps (``P-*``): ``.format(root=..., db=..., extra=...)``, where
+#: ``extra`` ends the pump class (e.g. ``grid = {{ intermittent = true }}``)
+PUMP_CONFIG = """
+[telemetry]
+root = "{root}"
+[mlflow]
+tracking_uri = "sqlite:///{db}"
+[alerts]
+false_alarm_rate = 0.01
+jsonl = "alerts.jsonl"
+[nightly]
+plots = "none"
+retries = 0
+[classes.pump]
+model = "graybox.models:PumpLoop"
+assets = ["P-*"]
+{extra}
+"""
+
 
 def discretize(model: LinearStateSpace, dt: float, process_std) -> tuple:
     """``(Phi, Gamma0, Gamma1, chol(Q))`` of ``x[k+1] = Phi x[k] + Gamma0 u[k] +

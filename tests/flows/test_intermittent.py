@@ -15,29 +15,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_period
+from plant_telemetry import PUMP_CONFIG, pump_period
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 PERIODS = [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0),
            (pd.Timedelta("20h"), 300.0)]
 BASELINE_DAYS, DAYS = 3, 5
 FAULTY = {"P-002": {"A_flow_flow": -0.45}}
-CONFIG = """
-[telemetry]
-root = "{root}"
-[mlflow]
-tracking_uri = "sqlite:///{db}"
-[alerts]
-false_alarm_rate = 0.01
-jsonl = "alerts.jsonl"
-[nightly]
-plots = "none"
-retries = 0
-[classes.pump]
-model = "graybox.models:PumpLoop"
-assets = ["P-*"]
-grid = {{ intermittent = true }}
-"""
+INTERMITTENT = "grid = { intermittent = true }"
 
 
 def day(k: int) -> pd.Timestamp:
@@ -86,8 +71,7 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
                         written["P-001"]["timestamp"]) >= 600
     config = tmp_path / "fleet.toml"
     # without intermittent = true the pauses are gaps: every asset fails, naming one
-    config.write_text(CONFIG.format(root=root, db=tmp_path / "mlflow.db").replace(
-        "grid = { intermittent = true }", ""))
+    config.write_text(PUMP_CONFIG.format(extra="", root=root, db=tmp_path / "mlflow.db"))
     status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--json"])
     out = capsys.readouterr()
@@ -96,7 +80,8 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
     assert len(errors) == 3 and {e["kind"] for e in errors} == {"gap"}
     assert all("T13:00:00" in e["message"] for e in errors)  # the start of the 2nd period
 
-    config.write_text(CONFIG.format(root=root, db=tmp_path / "mlflow.db"))
+    config.write_text(PUMP_CONFIG.format(extra=INTERMITTENT, root=root,
+                                         db=tmp_path / "mlflow.db"))
     status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--promote",
                    "--reason", "healthy days", "--json"])
@@ -125,7 +110,7 @@ def test_intermittent_and_running_load_from_fleet_toml(tmp_path):
     from flows.config.template import _grid_text
 
     config = tmp_path / "fleet.toml"
-    text = CONFIG.format(root=tmp_path, db=tmp_path / "m.db")
+    text = PUMP_CONFIG.format(extra=INTERMITTENT, root=tmp_path, db=tmp_path / "m.db")
     config.write_text(text.replace("{ intermittent = true }",
                                    "{ intermittent = true, running = { speed = [1, 100] } }"))
     grid = load_config(config).classes["pump"].grid

@@ -12,24 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_period
+from plant_telemetry import PUMP_CONFIG, pump_period
 
 START = pd.Timestamp("2026-05-01", tz="UTC")
 ASSETS = ["P-001", "P-002", "P-003"]
 BASELINE_DAYS, DAYS = 3, 5
 FAULTY = {"P-003": {"A_temperature_temperature": -0.025}}
-CONFIG = """
-[telemetry]
-root = "{root}"
-[mlflow]
-tracking_uri = "sqlite:///{db}"
-[nightly]
-plots = "none"
-retries = 0
-[classes.pump]
-model = "graybox.models:PumpLoop"
-assets = ["P-*"]
-"""
 
 
 def day(k: int) -> pd.Timestamp:
@@ -51,7 +39,7 @@ def test_four_state_two_input_pumps_baseline_and_alarm_in_the_faulty_channel(har
                   for k in range(DAYS)]
         write_telemetry(root, asset, pd.concat(frames, ignore_index=True))
     config = tmp_path / "fleet.toml"
-    config.write_text(CONFIG.format(root=root, db=tmp_path / "mlflow.db"))
+    config.write_text(PUMP_CONFIG.format(extra="", root=root, db=tmp_path / "mlflow.db"))
 
     status = main(["--config", str(config), "baseline", "fit", "--class", "pump", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--promote",
