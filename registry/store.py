@@ -220,36 +220,40 @@ def resolve_store(tracking_uri: str | None = None,
                  postgres_conninfo=None if not lock_uri else _libpq_uri(lock_uri))
 
 
-def _libpq_uri(uri: str) -> str:
-    """A PostgreSQL URI without its SQLAlchemy driver (``postgresql+psycopg://`` ->
-    ``postgresql://``), as libpq reads it."""
+def _postgres_url(uri: str, what: str):
+    """``uri`` parsed by SQLAlchemy (a ``URL``); a ValueError starting ``what`` + the URI when
+    it is not a PostgreSQL URI."""
     from sqlalchemy.engine import make_url
 
     try:
         url = make_url(uri)
     except Exception as error:
-        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI: {error}") from None
+        raise ValueError(f"{what}{uri!r} is not a PostgreSQL URI: {error}") from None
     if url.get_backend_name() not in ("postgresql", "postgres"):
-        raise ValueError(f"{LOCK_URI_VARIABLE}={uri!r} is not a PostgreSQL URI")
+        raise ValueError(f"{what}{uri!r} is not a PostgreSQL URI")
+    return url
+
+
+def _libpq(url) -> str:
+    """A PostgreSQL ``URL`` without its SQLAlchemy driver (``postgresql+psycopg://`` ->
+    ``postgresql://``), as libpq reads it."""
     return url.set(drivername="postgresql").render_as_string(hide_password=False)
 
 
-def _postgres_store(tracking_uri: str, workdir: str | os.PathLike | None) -> Store:
-    from sqlalchemy.engine import make_url
+def _libpq_uri(uri: str) -> str:
+    """:func:`_libpq` of the URI named by :data:`LOCK_URI_VARIABLE`."""
+    return _libpq(_postgres_url(uri, f"{LOCK_URI_VARIABLE}="))
 
-    try:
-        url = make_url(tracking_uri)
-    except Exception as error:
-        raise ValueError(f"PostgreSQL tracking URI {tracking_uri!r} is malformed: {error}") from None
-    if url.get_backend_name() not in ("postgresql", "postgres"):
-        raise ValueError(f"tracking URI {tracking_uri!r} is not a PostgreSQL URI")
+
+def _postgres_store(tracking_uri: str, workdir: str | os.PathLike | None) -> Store:
+    url = _postgres_url(tracking_uri, "tracking URI ")
     if url.drivername in ("postgresql", "postgres"):
         url = url.set(drivername="postgresql+psycopg")
     if not url.database:
         raise ValueError(f"PostgreSQL tracking URI {tracking_uri!r} must name a database: "
                          f"postgresql://user@host:port/database")
     normalized = url.render_as_string(hide_password=False)
-    conninfo = _libpq_uri(normalized)
+    conninfo = _libpq(url)
     digest = hashlib.sha256(normalized.encode()).hexdigest()[:16]
     cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
     base = pathlib.Path(workdir) if workdir is not None else pathlib.Path.cwd()
