@@ -17,6 +17,7 @@ import threading
 import time
 
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid, fault_summary
+from flows.config.settings import NightlySettings
 
 DISCUSSION = pathlib.Path(__file__).with_name("discussion.md")
 
@@ -51,6 +52,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                    metavar="KIND=M,M,M;...", help="override magnitudes of some fault kinds")
     p.add_argument("--sample-interval", type=float, default=10.0, help="seconds (default 10)")
     p.add_argument("--baseline-days", type=int, default=4)
+    p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
+                   metavar="N", help="gray-box candidates fitted on the night and the N - 1 before "
+                   "it, as [nightly] candidate_nights (default: the product's default, %(default)s)")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--threads", type=int, default=1, help="torch threads per worker (default 1)")
     p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs/benchmarks.md"))
@@ -69,7 +73,7 @@ def grid_from_args(args: argparse.Namespace) -> Grid:
     return Grid(magnitudes=args.magnitudes or dict(DEFAULT_MAGNITUDES),
                 model_errors=tuple(args.model_errors), seeds=tuple(range(1, seeds + 1)),
                 vehicles=vehicles, baseline_days=args.baseline_days,
-                sample_interval=args.sample_interval)
+                sample_interval=args.sample_interval, candidate_nights=args.candidate_nights)
 
 
 class LoadMonitor:

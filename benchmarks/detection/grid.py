@@ -58,6 +58,10 @@ class Grid:
         Seconds between telemetry samples.
     false_alarm_rate : float
         Target false alarms per asset-night, for every detector.
+    candidate_nights : int
+        The gray box's candidate of a night is fitted on it and the ``N - 1`` nights before it,
+        never before the end of the baseline, as ``[nightly] candidate_nights = N`` does in the
+        product (the classic detectors always see one night).
     """
 
     magnitudes: dict = field(default_factory=lambda: dict(DEFAULT_MAGNITUDES))
@@ -69,6 +73,7 @@ class Grid:
     post_nights: int = 3
     sample_interval: float = 10.0
     false_alarm_rate: float = 0.01
+    candidate_nights: int = 1
 
     @property
     def onset_day(self) -> int:
@@ -155,4 +160,5 @@ def simulate_seed(grid: Grid, seed: int) -> list[VehicleData]:
 def fault_summary(grid: Grid) -> str:
     kinds = ", ".join(f"{k} {list(v)}" for k, v in grid.magnitudes.items())
     return (f"{len(grid.seeds)} seeds x {grid.vehicles} vehicles; kinds/magnitudes: {kinds}; "
-            f"model errors {list(grid.model_errors)}; {grid.days} days, onset day {grid.onset_day}")
+            f"model errors {list(grid.model_errors)}; {grid.days} days, onset day {grid.onset_day}; "
+            f"gray-box candidates on {grid.candidate_nights} night(s)")

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import math
 import pathlib
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -330,6 +331,21 @@ def _healthy_ratio_quantiles(results: Results) -> str:
     return _table(["model error", "statistic", "median", "90 %", "99 %", "max"], rows)
 
 
+def _bias_table(results: Results) -> str:
+    d = results.detection.set_index(["detector", "model_error", "kind", "magnitude"])["rate"]
+    rows = []
+    for error in results.grid.model_errors:
+        for magnitude in results.grid.magnitudes["bias"]:
+            key = (error, "bias", float(magnitude))
+            best, best_rate = _best_classic(results, error, "bias", float(magnitude))
+            level, gray = d.loc[("graybox.level",) + key], d.loc[(metrics.GRAYBOX,) + key]
+            rows.append([_err(error), f"{magnitude:g}", f"{metrics.LABELS[best]} {_pct(best_rate)}",
+                         _pct(level), f"**{_pct(gray)}**",
+                         "**matched**" if gray >= best_rate else "below"])
+    return _table(["model error", "bias (rad/s)", "best classic (FA ≤ target)",
+                   "gray box: level tier", "gray box (any tier)", "vs best classic"], rows)
+
+
 def _verdict_lines(results: Results, head: pd.DataFrame) -> list[str]:
     lines = []
     fa = results.false_alarms.set_index(["detector", "model_error"])
@@ -372,6 +388,18 @@ def load_results(assets_dir: pathlib.Path) -> Results:
     for column in ("model_error", "magnitude", "onset"):
         table[column] = table[column].astype(float)
     return summarize(table, Grid(**grid_data), record["run"])
+
+
+KEPT_SECTION = re.compile(r"<!-- (?P<name>[a-z0-9-]+):begin -->.*?<!-- (?P=name):end -->\n?", re.S)
+
+
+def kept_sections(page: pathlib.Path) -> list[str]:
+    """The sections other benchmark scripts wrote into ``page`` between their
+    ``<!-- name:begin -->`` / ``<!-- name:end -->`` markers (e.g.
+    ``benchmarks/detection/progpy_false_alarms.py``): a rewrite of the page keeps them."""
+    if not page.exists():
+        return []
+    return [m.group(0).rstrip("\n") + "\n" for m in KEPT_SECTION.finditer(page.read_text())]
 
 
 def write_report(results: Results, out: pathlib.Path, discussion: str | None = None) -> list[pathlib.Path]:
@@ -449,12 +477,20 @@ def write_report(results: Results, out: pathlib.Path, discussion: str | None = N
               f"(model error 20 %: {int(overall[overall.model_error == max(grid.model_errors)].met.sum())} of "
               f"{len(overall[overall.model_error == max(grid.model_errors)])}).\n")
 
+    if "bias" in grid.magnitudes:
+        md.append("### Bias steps: the level tier against the classic detectors\n")
+        md.append("A sensor bias step is invisible to the one-step residual's linear, nonlinear "
+                  "and noise tiers; the level tier (`graybox/level_tier.py`) is there for it. "
+                  "Target: at every model error, the gray box detects bias steps at least as "
+                  "often as the best classic detector (among those within their false-alarm "
+                  "target).\n")
+        md.append(_bias_table(results) + "\n")
     md.append("## Realized false-alarm rates\n")
     md.append(f"Alarmed healthy asset-nights over all healthy asset-nights ({healthy_nights} per "
               "model error: every night after the baseline of every healthy asset; the faulty "
               "assets' pre-onset nights are the same telemetry, see Protocol). 95 % "
               "Clopper-Pearson intervals. A gray-box tier is calibrated to its Bonferroni share "
-              "(1 % / 3 tiers); the gray box's asset-level alarm is any tier.\n")
+              f"(1 % / {len(metrics.TIERS)} tiers); the gray box's asset-level alarm is any tier.\n")
     md.append(_fa_table(results) + "\n")
     md.append(f"![false alarms]({rel}/{files['fa'].name})\n")
 
@@ -498,6 +534,8 @@ def write_report(results: Results, out: pathlib.Path, discussion: str | None = N
     if rates:
         md.append(rates)
 
+    md.extend(kept_sections(out))
+
     if discussion:
         md.append(discussion.strip() + "\n")
 
@@ -536,7 +574,8 @@ def protocol_text(results: Results) -> str:
   {g.false_alarm_rate:g} per asset-night: epsilon per tier from the baseline days cut into
   pieces, predictive F quantile, Bonferroni over tiers x channels) on the K baseline days of all
   of a seed's vehicles in one call; every night a candidate with the baseline's frozen structure
-  (`fit_signatures`, all of a seed's nights in one call); `compute_drift` gives zeta and epsilon
+  (`fit_signatures`, all of a seed's nights in one call), fitted on
+  {_candidate_span(g.candidate_nights)}; `compute_drift` gives zeta and epsilon
   per tier. The asset alarms when any tier's zeta > epsilon (the roll-up the nightly flow
   reports); its ROC statistic is the largest zeta/epsilon.
 - **Classic detectors** (`benchmarks/detection/classic.py`), on 5-minute batches of the same
@@ -560,6 +599,14 @@ def protocol_text(results: Results) -> str:
   the statistic/threshold ratio of faulty nights (onset..onset+2) against all healthy nights of
   the same model error (ties count half); realized false-alarm rate on healthy nights with 95 %
   Clopper-Pearson intervals; detection rate at a matched 1 % false-alarm rate (oracle level)."""
+
+
+def _candidate_span(nights: int) -> str:
+    if nights == 1:
+        return "the night alone (`[nightly] candidate_nights = 1`)"
+    return (f"the night and the {nights - 1} night(s) before it, never before the baseline's end "
+            f"(`[nightly] candidate_nights = {nights}`; epsilon scaled to the span's length by "
+            "`graybox.epsilon_scaling`; the classic detectors see the night alone)")
 
 
 def run_text(results: Results) -> str:

@@ -34,14 +34,21 @@ class _Night:
     magnitude: float
     night: int
     frame: pd.DataFrame
+    candidate_frames: list[pd.DataFrame]   # the night and the N - 1 before it (gray box)
 
 
 def _nights(grid: Grid, vehicle: VehicleData) -> list[_Night]:
-    out = [_Night(vehicle, "healthy", 0.0, d, vehicle.healthy[d])
+    def trailing(days: dict, night: int) -> list[pd.DataFrame]:
+        first = max(grid.baseline_days, night - grid.candidate_nights + 1)
+        return [days[d] for d in range(first, night + 1)]
+
+    healthy = dict(enumerate(vehicle.healthy))
+    out = [_Night(vehicle, "healthy", 0.0, d, healthy[d], trailing(healthy, d))
            for d in range(grid.baseline_days, grid.days)]
     for (kind, magnitude), frames in vehicle.faulty.items():
-        out += [_Night(vehicle, kind, magnitude, grid.onset_day + j, frame)
-                for j, frame in enumerate(frames)]
+        days = {**healthy, **{grid.onset_day + j: f for j, f in enumerate(frames)}}
+        out += [_Night(vehicle, kind, magnitude, d, days[d], trailing(days, d))
+                for d in range(grid.onset_day, grid.days)]
     return out
 
 
@@ -101,7 +108,7 @@ def _graybox_rows(grid: Grid, vehicles: list[VehicleData], model, settings) -> t
             **{f"dof_{t}": calibration.threshold(CHANNEL, t).dof for t in TIERS}})
         for n in _nights(grid, v):
             jobs.append((v, n, signature, calibration))
-            candidate_requests.append(FitRequest(model, [n.frame], baseline=signature,
+            candidate_requests.append(FitRequest(model, n.candidate_frames, baseline=signature,
                                                  asset_id=asset_id(v.seed, v.vehicle, n.kind,
                                                                    n.magnitude)))
     candidates = fit_signatures(candidate_requests, settings)
