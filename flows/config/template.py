@@ -7,7 +7,7 @@ import re
 from typing import Any, Mapping
 
 from flows.config.settings import (DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI, AlertSettings,
-                                   NightlySettings, ScheduleSettings)
+                                   DaskSettings, NightlySettings, ScheduleSettings)
 from graybox.telemetry import GridPolicy
 from graybox.telemetry.policy import format_duration
 
@@ -54,6 +54,12 @@ retries = {nightly.retries}                          # retries of a batch after 
 retry_delay_seconds = {retry_delay_seconds:g}
 lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
 candidate_nights = {nightly.candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
+task_runner = "{nightly.task_runner}"            # "dask": batches at once on the [dask] cluster
+
+# [dask]                                   # with task_runner = "dask" (README "Running on a Dask cluster")
+# address = "tcp://scheduler:8786"         # an existing cluster; or (not both) a LocalCluster per run:
+# workers = 2                              # its worker processes (default: one per core)
+# threads_per_worker = {DaskSettings().threads_per_worker}                   # batches at once per worker
 
 [schedule]
 cron = "{cron}"                  # nightly deployment (fleet-health serve)

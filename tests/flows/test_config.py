@@ -201,6 +201,23 @@ def test_rendered_config_loads(tmp_path):
         in render_config()
 
 
+def test_rendered_config_shows_the_task_runner_and_a_dask_section_that_loads(tmp_path):
+    text = render_config()
+    assert 'task_runner = "sequential"' in text
+    assert load_config(write(tmp_path, text)).nightly.task_runner == "sequential"
+    # uncommenting the [dask] example (address or workers) gives a Dask configuration that loads
+    dask_text = text.replace('task_runner = "sequential"', 'task_runner = "dask"')
+    for choice, expected in ((("# address",), ("tcp://scheduler:8786", None, 1)),
+                             (("# workers", "# threads_per_worker"), (None, 2, 1))):
+        uncommented = "\n".join(
+            line[2:] if line.startswith(("# [dask]",) + choice) else line
+            for line in dask_text.splitlines())
+        config = load_config(write(tmp_path, uncommented))
+        assert config.nightly.task_runner == "dask"
+        assert (config.dask.address, config.dask.workers, config.dask.threads_per_worker) \
+            == expected
+
+
 def test_rendered_grid_overrides_load_back(tmp_path):
     grid = {"sample_interval": 1.0, "max_gap": "5s",
             "stuck_after": {"*": "15min", "pdisch": "30min", "fuel rate": 0}}
