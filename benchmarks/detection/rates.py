@@ -233,8 +233,11 @@ def _noise_table(noise: pd.DataFrame, magnitude: float | None) -> str:
     return _table(header, rows)
 
 
-def _reference_check(nights: pd.DataFrame, assets_dir: pathlib.Path) -> str | None:
-    """The 10-s rows against the main grid's rows of the same assets and nights."""
+def _reference_check(nights: pd.DataFrame, assets_dir: pathlib.Path,
+                     candidate_nights: int) -> str | None:
+    """The 10-s rows against the main grid's rows of the same assets and nights: every
+    classic detector, and the gray box's tiers when both fitted candidates on as many nights
+    and have the tier."""
     path = assets_dir / "detection_nights.csv"
     if not path.exists() or REFERENCE not in set(nights.sample_interval):
         return None
@@ -244,19 +247,29 @@ def _reference_check(nights: pd.DataFrame, assets_dir: pathlib.Path) -> str | No
     both = ours.merge(main, on=keys, suffixes=("", "_main"))
     if both.empty:
         return None
-    columns = [f"gb_{t}_{q}" for t in metrics.TIERS for q in ("zeta", "eps")]
-    columns += [f"{d}_{q}" for d in DETECTORS for q in ("stat", "thr")]
+    main_run = assets_dir / "detection_run.json"
+    main_nights = (json.loads(main_run.read_text())["grid"].get("candidate_nights", 1)
+                   if main_run.exists() else 1)
+    columns = [f"{d}_{q}" for d in DETECTORS for q in ("stat", "thr")]
+    tiers = [t for t in metrics.TIERS if f"gb_{t}_zeta" in ours and f"gb_{t}_zeta" in main]
+    same_gray_box = main_nights == candidate_nights
+    if same_gray_box:
+        columns += [f"gb_{t}_{q}" for t in tiers for q in ("zeta", "eps")]
     scale = both[[f"{c}_main" for c in columns]].abs().to_numpy() + 1e-300
     diff = np.abs(both[columns].to_numpy() - both[[f"{c}_main" for c in columns]].to_numpy())
+    text = (f"{len(both)} of the {len(ours)} asset-nights at {REFERENCE:g} s are in the main grid "
+            f"above (same assets, same nights); their statistics and thresholds (every classic "
+            f"detector{', the gray box tiers ' + ', '.join(tiers) if same_gray_box else ''}) "
+            f"differ by at most {np.nanmax(diff / scale):.1g} (relative)")
+    if not same_gray_box:
+        return text + (f"; the gray box is not compared: the main grid fits its candidates on "
+                       f"{main_nights} night(s), this section on {candidate_nights}")
     alarms = metrics.ratio(both, metrics.GRAYBOX) > 1
     published = both[keys].join(both[[f"{c}_main" for c in columns]].rename(
         columns=lambda c: c[:-len("_main")]))
     alarms_main = metrics.ratio(published, metrics.GRAYBOX) > 1
-    return (f"{len(both)} of the {len(ours)} asset-nights at {REFERENCE:g} s are in the main grid "
-            f"above (same assets, same nights); their statistics and thresholds (every gray-box "
-            f"tier and classic detector) differ by at most {np.nanmax(diff / scale):.1g} "
-            f"(relative), and the gray box's alarm differs on {int((alarms != alarms_main).sum())} "
-            "of them")
+    return text + (f", and the gray box's alarm differs on {int((alarms != alarms_main).sum())} "
+                   "of them")
 
 
 def _structures(run: dict) -> str:
@@ -319,7 +332,7 @@ def section(assets_dir: pathlib.Path) -> str | None:
     met = goals[goals.sample_interval != REFERENCE]
     md.append(f"Goal met in {int(met.met.sum())} of {len(met)} (interval, model error, fault) "
               f"cells away from {REFERENCE:g} s.\n")
-    check = _reference_check(nights, assets_dir)
+    check = _reference_check(nights, assets_dir, grid.get("candidate_nights", 1))
     if check:
         md.append(f"Check of the {REFERENCE:g}-s column against the main grid: {check}.\n")
     if noise is not None:
