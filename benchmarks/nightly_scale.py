@@ -27,6 +27,7 @@ import datetime
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -34,9 +35,14 @@ import tempfile
 import time
 
 from benchmarks.measured_process import run_measured
-from benchmarks.scale_floor import (Structure, candidate_structure, flops_per_asset_night,
-                                    matmul_rate)
+from benchmarks.scale_floor import (
+    Structure,
+    candidate_structure,
+    flops_per_asset_night,
+    matmul_rate,
+)
 from benchmarks.scale_report import render_markdown, render_text
+from flows.config.settings import NightlySettings
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 START = datetime.date(2026, 1, 1)
@@ -57,6 +63,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="[nightly] batch_size (default %(default)s)")
     parser.add_argument("--memory-budget", default="4GB",
                         help="[nightly] memory_budget (default %(default)s)")
+    parser.add_argument("--candidate-nights", type=int,
+                        default=NightlySettings().candidate_nights,
+                        help="[nightly] candidate_nights (default: the product's, %(default)s); "
+                             "the measured night is the first whose candidate spans them all")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workdir", help="where the fleets go (default: a temporary "
                                           "directory, removed afterwards)")
@@ -73,6 +83,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     args.sizes = [int(n) for n in str(args.sizes).split(",") if n.strip()]
     if args.baseline_days < 3:
         parser.error("--baseline-days must be at least 3 (epsilon is calibrated from them)")
+    if args.candidate_nights < 1:
+        parser.error("--candidate-nights must be at least 1")
     if not args.sizes or min(args.sizes) < 1:
         parser.error("--sizes: positive integers, e.g. 10,50,200")
     return args
@@ -81,7 +93,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 # -- one fleet -----------------------------------------------------------------------------
 
 def generate(root: pathlib.Path, n: int, days: int, seed: int, sample_interval: float,
-             batch_size: int, memory_budget: str) -> float:
+             batch_size: int, memory_budget: str, candidate_nights: int) -> float:
     """Simulate ``n`` healthy vehicles over ``days`` days into ``root``; returns seconds."""
     from flows.config import render_config
     from flows.demo import simulated_fleet
@@ -97,6 +109,8 @@ def generate(root: pathlib.Path, n: int, days: int, seed: int, sample_interval: 
             write_telemetry(root / "telemetry", asset_id, frame)
     config = render_config(telemetry_root="telemetry", batch_size=batch_size)
     config = config.replace("\n[schedule]", f'memory_budget = "{memory_budget}"\n\n[schedule]')
+    config = re.sub(r"(?m)^candidate_nights = \d+", f"candidate_nights = {candidate_nights}",
+                    config)
     (root / "fleet.toml").write_text(config)
     return time.perf_counter() - began
 
@@ -139,23 +153,32 @@ def fleet_health(workdir: pathlib.Path, name: str, *arguments: str) -> dict:
 
 
 def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
-    """Generate, baseline and run one night for ``n`` assets in ``workdir``."""
-    days = args.baseline_days + 1
+    """Generate, baseline and run one night for ``n`` assets in ``workdir``. With
+    ``--candidate-nights K`` > 1 the K - 1 nights after the baseline run first (not measured),
+    so that the measured night's candidates span K nights."""
+    warmup = args.candidate_nights - 1
+    days = args.baseline_days + warmup + 1
     base_end = START + datetime.timedelta(days=args.baseline_days)
     as_of = START + datetime.timedelta(days=days)
     say(f"N = {n}: simulating {n} x {days} days at {args.sample_interval:g} s ...")
     generated = generate(workdir, n, days, args.seed, args.sample_interval, args.batch_size,
-                         args.memory_budget)
+                         args.memory_budget, args.candidate_nights)
     say(f"N = {n}: baseline fit ({n} x {args.baseline_days} asset-days) ...")
     baseline = fleet_health(workdir, "baseline", "baseline", "fit", "--all",
                             "--start", START.isoformat(), "--end", base_end.isoformat(),
                             "--promote", "--reason", "nightly_scale benchmark")
+    if warmup:
+        say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; {warmup} night(s) before the "
+            "measured one ...")
+        fleet_health(workdir, "warmup", "run", "--as-of",
+                     (base_end + datetime.timedelta(days=warmup)).isoformat())
     say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; nightly run ...")
     nightly = fleet_health(workdir, "nightly", "run", "--as-of", as_of.isoformat())
     say(f"N = {n}: nightly {nightly['wall']:.1f} s wall; again, nothing to do ...")
     startup = fleet_health(workdir, "startup", "run", "--as-of", as_of.isoformat())
     structure = candidate_structure(workdir / "mlflow.db") or Structure.assumed()
     return {"n": n, "baseline_days": args.baseline_days,
+            "candidate_nights": args.candidate_nights,
             "sample_interval": args.sample_interval, "generate_seconds": generated,
             "baseline": baseline, "nightly": nightly, "startup": startup,
             "structure": dataclasses.asdict(structure),
