@@ -7,9 +7,16 @@ on day 5 against it, with its drift (seconds of work: fit once, record many time
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+
+if TYPE_CHECKING:   # graybox (torch) loads only when fitting
+    from graybox.calibration import Calibration
+    from graybox.drift import Drift
+    from graybox.models import LangevinShaft
+    from graybox.signature import Signature
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")
 N_SAMPLES = 2000
@@ -53,13 +60,13 @@ class LangevinFits:
         The candidate against the baseline.
     """
 
-    model: object
-    days: list
+    model: LangevinShaft
+    days: list[pd.DataFrame]
     night: pd.DataFrame
-    baseline: object
-    calibration: object
-    candidate: object
-    drift: object
+    baseline: Signature
+    calibration: Calibration
+    candidate: Signature
+    drift: Drift
 
 
 def fit_langevin() -> LangevinFits:
