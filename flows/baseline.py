@@ -18,7 +18,7 @@ baseline's window.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import pandas as pd
 from prefect import flow
@@ -142,12 +142,13 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
 
-    def fit_and_record(group: list[PendingAsset]) -> None:
+    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fits = fit_baselines(group, lambda p: config.classes[p.ref.vehicle_class].settings,
                              config.alerts.false_alarm_rate, clock)
         for pending in group:
             record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
                             clock)
+            yield pending
 
     return process_in_groups(config, refs, lambda ref: select(config, ref, windows, clock),
                              fit_and_record, baseline=True)

@@ -73,7 +73,7 @@ above holds per group.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import pandas as pd
 from prefect import flow
@@ -237,7 +237,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     registry = registry or config.registry()
     as_of = utc(as_of)
 
-    def fit_and_commit(group: list[PendingAsset]) -> None:
+    def fit_and_commit(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fit_candidates(group, clock)
         # 1. every candidate recorded (with its alerts), 2. watermarks
         for pending in group:
@@ -245,6 +245,7 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
                               clock=clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
+            yield pending
 
     return process_in_groups(config, refs, lambda ref: select(config, registry, ref, as_of, clock),
                              fit_and_commit, baseline=False, describe=_progress_text)

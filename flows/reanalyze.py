@@ -19,7 +19,7 @@ the version and the fix in its note.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
 from prefect import flow
 
@@ -93,11 +93,12 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
     nights = _nights(config, candidate_nights)
 
-    def fit_and_record(group: list[PendingAsset]) -> None:
+    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fit_candidates(group, clock)
         for pending in group:
             record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
                               clock=clock)
+            yield pending
 
     return process_in_groups(
         config, refs, lambda ref: select(config, registry, ref, windows, version, clock, nights),
