@@ -42,27 +42,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 FILL_BATCH = 500
-
-
-def make_day(day: int, seed: int, n: int = 2000, gamma: float = 0.06, noise: float = 0.3,
-             dt: float = 10.0) -> pd.DataFrame:
-    """A Langevin shaft driven by coloured noise (uniform grid, columns omega, fuel_rate)."""
-    from scipy.signal import lfilter
-
-    rng = np.random.default_rng(seed)
-    force = lfilter([1], [1, -1.2728, 0.81], rng.normal(size=n)) * 0.2 / 3.4
-    omega = np.zeros(n)
-    phi = np.exp(-gamma * dt)
-    for t in range(1, n):
-        omega[t] = phi * omega[t - 1] + (1 - phi) / gamma * force[t]
-    index = pd.date_range(pd.Timestamp("2026-01-01", tz="UTC") + pd.Timedelta(days=day),
-                          periods=n, freq="10s", name="timestamp").as_unit("ns")
-    return pd.DataFrame({"omega": omega + 1000 + noise * rng.normal(size=n),
-                         "fuel_rate": np.ones(n)}, index=index)
 
 
 def _median_ms(function, repeat: int) -> float:
@@ -258,34 +240,27 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
-    from graybox.drift import compute_drift
-    from graybox.estimator import GrayBox
-    from graybox.models import LangevinShaft
+    from benchmarks.langevin_fits import fit_langevin
     from registry import Registry
 
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
     workdir.mkdir(parents=True, exist_ok=True)
     print(f"store: sqlite:///{workdir}/mlflow.db")
-    model = LangevinShaft()
-    days = [make_day(d, seed=d) for d in range(4)]
-    baseline = GrayBox(model).fit(days)
-    night = make_day(5, seed=5)
-    candidate = GrayBox(model, baseline=baseline.signature_).fit(night)
-    drift = compute_drift(candidate.signature_, baseline.signature_, baseline.calibration_)
-    fits = {"candidate": candidate.signature_, "drift": drift, "night": night}
+    fitted = fit_langevin()
+    fits = {"candidate": fitted.candidate, "drift": fitted.drift, "night": fitted.night}
 
     registry = Registry(f"sqlite:///{workdir}/mlflow.db", user="bench")
     if args.nightly:
-        fits.update(baseline=baseline.signature_, calibration=baseline.calibration_)
+        fits.update(baseline=fitted.baseline, calibration=fitted.calibration)
         print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,
                               args.history), args)
         if args.workdir is None:
             shutil.rmtree(workdir, ignore_errors=True)
         return 0
-    base = registry.record_fit("BASE", "turbine", baseline.signature_, role="baseline",
-                               calibration=baseline.calibration_, window=days, plots=False)
+    base = registry.record_fit("BASE", "turbine", fitted.baseline, role="baseline",
+                               calibration=fitted.calibration, window=fitted.days, plots=False)
     registry.promote("BASE", base.version, reason="benchmark")
-    filler = Filler(registry, candidate.signature_, drift, args.assets)
+    filler = Filler(registry, fitted.candidate, fitted.drift, args.assets)
     registry.commit_watermark("B-0000", "2026-01-01")
     rows = []
     for level in sorted(args.runs):

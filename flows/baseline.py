@@ -18,23 +18,20 @@ baseline's window.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import pandas as pd
-from prefect import flow, task
-from prefect.cache_policies import NO_CACHE
+from prefect import flow
 
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import (batch_task_body, guard_asset_error, no_telemetry, retry_transient,
+from flows.batching import (batch_task, batch_task_body, guard_asset_error, no_telemetry,
                             run_over_fleet)
-from flows.config import FleetConfig, NightlySettings, load_config
+from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, UsageError, range_windows, utc
 from flows.hooks import notify_hook
-from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, asset_done, fit_baselines, loader, memory_groups,
-                            read)
+from flows.pipeline import PendingAsset, fit_baselines, process_in_groups, read
 from flows.report import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
@@ -144,23 +141,20 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     """
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
-    results: dict[str, AssetResult] = {}
-    load = loader(results, lambda ref: select(config, ref, windows, clock))
-    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=True)
-    for group in memory_groups(refs, load, budget):
+
+    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fits = fit_baselines(group, lambda p: config.classes[p.ref.vehicle_class].settings,
                              config.alerts.false_alarm_rate, clock)
         for pending in group:
             record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
                             clock)
-            asset_done(pending.result)
-    return [results[ref.asset_id] for ref in refs]
+            yield pending
+
+    return process_in_groups(config, refs, lambda ref: select(config, ref, windows, clock),
+                             fit_and_record, baseline=True)
 
 
-@task(name="baseline-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
-      retry_delay_seconds=NightlySettings().retry_delay_seconds,
-      retry_condition_fn=retry_transient,
-      task_run_name="baseline {label}")
+@batch_task("baseline-batch", "baseline {label}")
 def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
                    end: str, promote: bool, reason: str | None, label: str) -> dict:
     """One batch of baseline fits (a Prefect task: retried on transient errors)."""

@@ -16,13 +16,15 @@ import logging
 from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
+from prefect import task
+from prefect.cache_policies import NO_CACHE
 from prefect.utilities.callables import get_call_parameters
 
 from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock
 
 from flows import progress
-from flows.config import FleetConfig, load_config
+from flows.config import FleetConfig, NightlySettings, load_config
 from flows.fleet import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, TransientError,
                            describe_error, is_transient, now_iso)
@@ -67,6 +69,15 @@ def retry_transient(task_, task_run, state) -> bool:
     except BaseException as error:  # noqa: BLE001
         return is_transient(error)
     return False
+
+
+def batch_task(name: str, run_name: str) -> Callable:
+    """The decorator of a flow's batch task: a Prefect task ``name``, never cached, retried
+    only after a transient error (:func:`retry_transient`; :func:`run_batches` sets the counts
+    of ``[nightly] retries``), each run named ``run_name`` (with its ``{label}``)."""
+    return task(name=name, cache_policy=NO_CACHE, retries=NightlySettings().retries,
+                retry_delay_seconds=NightlySettings().retry_delay_seconds,
+                retry_condition_fn=retry_transient, task_run_name=run_name)
 
 
 def task_attempts(state, error: BaseException | str, retries: int) -> int:

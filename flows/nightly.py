@@ -73,11 +73,10 @@ above holds per group.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import pandas as pd
-from prefect import flow, task
-from prefect.cache_policies import NO_CACHE
+from prefect import flow
 
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates, newest_timestamp
@@ -85,15 +84,13 @@ from registry.alert import STALE as STALE_KIND
 from registry.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
-from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
-                            run_over_fleet)
-from flows.config import FleetConfig, NightlySettings, load_config
+from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
-from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_candidates,
-                            loader, memory_groups, read_against, record_candidates)
+from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
+                            read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
@@ -239,11 +236,8 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
     """
     registry = registry or config.registry()
     as_of = utc(as_of)
-    results: dict[str, AssetResult] = {}
-    load = loader(results, lambda ref: select(config, registry, ref, as_of, clock),
-                  _progress_text)
-    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
-    for group in memory_groups(refs, load, budget):
+
+    def fit_and_commit(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fit_candidates(group, clock)
         # 1. every candidate recorded (with its alerts), 2. watermarks
         for pending in group:
@@ -251,8 +245,10 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
                               clock=clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
-            asset_done(pending.result, _progress_text)
-    return [results[ref.asset_id] for ref in refs]
+            yield pending
+
+    return process_in_groups(config, refs, lambda ref: select(config, registry, ref, as_of, clock),
+                             fit_and_commit, baseline=False, describe=_progress_text)
 
 
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
@@ -280,10 +276,7 @@ def _progress_text(result: AssetResult) -> str:
 
 # -- Prefect ---------------------------------------------------------------------------------
 
-@task(name="nightly-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
-      retry_delay_seconds=NightlySettings().retry_delay_seconds,
-      retry_condition_fn=retry_transient,
-      task_run_name="nightly {label}")
+@batch_task("nightly-batch", "nightly {label}")
 def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,
                   label: str) -> dict:
     """One batch of assets (a Prefect task: retried on transient errors)."""

@@ -290,6 +290,29 @@ def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None]
         yield group
 
 
+def process_in_groups(config: FleetConfig, refs: Sequence[AssetRef],
+                      select: Callable[[AssetRef], tuple[AssetResult, PendingAsset | None]],
+                      process: Callable[[list[PendingAsset]], Iterable[PendingAsset]], *,
+                      baseline: bool, describe: Callable[[AssetResult], str] | None = None
+                      ) -> list[AssetResult]:
+    """A batch of any flow: ``select`` each asset (see :func:`loader`), and ``process`` (fit
+    and commit) the selected ones group by group within ``[nightly] memory_budget`` (see
+    :func:`memory_groups`; ``baseline`` fits need more). ``process`` yields each asset of the
+    group as soon as it is done, which is then reported on the progress line.
+
+    Returns
+    -------
+    list of AssetResult
+        One per asset, in the order of ``refs``.
+    """
+    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=baseline)
+    results: dict[str, AssetResult] = {}
+    for group in memory_groups(refs, loader(results, select, describe), budget):
+        for pending in process(group):
+            asset_done(pending.result, describe)
+    return [results[ref.asset_id] for ref in refs]
+
+
 def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
     """One batched fit of every window of every asset against its reference's frozen
     structure; sets each window's ``fit`` (a Signature or the GrayBoxError that stopped it)."""

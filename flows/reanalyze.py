@@ -19,21 +19,18 @@ the version and the fix in its note.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterator, Sequence
 
-from prefect import flow, task
-from prefect.cache_policies import NO_CACHE
+from prefect import flow
 
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import (batch_task_body, guard_asset_error, retry_transient,
-                            run_over_fleet)
-from flows.config import FleetConfig, NightlySettings, load_config
+from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
-from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, asset_done, configured_models, fit_candidates,
-                            loader, memory_groups, read_against, record_candidates)
+from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
+                            read_against, record_candidates)
 from flows.report import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
@@ -95,23 +92,20 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
     registry = registry or config.registry()
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
     nights = _nights(config, candidate_nights)
-    results: dict[str, AssetResult] = {}
-    load = loader(results, lambda ref: select(config, registry, ref, windows, version, clock,
-                                              nights))
-    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=False)
-    for group in memory_groups(refs, load, budget):
+
+    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
         fit_candidates(group, clock)
         for pending in group:
             record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
                               clock=clock)
-            asset_done(pending.result)
-    return [results[ref.asset_id] for ref in refs]
+            yield pending
+
+    return process_in_groups(
+        config, refs, lambda ref: select(config, registry, ref, windows, version, clock, nights),
+        fit_and_record, baseline=False)
 
 
-@task(name="reanalysis-batch", cache_policy=NO_CACHE, retries=NightlySettings().retries,
-      retry_delay_seconds=NightlySettings().retry_delay_seconds,
-      retry_condition_fn=retry_transient,
-      task_run_name="reanalyze {label}")
+@batch_task("reanalysis-batch", "reanalyze {label}")
 def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
                      end: str, version: str | None, candidate_nights: int | None,
                      label: str) -> dict:

@@ -37,7 +37,6 @@ the pieces, all assets batched together (:func:`graybox.fleet_fit.fit_signatures
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from typing import Sequence
 
@@ -115,7 +114,7 @@ class Calibration:
         return records.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
+        return records.to_json(self, indent)
 
     @classmethod
     def from_dict(cls, data) -> "Calibration":
@@ -139,11 +138,7 @@ class Calibration:
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Calibration":
-        try:
-            data = json.loads(text)
-        except (json.JSONDecodeError, UnicodeDecodeError) as error:
-            raise ArtifactError(f"calibration is not valid JSON: {error}") from None
-        return cls.from_dict(data)
+        return cls.from_dict(records.parse_json(text, "calibration"))
 
 
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[float, float, float]:

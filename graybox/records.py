@@ -4,7 +4,8 @@
 field types (``typing.get_type_hints``), checking every value on the way, so that every
 record of an artifact (signature, calibration, settings) is read by the same code and
 anything malformed raises :class:`~graybox.exceptions.ArtifactError` naming the record and
-the field. Supported field types:
+the field (:func:`to_json` and :func:`parse_json` are the same as JSON text). Supported
+field types:
 
 - ``bool``, ``int``, ``float`` (an integer is accepted and made a float), ``str``, ``Any``;
 - another dataclass record (a JSON object);
@@ -29,6 +30,7 @@ Merlion's ``PostRuleBase``: a config is its constructor's arguments.)
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import types
 import typing
@@ -99,6 +101,25 @@ def from_dict(cls: type, data: Any):
         return cls(**values)
     except (TypeError, ValueError) as error:
         raise ArtifactError(f"{name}: {error}") from None
+
+
+def to_json(record: Any, indent: int | None = None) -> str:
+    """:func:`to_dict` of a record as JSON text."""
+    return json.dumps(to_dict(record), indent=indent)
+
+
+def parse_json(text: str | bytes, what: str) -> Any:
+    """JSON text of a record, parsed (for :func:`from_dict`).
+
+    Raises
+    ------
+    ArtifactError
+        If ``text`` is not JSON (``"<what> is not valid JSON: ..."``).
+    """
+    try:
+        return json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ArtifactError(f"{what} is not valid JSON: {error}") from None
 
 
 def _encode(value: Any) -> Any:

@@ -3,7 +3,6 @@ structure they were fitted with. Small typed records with an exact JSON round tr
 """
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
@@ -188,7 +187,7 @@ class Signature:
         return records.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
+        return records.to_json(self, indent)
 
     @classmethod
     def from_dict(cls, data: Any) -> "Signature":
@@ -203,11 +202,7 @@ class Signature:
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Signature":
-        try:
-            data = json.loads(text)
-        except (json.JSONDecodeError, UnicodeDecodeError) as error:
-            raise ArtifactError(f"signature is not valid JSON: {error}") from None
-        return cls.from_dict(data)
+        return cls.from_dict(records.parse_json(text, "signature"))
 
 
 def tier_parameters(channel: ChannelSignature, tier: str) -> tuple[list[str], np.ndarray]:

@@ -6,7 +6,7 @@ import argparse
 import json
 
 from flows.alerts import AlertLog, export_alerts
-from flows.commands.plumbing import config_options, guarded, load
+from flows.commands.plumbing import asset_option, config_options, guarded, load
 from flows.fleet import parse_time
 from flows.report import alert_table
 from graybox.exceptions import ArtifactError
@@ -20,8 +20,7 @@ def add_alerts_command(subparsers) -> argparse.ArgumentParser:
                                    description="The nightly alerts (from the alerts file, or "
                                                "the registry with --from-registry).")
     parser.add_argument("--since", metavar="DATE", help="windows ending at or after DATE (UTC)")
-    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
-                        help="only this asset (repeatable)")
+    asset_option(parser)
     parser.add_argument("--from-registry", action="store_true",
                         help="read the alerts from the MLflow registry (the system of record) "
                              "instead of the JSON-lines file")

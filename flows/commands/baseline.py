@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
+from flows.commands.plumbing import (FlowFailed, class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
 from flows.fleet import UsageError, parse_time
 from registry.cli import EXIT_FAILED, _error, add_baseline_commands
@@ -24,8 +24,7 @@ def add_baseline_group(subparsers) -> argparse.ArgumentParser:
                     "[--start, --end); it becomes the candidate (or, with --promote, the "
                     "baseline).")
     fit.add_argument("assets", nargs="*", metavar="ASSET", help="assets to fit")
-    fit.add_argument("--class", dest="vehicle_class", metavar="CLASS",
-                     help="every asset of this vehicle class")
+    class_option(fit, help="every asset of this vehicle class")
     fit.add_argument("--all", action="store_true", help="every asset of the fleet")
     fit.add_argument("--start", required=True, metavar="DATE", help="first healthy day (UTC)")
     fit.add_argument("--end", required=True, metavar="DATE",
@@ -33,9 +32,7 @@ def add_baseline_group(subparsers) -> argparse.ArgumentParser:
     fit.add_argument("--promote", action="store_true",
                      help="make each new fit the baseline at once (needs --reason)")
     fit.add_argument("--reason", help="why (recorded with the promotion)")
-    fit.add_argument("--json", action="store_true", help="print the summary as JSON")
-    config_options(fit)
-    fit.set_defaults(handler=guarded(baseline_fit))
+    flow_command_options(fit, baseline_fit)
     return parser
 
 

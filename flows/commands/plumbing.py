@@ -46,6 +46,26 @@ def config_options(parser: argparse.ArgumentParser) -> None:
                         help="MLflow tracking URI (overrides [mlflow] tracking_uri)")
 
 
+def asset_option(parser: argparse.ArgumentParser,
+                 help: str = "only this asset (repeatable)") -> None:
+    """``--asset ASSET``, repeatable: the assets a command works on (``args.assets``)."""
+    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET", help=help)
+
+
+def class_option(parser: argparse.ArgumentParser, help: str = "only this vehicle class") -> None:
+    """``--class CLASS``: a vehicle class of fleet.toml (``args.vehicle_class``)."""
+    parser.add_argument("--class", dest="vehicle_class", metavar="CLASS", help=help)
+
+
+def flow_command_options(parser: argparse.ArgumentParser,
+                         handler: Callable[[argparse.Namespace], int]) -> None:
+    """What every command that runs a flow ends with: ``--json`` (its run summary), the
+    :func:`config_options`, and its ``handler`` (errors as exit statuses, see :func:`guarded`)."""
+    parser.add_argument("--json", action="store_true", help="print the run summary as JSON")
+    config_options(parser)
+    parser.set_defaults(handler=guarded(handler))
+
+
 #: commands that run a flow: they wait for the tracking store (bounded) before starting it
 STORE_COMMANDS = ("run", "reanalyze", "baseline")
 

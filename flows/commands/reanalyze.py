@@ -5,8 +5,9 @@ import argparse
 
 from rich.table import Table
 
-from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
-                                     prefect_environment, report_summary, run_flow)
+from flows.commands.plumbing import (FlowFailed, asset_option, class_option,
+                                     flow_command_options, load, prefect_environment,
+                                     report_summary, run_flow)
 from flows.fleet import UsageError, not_in_future, parse_time, range_windows
 from flows.report import window_label
 from flows.results import RunSummary
@@ -19,10 +20,8 @@ def add_reanalyze_command(subparsers) -> argparse.ArgumentParser:
         "reanalyze", help="ad-hoc reanalysis of assets and a time range",
         description="Refit and compare [--start, --end) against the baseline (or --version); "
                     "moves no watermark and no alias.")
-    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
-                        help="asset to reanalyse (repeatable)")
-    parser.add_argument("--class", dest="vehicle_class", metavar="CLASS",
-                        help="every asset of this vehicle class")
+    asset_option(parser, help="asset to reanalyse (repeatable)")
+    class_option(parser, help="every asset of this vehicle class")
     parser.add_argument("--start", required=True, metavar="WHEN", help="start (UTC)")
     parser.add_argument("--end", required=True, metavar="WHEN", help="end (UTC, exclusive)")
     parser.add_argument("--version", metavar="N|ALIAS",
@@ -30,9 +29,7 @@ def add_reanalyze_command(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--candidate-nights", type=_nights, metavar="N",
                         help="fit each window's candidate on it and the N - 1 windows before "
                              "it (default: [nightly] candidate_nights)")
-    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
-    config_options(parser)
-    parser.set_defaults(handler=guarded(reanalyze))
+    flow_command_options(parser, reanalyze)
     return parser
 
 

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import argparse
 
-from flows.commands.plumbing import (FlowFailed, config_options, guarded, load,
-                                     prefect_environment, report_summary, run_flow)
+from flows.commands.plumbing import (FlowFailed, asset_option, class_option,
+                                     flow_command_options, load, prefect_environment,
+                                     report_summary, run_flow)
 from flows.fleet import not_in_future, parse_time
 from registry.cli import EXIT_FAILED, _error
 
@@ -17,13 +18,9 @@ def add_run_command(subparsers) -> argparse.ArgumentParser:
                     "watermark and before --as-of, against its baseline.")
     parser.add_argument("--as-of", metavar="WHEN",
                         help="process windows ending by this date/time (UTC; default now)")
-    parser.add_argument("--asset", dest="assets", action="append", metavar="ASSET",
-                        help="only this asset (repeatable)")
-    parser.add_argument("--class", dest="vehicle_class", metavar="CLASS",
-                        help="only this vehicle class")
-    parser.add_argument("--json", action="store_true", help="print the run summary as JSON")
-    config_options(parser)
-    parser.set_defaults(handler=guarded(run))
+    asset_option(parser)
+    class_option(parser)
+    flow_command_options(parser, run)
     return parser
 
 

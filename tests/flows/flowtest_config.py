@@ -3,11 +3,19 @@ from __future__ import annotations
 
 import pathlib
 
+#: the simulated gas turbines (``T-*``) of the flow tests
+TURBINES = '''[classes.turbine]
+model = "graybox.models:GasTurbineShaft"
+assets = ["T-*"]
+columns = { omega = "shaft_speed" }'''
 
-def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
-                 plots: str = "none", retries: int = 2, batch_size: int = 64,
-                 extra: str = "") -> pathlib.Path:
-    path.write_text(f'''
+
+def config_text(telemetry: pathlib.Path, db: pathlib.Path, plots: str = "none",
+                retries: int = 2, batch_size: int = 64, extra: str = "",
+                classes: str = TURBINES) -> str:
+    """A fleet.toml of ``classes`` (their tables) whose telemetry is ``telemetry`` and
+    whose store is the SQLite file ``db``; ``extra`` is added at the end."""
+    return f'''
 [telemetry]
 root = "{telemetry}"
 [mlflow]
@@ -20,10 +28,14 @@ batch_size = {batch_size}
 plots = "{plots}"
 retries = {retries}
 retry_delay_seconds = 0
-[classes.turbine]
-model = "graybox.models:GasTurbineShaft"
-assets = ["T-*"]
-columns = {{ omega = "shaft_speed" }}
+{classes}
 {extra}
-''')
+'''
+
+
+def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
+                 plots: str = "none", retries: int = 2, batch_size: int = 64,
+                 extra: str = "") -> pathlib.Path:
+    """:func:`config_text` of the turbines, written at ``path``."""
+    path.write_text(config_text(telemetry, db, plots, retries, batch_size, extra))
     return path

@@ -15,7 +15,7 @@ import pathlib
 import sys
 import threading
 
-import flows.baseline
+import flows.pipeline
 from flows.baseline import process_baseline_batch
 from flows.config import load_config
 from flows.fleet import AssetRef
@@ -68,14 +68,14 @@ columns = {{{{ omega = "shaft_speed" }}}}
     (work / "fleet.toml").write_text(config_text.format(budget=budget))
     config = load_config(work / "fleet.toml")
     groups = []
-    original = flows.baseline.memory_groups
+    original = flows.pipeline.memory_groups
 
     def counting(*args, **kwargs):
         for group in original(*args, **kwargs):
             groups.append(len(group))
             yield group
 
-    flows.baseline.memory_groups = counting
+    flows.pipeline.memory_groups = counting
     refs = [AssetRef(asset, "turbine") for asset in assets]
     sampler = PeakSampler()
     sampler.start()

@@ -10,28 +10,21 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from flowtest_config import config_text
 from scipy.linalg import expm
 
 from graybox.models import LinearStateSpace
 
-#: a fleet.toml of PumpLoop pumps (``P-*``): ``.format(root=..., db=..., extra=...)``, where
-#: ``extra`` ends the pump class (e.g. ``grid = {{ intermittent = true }}``)
-PUMP_CONFIG = """
-[telemetry]
-root = "{root}"
-[mlflow]
-tracking_uri = "sqlite:///{db}"
-[alerts]
-false_alarm_rate = 0.01
-jsonl = "alerts.jsonl"
-[nightly]
-plots = "none"
-retries = 0
-[classes.pump]
+#: the PumpLoop pumps (``P-*``) of the multichannel and intermittent flow tests
+PUMPS = '''[classes.pump]
 model = "graybox.models:PumpLoop"
-assets = ["P-*"]
-{extra}
-"""
+assets = ["P-*"]'''
+
+
+def pump_config(root, db, extra: str = "") -> str:
+    """A fleet.toml of the pumps (not retried), telemetry at ``root``, store the SQLite file
+    ``db``; ``extra`` ends the pump class (e.g. ``grid = { intermittent = true }``)."""
+    return config_text(root, db, retries=0, classes=PUMPS, extra=extra)
 
 
 def discretize(model: LinearStateSpace, dt: float, process_std) -> tuple:

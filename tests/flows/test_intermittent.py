@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import PUMP_CONFIG, pump_period
+from plant_telemetry import pump_config, pump_period
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 PERIODS = [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0),
@@ -71,7 +71,7 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
                         written["P-001"]["timestamp"]) >= 600
     config = tmp_path / "fleet.toml"
     # without intermittent = true the pauses are gaps: every asset fails, naming one
-    config.write_text(PUMP_CONFIG.format(extra="", root=root, db=tmp_path / "mlflow.db"))
+    config.write_text(pump_config(root, tmp_path / "mlflow.db"))
     status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--json"])
     out = capsys.readouterr()
@@ -80,8 +80,7 @@ def test_intermittent_pumps_baseline_and_detect_through_the_command_line(harness
     assert len(errors) == 3 and {e["kind"] for e in errors} == {"gap"}
     assert all("T13:00:00" in e["message"] for e in errors)  # the start of the 2nd period
 
-    config.write_text(PUMP_CONFIG.format(extra=INTERMITTENT, root=root,
-                                         db=tmp_path / "mlflow.db"))
+    config.write_text(pump_config(root, tmp_path / "mlflow.db", INTERMITTENT))
     status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--promote",
                    "--reason", "healthy days", "--json"])
@@ -110,7 +109,7 @@ def test_intermittent_and_running_load_from_fleet_toml(tmp_path):
     from flows.config.template import _grid_text
 
     config = tmp_path / "fleet.toml"
-    text = PUMP_CONFIG.format(extra=INTERMITTENT, root=tmp_path, db=tmp_path / "m.db")
+    text = pump_config(tmp_path, tmp_path / "m.db", INTERMITTENT)
     config.write_text(text.replace("{ intermittent = true }",
                                    "{ intermittent = true, running = { speed = [1, 100] } }"))
     grid = load_config(config).classes["pump"].grid

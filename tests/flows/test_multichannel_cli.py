@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import PUMP_CONFIG, pump_period
+from plant_telemetry import pump_config, pump_period
 
 START = pd.Timestamp("2026-05-01", tz="UTC")
 ASSETS = ["P-001", "P-002", "P-003"]
@@ -39,7 +39,7 @@ def test_four_state_two_input_pumps_baseline_and_alarm_in_the_faulty_channel(har
                   for k in range(DAYS)]
         write_telemetry(root, asset, pd.concat(frames, ignore_index=True))
     config = tmp_path / "fleet.toml"
-    config.write_text(PUMP_CONFIG.format(extra="", root=root, db=tmp_path / "mlflow.db"))
+    config.write_text(pump_config(root, tmp_path / "mlflow.db"))
 
     status = main(["--config", str(config), "baseline", "fit", "--class", "pump", "--start",
                    day(0).isoformat(), "--end", day(BASELINE_DAYS).isoformat(), "--promote",

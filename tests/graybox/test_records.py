@@ -142,3 +142,15 @@ def test_model_spec_rebuilds_its_white_box():
     assert again.columns == model.columns
     assert ModelSpec(spec.spec, dict(model.parameters), dict(model.columns)) == spec
     assert hash(ModelSpec(spec.spec, dict(model.parameters), dict(model.columns))) == hash(spec)
+
+
+def test_json_text_round_trip_and_text_that_is_not_json():
+    tree = make_tree()
+    text = records.to_json(tree, indent=2)
+    assert text == json.dumps(records.to_dict(tree), indent=2)
+    assert records.from_dict(Tree, records.parse_json(text, "tree")) == tree
+    assert records.parse_json(text.encode(), "tree") == json.loads(text)
+    with pytest.raises(ArtifactError, match=r"^tree is not valid JSON: Expecting property name"):
+        records.parse_json("{'name': 'a'}", "tree")
+    with pytest.raises(ArtifactError, match=r"^tree is not valid JSON: 'utf-8' codec"):
+        records.parse_json(b"\x80", "tree")

@@ -53,6 +53,12 @@ def raises_telemetry(kind, func, *args, **kwargs) -> TelemetryError:
     return info.value
 
 
+def window_error(root, kind, columns) -> TelemetryError:
+    """The error of ``kind`` that reading asset T-1's window of ``columns`` with
+    :data:`POLICY` raises."""
+    return raises_telemetry(kind, read_window, root, "T-1", columns, policy=POLICY)
+
+
 # -- asset ids ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("asset_id", ["T-1", "a", "pump_07.b", "x" * 64, "..a", "a..b"])
@@ -189,7 +195,7 @@ def test_date_pruning(tmp_path):
 
 def test_missing_column_is_schema_error(tmp_path):
     write_telemetry(tmp_path, "T-1", make_frame(30))
-    error = raises_telemetry("schema", read_window, tmp_path, "T-1", ["a", "zz"], policy=POLICY)
+    error = window_error(tmp_path, "schema", ["a", "zz"])
     assert error.file.endswith("part-0.parquet") and "'zz'" in error.message
     assert "part-0.parquet" in str(error) and "T-1" in str(error)
 
@@ -262,8 +268,7 @@ def test_non_finite(tmp_path, bad, column):
     frame.loc[37, column] = bad
     frame.loc[80, "a"] = np.nan
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("non_finite", read_window, tmp_path, "T-1", ["a", "b"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "non_finite", ["a", "b"])
     assert error.file.endswith("part-0.parquet")
     assert error.row == 37
     assert f"{column!r}={bad!r}" in error.message
@@ -274,7 +279,7 @@ def test_null_value_is_non_finite(tmp_path):
     stamps = pd.date_range(T0, periods=30, freq="10s")
     values = pa.array([float(i) if i != 12 else None for i in range(30)])
     write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=values)
-    error = raises_telemetry("non_finite", read_window, tmp_path, "T-1", ["a"], policy=POLICY)
+    error = window_error(tmp_path, "non_finite", ["a"])
     assert error.row == 12
 
 
@@ -282,8 +287,7 @@ def test_duplicate_timestamp(tmp_path):
     frame = make_frame(100)
     frame.loc[42, "timestamp"] = frame.loc[41, "timestamp"]
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("duplicate_timestamp", read_window, tmp_path, "T-1", ["a"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "duplicate_timestamp", ["a"])
     assert error.file.endswith("part-0.parquet") and error.row == 42
 
 
@@ -291,8 +295,7 @@ def test_backward_timestamp(tmp_path):
     frame = make_frame(100)
     frame.loc[[60, 61], "timestamp"] = frame.loc[[61, 60], "timestamp"].to_numpy()
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("backward_timestamp", read_window, tmp_path, "T-1", ["a"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "backward_timestamp", ["a"])
     assert error.file.endswith("part-0.parquet") and error.row == 61
     assert "2024-03-01T00:10:00" in error.message and "2024-03-01T00:10:10" in error.message
 
@@ -301,8 +304,7 @@ def test_backward_timestamp_across_files(tmp_path):
     frame = make_frame(100)
     write_telemetry(tmp_path, "T-1", frame.iloc[:60], file_name="part-0.parquet")
     write_telemetry(tmp_path, "T-1", frame.iloc[55:], file_name="part-1.parquet")  # overlaps
-    error = raises_telemetry("backward_timestamp", read_window, tmp_path, "T-1", ["a"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "backward_timestamp", ["a"])
     assert error.file.endswith("part-1.parquet") and error.row == 0
     assert "another file" in error.message and "part-0.parquet" in error.message
 
@@ -312,8 +314,7 @@ def test_stuck_channel(tmp_path):
     frame.loc[50:69, "b"] = 7.25            # 20 identical samples: stuck
     frame.loc[120:139, "a"] = 1.0           # a later stuck run is not the first
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("stuck_channel", read_window, tmp_path, "T-1", ["a", "b"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "stuck_channel", ["a", "b"])
     assert error.file.endswith("part-0.parquet") and error.row == 50
     assert "'b'" in error.message and "stuck at 7.25 for 20" in error.message
     # one sample shorter is fine, and stuck_after=0 disables the check
@@ -329,7 +330,7 @@ def test_stuck_channel(tmp_path):
 def test_gap_longer_than_max_gap(tmp_path):
     frame = make_frame(200).drop(index=range(100, 104))  # 4 missing samples
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("gap", read_window, tmp_path, "T-1", ["a"], policy=POLICY)
+    error = window_error(tmp_path, "gap", ["a"])
     assert error.file.endswith("part-0.parquet") and error.row == 100  # the row after the gap
     assert "4 missing" in error.message and "max_gap=40s" in error.message
     assert "2024-03-01T00:16:30" in error.message and "2024-03-01T00:17:20" in error.message
@@ -337,8 +338,7 @@ def test_gap_longer_than_max_gap(tmp_path):
 
 def test_too_few_samples(tmp_path):
     write_telemetry(tmp_path, "T-1", make_frame(9))
-    error = raises_telemetry("too_few_samples", read_window, tmp_path, "T-1", ["a"],
-                             policy=POLICY)
+    error = window_error(tmp_path, "too_few_samples", ["a"])
     assert error.row is None and "9" in error.message
 
 
@@ -347,7 +347,7 @@ def test_checks_run_in_documented_order(tmp_path):
     frame.loc[5, "timestamp"] = frame.loc[4, "timestamp"]   # ... a duplicate ...
     frame.loc[7, "a"] = np.nan                 # ... and, later, a NaN: non-finite comes first
     write_telemetry(tmp_path, "T-1", frame)
-    error = raises_telemetry("non_finite", read_window, tmp_path, "T-1", ["a"], policy=POLICY)
+    error = window_error(tmp_path, "non_finite", ["a"])
     assert error.row == 7
 
 

@@ -10,6 +10,7 @@ import mlflow
 import pandas as pd
 import pytest
 import yaml
+from mlflow_loading import load_by_models_uri
 
 from graybox.exceptions import ArtifactError
 from registry import naming
@@ -167,14 +168,7 @@ def test_missing_artifacts_give_a_clear_error(rec, registry):
 def test_pyfunc_from_the_models_uri_returns_zeta_per_tier(rec, registry, fits):
     record = rec.baseline()
     registry.promote("T-01", record.version, reason="initial")
-    previous = mlflow.get_tracking_uri(), mlflow.get_registry_uri()
-    mlflow.set_tracking_uri(registry.tracking_uri)
-    mlflow.set_registry_uri(registry.tracking_uri)
-    try:
-        model = mlflow.pyfunc.load_model("models:/fleet-health.T-01@baseline")
-    finally:
-        mlflow.set_tracking_uri(previous[0])
-        mlflow.set_registry_uri(previous[1])
+    model = load_by_models_uri(registry.tracking_uri, "models:/fleet-health.T-01@baseline")
     result = model.predict(fits.night)
     assert list(result.columns) == ["channel", "tier", "zeta", "epsilon", "ratio", "exceeded"]
     assert [(r.channel, r.tier) for r in result.itertuples()] == [

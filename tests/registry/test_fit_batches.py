@@ -2,17 +2,17 @@
 from __future__ import annotations
 
 import dataclasses
-import shutil
 import sqlite3
 
-import mlflow
 import pandas as pd
 import pytest
+from mlflow_loading import load_by_models_uri
+from store_copies import copy_store
 
+from benchmarks.langevin_fits import DAY0
 from registry import FitSubmission, Registry, naming
 from registry.exceptions import RegistryError
 
-DAY0 = pd.Timestamp("2026-01-01", tz="UTC")     # as in conftest.make_day
 ASSETS = ("T-01", "T-02", "T-03")
 NIGHTS = (5, 6)
 
@@ -31,10 +31,7 @@ def batch(fits) -> list[FitSubmission]:
 
 
 def other_registry(tmp_path, template_db, name: str) -> Registry:
-    target = tmp_path / name / "mlflow.db"
-    target.parent.mkdir()
-    shutil.copy(template_db, target)
-    return Registry(f"sqlite:///{target}", user="tester")
+    return Registry(copy_store(template_db, tmp_path / name), user="tester")
 
 
 # not reproducible from one write to the next: safetensors orders its metadata keys at random
@@ -152,14 +149,7 @@ def test_candidate_model_lives_in_its_run_and_loads(registry, rec, fits):
     assert loaded.signature == fits.candidate and loaded.calibration is None
     model = registry.load_pyfunc("T-01", record.version)
     assert set(model.predict(fits.night)["tier"]) == {"linear", "nonlinear", "noise", "level"}
-    previous = mlflow.get_tracking_uri(), mlflow.get_registry_uri()
-    mlflow.set_tracking_uri(registry.tracking_uri)
-    mlflow.set_registry_uri(registry.tracking_uri)
-    try:
-        by_uri = mlflow.pyfunc.load_model(f"models:/fleet-health.T-01/{record.version}")
-    finally:
-        mlflow.set_tracking_uri(previous[0])
-        mlflow.set_registry_uri(previous[1])
+    by_uri = load_by_models_uri(registry.tracking_uri, f"models:/fleet-health.T-01/{record.version}")
     assert by_uri.predict(fits.night)["zeta"].tolist() == pytest.approx(
         model.predict(fits.night)["zeta"].tolist())
     assert registry.load_version("T-01", record.version).signature == fits.candidate

@@ -8,12 +8,11 @@ import urllib.parse
 import pandas as pd
 import pytest
 
+from benchmarks.langevin_fits import DAY0
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
 from registry import naming
 from registry.alert import Alert, alerts_from_drift
 from registry.exceptions import NotFoundError
-
-DAY0 = pd.Timestamp("2026-01-01", tz="UTC")     # as in conftest.make_day
 
 
 def _active_runs(registry, asset_id="T-01"):

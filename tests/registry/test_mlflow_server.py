@@ -10,9 +10,9 @@ import sys
 import time
 import urllib.request
 
-import mlflow
 import pandas as pd
 import pytest
+from mlflow_loading import load_by_models_uri
 
 from registry import Registry
 
@@ -89,14 +89,7 @@ def test_record_promote_load_round_trip_through_a_server(server, fits, monkeypat
     assert len(registry.zeta_history("S-01")) == 4          # one channel, four tiers
     plots = {a.path for a in registry.backend.client.list_artifacts(night.run_id, "plots")}
     assert {"plots/residual_acf.png", "plots/tier_fits.png", "plots/zeta_trend.png"} <= plots
-    previous = mlflow.get_tracking_uri(), mlflow.get_registry_uri()
-    mlflow.set_tracking_uri(server)
-    mlflow.set_registry_uri(server)
-    try:
-        model = mlflow.pyfunc.load_model("models:/fleet-health.S-01@baseline")
-    finally:
-        mlflow.set_tracking_uri(previous[0])
-        mlflow.set_registry_uri(previous[1])
+    model = load_by_models_uri(server, "models:/fleet-health.S-01@baseline")
     result = model.predict(fits.night)
     expected = {(e.channel, e.tier): e.zeta for e in fits.drift.entries}
     assert {(r.channel, r.tier): r.zeta for r in result.itertuples()} == pytest.approx(expected)

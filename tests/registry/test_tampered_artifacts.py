@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import math
 import pickle
-import shutil
-import sqlite3
 import subprocess
 import sys
 import urllib.parse
@@ -22,6 +20,7 @@ import pytest
 from graybox.exceptions import ArtifactError, ModelSpecError
 from graybox.models import LangevinShaft
 from registry.exceptions import UnusableBaselineError
+from store_copies import checkpointed, copy_store
 from tampering import (edit_json, model_path, move_alias, snapshot, tampered_version,
                        write_bytes)
 
@@ -49,8 +48,7 @@ def recorded(tmp_path_factory, template_db, fits):
     from registry import Registry
 
     directory = tmp_path_factory.mktemp("tampered-fleet")
-    shutil.copy(template_db, directory / "mlflow.db")
-    registry = Registry(f"sqlite:///{directory / 'mlflow.db'}", user="tester")
+    registry = Registry(copy_store(template_db, directory), user="tester")
     day0 = pd.Timestamp("2026-01-01", tz="UTC")
     for asset in ASSETS:
         registry.record_fit(asset, "turbine", fits.baseline, role="baseline",
@@ -63,10 +61,7 @@ def recorded(tmp_path_factory, template_db, fits):
                             window_end=day0 + pd.Timedelta(days=6), data_hash="night",
                             plots=False)
         registry.commit_watermark(asset, WATERMARK)
-    connection = sqlite3.connect(directory / "mlflow.db")
-    connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    connection.close()
-    return directory / "mlflow.db"
+    return checkpointed(directory / "mlflow.db")
 
 
 @pytest.fixture
@@ -74,9 +69,7 @@ def fleet(recorded, tmp_path):
     """A fresh copy of the recorded store (its artifacts are shared and never edited)."""
     from registry import Registry
 
-    (tmp_path / "store").mkdir()
-    shutil.copy(recorded, tmp_path / "store" / "mlflow.db")
-    return Registry(f"sqlite:///{tmp_path / 'store' / 'mlflow.db'}", user="tester")
+    return Registry(copy_store(recorded, tmp_path / "store"), user="tester")
 
 
 def tamper_baseline(registry, tmp_path, edit, asset="T-01") -> int:
@@ -111,31 +104,17 @@ def set_value(path: tuple, value):
 
 # -- pickles ---------------------------------------------------------------------------------
 
-def test_fault_pickle_in_place_of_signature_json(fleet, fits, tmp_path):
+@pytest.mark.parametrize("file_name, refusal", [
+    ("signature.json", r"signature\.json: signature is not valid JSON"),
+    ("calibration.json", r"calibration\.json: calibration is not valid JSON"),
+    ("model.pkl", r"model\.pkl: unexpected file, not listed in manifest\.json"),
+], ids=["in_place_of_signature_json", "in_place_of_calibration_json",
+        "file_added_beside_the_json"])
+def test_fault_pickle(fleet, fits, tmp_path, file_name, refusal):
     marker = tmp_path / "executed"
-    version = tamper_baseline(fleet, tmp_path, write_bytes("signature.json",
-                                                           pickle.dumps(Boom(marker))))
-    error = assert_refused(fleet, fits, rf"asset 'T-01' version {version}: signature\.json: "
-                                        r"signature is not valid JSON")
+    version = tamper_baseline(fleet, tmp_path, write_bytes(file_name, pickle.dumps(Boom(marker))))
+    error = assert_refused(fleet, fits, rf"asset 'T-01' version {version}: {refusal}")
     assert "fleet-health baseline promote T-01 --version 1" in str(error)
-    assert not marker.exists()
-
-
-def test_fault_pickle_in_place_of_calibration_json(fleet, fits, tmp_path):
-    marker = tmp_path / "executed"
-    version = tamper_baseline(fleet, tmp_path, write_bytes("calibration.json",
-                                                           pickle.dumps(Boom(marker))))
-    assert_refused(fleet, fits, rf"asset 'T-01' version {version}: calibration\.json: "
-                                r"calibration is not valid JSON")
-    assert not marker.exists()
-
-
-def test_fault_pickle_file_added_beside_the_json(fleet, fits, tmp_path):
-    marker = tmp_path / "executed"
-    version = tamper_baseline(fleet, tmp_path, write_bytes("model.pkl",
-                                                           pickle.dumps(Boom(marker))))
-    assert_refused(fleet, fits, rf"asset 'T-01' version {version}: model\.pkl: unexpected "
-                                r"file, not listed in manifest\.json")
     assert not marker.exists()
 
 
