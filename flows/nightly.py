@@ -24,7 +24,7 @@ failed: the flow run then fails, naming the file and ``fleet-health alerts --exp
 the file behind the registry until the next run, which writes what was missed within the
 look-back, or ``fleet-health alerts --export``.
 
-With ``[nightly] candidate_nights = N`` (default 1) the candidate of each window is fitted
+With ``[nightly] candidate_nights = N`` (default 2) the candidate of each window is fitted
 on it and the N - 1 windows before it that have telemetry (never before the baseline's
 window end), and is recorded and alerted under the whole span ``(start of the first, end
 of the night)``: each night still gives one candidate, a rerun finds it recorded, and the

@@ -23,7 +23,7 @@ Layout (every key and its default: docs/design.md section 3.3; every table but
     retry_delay_seconds = 30
     memory_budget = "4GB"                  # peak memory of a batch: assets fitted in groups
     task_runner = "sequential"             # or "dask": batches at once on a Dask cluster
-    candidate_nights = 1                   # candidate fitted on the night and the N - 1 before
+    candidate_nights = 2                   # candidate fitted on the night and the N - 1 before
 
     [schedule]
     cron = "30 2 * * *"                    # the nightly deployment's schedule

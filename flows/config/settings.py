@@ -97,7 +97,7 @@ class NightlySettings:
     lookback: str = "7D"
     task_runner: str = "sequential"
     #: nightly windows each candidate is fitted on: the night and the N - 1 before it
-    candidate_nights: int = 1
+    candidate_nights: int = 2
 
     @property
     def window_delta(self) -> pd.Timedelta:

@@ -12,9 +12,13 @@ columns = { omega = "shaft_speed" }'''
 
 def config_text(telemetry: pathlib.Path, db: pathlib.Path, plots: str = "none",
                 retries: int = 2, batch_size: int = 64, extra: str = "",
-                classes: str = TURBINES) -> str:
+                classes: str = TURBINES, candidate_nights: int = 1) -> str:
     """A fleet.toml of ``classes`` (their tables) whose telemetry is ``telemetry`` and
-    whose store is the SQLite file ``db``; ``extra`` is added at the end."""
+    whose store is the SQLite file ``db``; ``extra`` is added at the end.
+
+    One-night candidates unless ``candidate_nights`` says otherwise: the flow tests' known
+    answers are per night (windows, alerts, watermarks); the default of two nights has its own
+    tests (test_candidate_nights.py, and test_demo.py runs the rendered default)."""
     return f'''
 [telemetry]
 root = "{telemetry}"
@@ -28,6 +32,7 @@ batch_size = {batch_size}
 plots = "{plots}"
 retries = {retries}
 retry_delay_seconds = 0
+candidate_nights = {candidate_nights}
 {classes}
 {extra}
 '''
@@ -35,7 +40,8 @@ retry_delay_seconds = 0
 
 def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
                  plots: str = "none", retries: int = 2, batch_size: int = 64,
-                 extra: str = "") -> pathlib.Path:
+                 extra: str = "", candidate_nights: int = 1) -> pathlib.Path:
     """:func:`config_text` of the turbines, written at ``path``."""
-    path.write_text(config_text(telemetry, db, plots, retries, batch_size, extra))
+    path.write_text(config_text(telemetry, db, plots, retries, batch_size, extra,
+                                candidate_nights=candidate_nights))
     return path

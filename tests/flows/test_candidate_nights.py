@@ -56,10 +56,8 @@ def _store(tmp_path, small, name: str, nights: int):
     directory = tmp_path / name
     directory.mkdir()
     shutil.copy(small.db, directory / "mlflow.db")
-    config = write_config(directory / "fleet.toml", small.root, directory / "mlflow.db")
-    text = config.read_text().replace("retry_delay_seconds = 0\n",
-                                      f"retry_delay_seconds = 0\ncandidate_nights = {nights}\n")
-    config.write_text(text)
+    config = write_config(directory / "fleet.toml", small.root, directory / "mlflow.db",
+                          candidate_nights=nights)
     from registry import Registry
 
     return SimpleNamespace(config=config, alerts=directory / "alerts.jsonl",
@@ -176,7 +174,7 @@ def test_bad_candidate_nights_are_refused_naming_the_key_or_option(tmp_path, cap
                'assets = ["T-*"]\ncolumns = { omega = "shaft_speed" }\n')
     path = tmp_path / "fleet.toml"
     path.write_text(minimal)
-    assert load_config(path).nightly.candidate_nights == 1
+    assert load_config(path).nightly.candidate_nights == 2
     path.write_text("[nightly]\ncandidate_nights = 3\n" + minimal)
     assert load_config(path).nightly.candidate_nights == 3
     for bad in ("0", "-1", '"2"', "1.5", "true"):

@@ -45,6 +45,7 @@ jsonl = "alerts.jsonl"
 window = "1h"
 plots = "none"
 retries = 0
+candidate_nights = 1
 [classes.pump]
 model = "graybox.models.progpy:CentrifugalPump"
 assets = ["P-*"]
