@@ -176,7 +176,8 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
     nightly = fleet_health(workdir, "nightly", "run", "--as-of", as_of.isoformat())
     say(f"N = {n}: nightly {nightly['wall']:.1f} s wall; again, nothing to do ...")
     startup = fleet_health(workdir, "startup", "run", "--as-of", as_of.isoformat())
-    structure = candidate_structure(workdir / "mlflow.db") or Structure.assumed()
+    structure = (candidate_structure(workdir / "mlflow.db", as_of.isoformat())
+                 or Structure.assumed())
     return {"n": n, "baseline_days": args.baseline_days,
             "candidate_nights": args.candidate_nights,
             "sample_interval": args.sample_interval, "generate_seconds": generated,

@@ -46,11 +46,18 @@ class Structure:
         return cls(SECONDS_PER_DAY / analysis_interval, 29, 6, 8, 1.0, 200, 0)
 
 
-def candidate_structure(db_path) -> Structure | None:
-    """Means over the ``role=candidate`` runs of an MLflow SQLite store (None if none)."""
+def candidate_structure(db_path, window_end: str | None = None) -> Structure | None:
+    """Means over the ``role=candidate`` runs of an MLflow SQLite store, only those whose
+    recorded window end starts with ``window_end`` (e.g. the day ``"2026-01-05"``) when given
+    (None if none)."""
     with sqlite3.connect(f"file:{db_path}?mode=ro", uri=True) as db:
         runs = [r for (r,) in db.execute(
             "SELECT run_uuid FROM tags WHERE key = 'fleet_health.role' AND value = 'candidate'")]
+        if window_end is not None:
+            ending = {r for (r,) in db.execute(
+                "SELECT run_uuid FROM tags WHERE key = 'fleet_health.window_end' AND value LIKE ?",
+                [f"{window_end}%"])}
+            runs = [r for r in runs if r in ending]
         if not runs:
             return None
         marks = ",".join("?" * len(runs))
