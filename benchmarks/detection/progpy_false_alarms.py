@@ -6,18 +6,18 @@
 Every pump is healthy throughout. Telemetry comes from ProgPy's own ``simulate_to`` with its
 process and measurement noise (1 s samples, 0.5 s Euler steps, the duty cycle of
 :func:`graybox.models.progpy_simulation.pump_cycle_load`). The last ``--intermittent`` pumps
-run intermittently: each has its own random stops (:func:`~graybox.models.progpy_simulation.
-pump_stops`: 20-45 min running, 5-15 min stopped), in which its motor voltage is 0 and the
-pump spins down by ProgPy's dynamics, then restarts direct-on-line; they keep writing rows while
-stopped, and their class's ``fleet.toml`` line :data:`INTERMITTENT_GRID` (``running`` on the
-voltage) makes the stops pauses between operating periods. The telemetry is written in the
-store layout and read back window by window through ``graybox.read_window`` (validation and
-grid), as the nightly flow reads it. Each pump gets a calibrated baseline of its first
-``--baseline-windows`` windows (target 1 % false alarms per asset-night) and every later
-window is fitted as a nightly candidate. An asset-night alarms when any (channel, tier) zeta
-exceeds its epsilon. The result (rate overall and for continuous and intermittent pumps, 95 %
-Clopper-Pearson interval, alarms per channel and tier) is printed and, with ``--out``,
-written into its own section of that markdown page (replaced on every run).
+run intermittently: each has its own random stops (``pump_stops``: 20-45 min running, 5-15
+min stopped), in which its motor voltage is 0 and the pump spins down by ProgPy's dynamics,
+then restarts direct-on-line. They keep writing rows while stopped, and their class's
+``fleet.toml`` line :data:`INTERMITTENT_GRID` makes the stops pauses between operating
+periods: the pump runs while its motor is on and it delivers flow. The telemetry is written
+in the store layout and read back window by window through ``graybox.read_window``
+(validation and grid), as the nightly flow reads it. Each pump gets a calibrated baseline of
+its first ``--baseline-windows`` windows (target 1 % false alarms per asset-night) and every
+later window is fitted as a nightly candidate. An asset-night alarms when any (channel,
+tier) zeta exceeds its epsilon. The result (rate overall and for continuous and intermittent
+pumps, 95 % Clopper-Pearson interval, alarms per channel and tier) is printed and, with
+``--out``, written into its own section of that markdown page (replaced on every run).
 ``tests/benchmarks/test_progpy_false_alarms.py`` runs :func:`run` on a reduced fleet.
 """
 from __future__ import annotations
@@ -46,9 +46,15 @@ START = pd.Timestamp("2026-01-01", tz="UTC")
 PROCESS_NOISE = {"w": 0.5, "Q": 1e-4, "Tt": 0.01, "Tr": 0.01, "To": 0.001}
 MEASUREMENT_NOISE = {"w": 0.05, "Qout": 1e-5, "Tt": 0.01, "Tr": 0.01, "To": 0.01}
 WARM = {"w": 385.0, "Q": 0.117, "Tt": 336.0, "Tr": 329.0, "To": 318.0}
-#: the intermittent pumps' class line in fleet.toml: rows with the motor off (V = 0) are
-#: pauses, and a window needs 15 minutes of operation
-INTERMITTENT_GRID = 'grid = { running = { V = [100.0, 1000.0] }, min_duration = "15min" }'
+#: the intermittent pumps' class line in fleet.toml: the pump runs while its motor is on and
+#: it delivers flow. Rows with the motor off (V = 0) are pauses, and so are the first seconds
+#: of a restart, in which the pump cannot yet lift the discharge pressure: ProgPy's flow
+#: output reads 0 (``Qout = max(0, Q - QLeak)``) while its flow state is negative, which the
+#: white box, observing the state Q in the column Qout, cannot follow (with ``V`` alone those
+#: samples give the residual spikes of 160 noise deviations). A window needs 15 minutes of
+#: operation.
+INTERMITTENT_GRID = ('grid = { running = { V = [100.0, 1000.0], Qout = [0.01, 1.0] }, '
+                     'min_duration = "15min" }')
 BEGIN, END = "<!-- progpy-false-alarms:begin -->", "<!-- progpy-false-alarms:end -->"
 
 
