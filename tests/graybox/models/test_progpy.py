@@ -20,7 +20,8 @@ from graybox.analysis_rate import fastest_rate  # noqa: E402
 from graybox.exceptions import ModelSpecError  # noqa: E402
 from graybox.models import ModelSpec, load_model  # noqa: E402
 from graybox.models.progpy import ProgPyModel  # noqa: E402
-from graybox.models.progpy_simulation import pump_cycle_load, simulate_progpy_fleet  # noqa: E402
+from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops,  # noqa: E402
+                                              simulate_progpy_fleet, stopped_load)
 from graybox.residual import one_step_residual  # noqa: E402
 from graybox.telemetry.writing import write_telemetry  # noqa: E402
 
@@ -263,6 +264,38 @@ def test_state_change_takes_effect_at_its_time():
     with pytest.raises(ValueError, match="not a ProgPy state"):
         simulate_progpy_fleet(model, ["P-1"], START, 10.0, pump_cycle_load,
                               changes={"P-1": [(5.0, {"nonsense": 1.0})]})
+
+
+def test_pump_stops_alternate_running_and_stopped_within_their_bounds():
+    stops = pump_stops(40_000.0, seed=[1, 0], run=(1200.0, 2700.0), stop=(300.0, 900.0))
+    assert stops == pump_stops(40_000.0, seed=[1, 0]) != pump_stops(40_000.0, seed=[1, 1])
+    edges = [0.0] + [t for stop in stops for t in stop]
+    running, stopped = np.diff(edges)[0::2], np.diff(edges)[1::2]
+    assert len(stops) >= 10
+    assert running.min() >= 1200 and running.max() <= 2700
+    assert stopped[:-1].min() >= 300 and stopped.max() <= 900
+    assert stops[-1][1] <= 40_000.0
+
+
+def test_a_stopped_pump_spins_down_and_restarts_by_progpy_dynamics():
+    model = pump()
+    load = stopped_load(pump_cycle_load, [(100.0, 400.0)])
+    assert [load(t)["V"] for t in (99.0, 100.0, 399.5, 400.0)] == [V0, 0.0, 0.0, V0]
+    assert load(200.0)["wsync"] == pump_cycle_load(200.0)["wsync"]   # ProgPy's slip stays finite
+    frames = simulate_progpy_fleet(model, ["P-1", "P-2", "P-3"], START, 700.0,
+                                   {"P-1": pump_cycle_load, "P-2": load, "P-3": pump_cycle_load},
+                                   initial=WARM)
+    alone = simulate_progpy_fleet(model, ["P-1"], START, 700.0, pump_cycle_load, initial=WARM)
+    pd.testing.assert_frame_equal(frames["P-1"], alone["P-1"])   # the first group as before
+    running, stopped = frames["P-1"], frames["P-2"]
+    # a row holds the input of the integration step that ended at it
+    assert (stopped["V"].iloc[101:401] == 0).all() and (stopped["V"].iloc[[100, 401]] > 0).all()
+    w = stopped["w"].to_numpy()
+    assert w[400] < 0.5 * w[100]                         # spun down without torque
+    assert np.all(np.diff(w[105:400]) < 0)
+    assert w[700] == pytest.approx(running["w"].iloc[700], rel=0.01)   # restarted
+    with pytest.raises(ValueError, match=r"no load for the simulated assets \['P-2'\]"):
+        simulate_progpy_fleet(model, ["P-1", "P-2"], START, 10.0, {"P-1": pump_cycle_load})
 
 
 @pytest.mark.slow
