@@ -36,8 +36,13 @@ import pandas as pd
 from scipy import stats
 
 import graybox as gb
-from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops, simulate_progpy_fleet,
-                                              stopped_load)
+from flows.config.settings import NightlySettings
+from graybox.models.progpy_simulation import (
+    pump_cycle_load,
+    pump_stops,
+    simulate_progpy_fleet,
+    stopped_load,
+)
 from graybox.telemetry.writing import write_telemetry
 
 SPEC = "graybox.models.progpy:CentrifugalPump"
@@ -80,7 +85,7 @@ def rate(alarms: int, trials: int) -> dict:
 
 def run(assets: int, baseline_windows: int, nights: int, window_hours: float, seed: int,
         intermittent: int | None = None, stop_schedules: int | None = None,
-        false_alarm_rate: float = 0.01) -> dict:
+        false_alarm_rate: float = 0.01, candidate_windows: int | None = None) -> dict:
     """Simulate, fit and count; returns the figures and per-asset-night rows.
 
     Parameters
@@ -101,6 +106,9 @@ def run(assets: int, baseline_windows: int, nights: int, window_hours: float, se
         simulated together), so a small test shares them.
     false_alarm_rate : float, default 0.01
         The baselines' calibration target per asset-night.
+    candidate_windows : int, optional
+        Each candidate is fitted on its window and the ``N - 1`` before it (never before the
+        baseline's end), as ``[nightly] candidate_nights = N`` does; default the product's.
 
     Returns
     -------
@@ -111,6 +119,7 @@ def run(assets: int, baseline_windows: int, nights: int, window_hours: float, se
         asset-night), ``clock`` (seconds per stage) and the arguments.
     """
     model = gb.load_model(SPEC, columns=COLUMNS)
+    span = candidate_windows or NightlySettings().candidate_nights
     names = [f"P-{i:03d}" for i in range(1, assets + 1)]
     intermittent = assets // 2 if intermittent is None else intermittent
     stopping = set(names[assets - intermittent:])
@@ -157,8 +166,13 @@ def run(assets: int, baseline_windows: int, nights: int, window_hours: float, se
             baselines[name] = baseline
     clock["baselines"] = time.perf_counter() - began
     began = time.perf_counter()
-    candidates = [(n, k, gb.FitRequest(model, [windows[n, baseline_windows + k]],
-                                       baseline=baselines[n][0], asset_id=n))
+    def trailing(name: str, night: int) -> list:
+        first = baseline_windows + max(0, night - span + 1)
+        return [windows[name, k] for k in range(first, baseline_windows + night + 1)
+                if (name, k) in windows]
+
+    candidates = [(n, k, gb.FitRequest(model, trailing(n, k), baseline=baselines[n][0],
+                                       asset_id=n))
                   for n in names if n in baselines for k in range(nights)
                   if (n, baseline_windows + k) in windows]
     scored = gb.fit_signatures([request for _, _, request in candidates])
@@ -183,7 +197,7 @@ def run(assets: int, baseline_windows: int, nights: int, window_hours: float, se
     return {"model": model, "assets": assets, "intermittent_assets": intermittent,
             "stop_schedules": len(schedules) if intermittent else 0,
             "baseline_windows": baseline_windows, "nights": nights,
-            "window_hours": window_hours, "seed": seed,
+            "candidate_windows": span, "window_hours": window_hours, "seed": seed,
             "overall": rate(sum(r["alarm"] for r in rows), len(rows)), **groups,
             "by_tier": dict(by_tier), "failed_reads": failed_reads,
             "failed_baselines": failed, "failed_candidates": errors, "rows": rows,
@@ -222,8 +236,10 @@ stopped, and their class's `{INTERMITTENT_GRID}` makes the stops pauses (the res
 tiers never span one; a scored intermittent window held {spread} operating periods).
 Baselines of {result["baseline_windows"]} windows of {result["window_hours"]:g} h each
 (target 1 % false alarms per asset-night), then {result["nights"]} nightly windows per pump,
-each read through `graybox.read_window` as the nightly flow reads it; an asset-night alarms
-when any channel and tier exceeds its epsilon.
+each read through `graybox.read_window` as the nightly flow reads it; each window's candidate
+is fitted on it and the {result["candidate_windows"] - 1} window(s) before it, never before
+the baseline's end (`[nightly] candidate_nights = {result["candidate_windows"]}`, epsilon
+scaled to the span); an asset-night alarms when any channel and tier exceeds its epsilon.
 
 - **Realized false-alarm rate: {figure("overall")}**; target <= 1 %.
 - Continuous pumps: {figure("continuous")}; exceedances by channel/tier: {tiers("continuous")}.
@@ -256,6 +272,9 @@ def main(argv=None) -> int:
     parser.add_argument("--nights", type=int, default=9)
     parser.add_argument("--window-hours", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--candidate-windows", type=int, default=None, metavar="N",
+                        help="candidates on the window and the N - 1 before it (default: the "
+                             "product's [nightly] candidate_nights)")
     parser.add_argument("--out", type=pathlib.Path, help="markdown page to write the section into")
     parser.add_argument("--csv", type=pathlib.Path, help="per-asset-night rows")
     args = parser.parse_args(argv)
@@ -263,7 +282,7 @@ def main(argv=None) -> int:
         argv if argv is not None else sys.argv[1:])
     began, when = time.perf_counter(), pd.Timestamp.now(tz="UTC")
     result = run(args.assets, args.baseline_windows, args.nights, args.window_hours, args.seed,
-                 intermittent=args.intermittent)
+                 intermittent=args.intermittent, candidate_windows=args.candidate_windows)
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     notes = (f"\n- Measured {when:%Y-%m-%d %H:%M} UTC on {os.cpu_count()} CPUs: wall time "
              f"{time.perf_counter() - began:.0f} s, load average (1, 5, 15 min) at the end "

@@ -5,7 +5,8 @@ docs/benchmarks.md).
 The same :func:`benchmarks.detection.progpy_false_alarms.run` as the benchmark, on 4 pumps
 (2 continuous, 2 intermittent sharing one stop schedule, to simulate it once), 3 baseline
 windows of 1 h and 3 nightly windows each: 12 asset-nights, five channels, real ProgPy
-simulation and real fits.
+simulation and real fits, candidates as the product fits them by default (each window with
+the one before it, ``[nightly] candidate_nights = 2``).
 
 The rule: with n asset-nights and a true rate of 1 %, the alarms are Binomial(n, 0.01); the
 test allows the smallest k with P(Binomial(n, 0.01) > k) < 5 % (k = 1 for n = 12), so a
@@ -60,6 +61,8 @@ def test_healthy_progpy_fleet_with_intermittent_pumps_stays_within_its_false_ala
     assert periods["continuous"] == {1}
     assert max(periods["intermittent"]) >= 2
     assert result["continuous"]["asset_nights"] == result["intermittent"]["asset_nights"] == 6
+
+    assert result["candidate_windows"] == 2     # the product's default span
 
     n = result["overall"]["asset_nights"]
     assert n == ASSETS * NIGHTS
