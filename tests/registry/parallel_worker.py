@@ -53,7 +53,9 @@ def child(uri: str, signature: Signature, calibration: Calibration, start_at: fl
                             window_start=start, window_end=end, data_hash=f"w{worker}-{k}",
                             plots=False)
         registry.commit_watermark(asset, end)
-    print(f"worker {worker} retries={counter.retries}", flush=True)
+    # one write of the whole line: the children share the pipe, and print's separate writes
+    # of the text and the newline interleave between processes (a write under PIPE_BUF is atomic)
+    os.write(sys.stdout.fileno(), f"worker {worker} retries={counter.retries}\n".encode())
     return 0
 
 
