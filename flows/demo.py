@@ -163,7 +163,9 @@ def verdicts(spec, alerts: Sequence[Alert]) -> list[Verdict]:
     for vehicle in spec.vehicles:
         mine = sorted({(a.window_start, a.window_end) for a in alerts
                        if a.asset_id == vehicle.asset_id})
-        nights = [pd.Timestamp(s).strftime("%Y-%m-%d") for s, _ in mine]
+        # the night a window is for is its last one (a multi-night candidate spans several)
+        nights = sorted({(pd.Timestamp(e) - pd.Timedelta(1, "ns")).strftime("%Y-%m-%d")
+                         for _, e in mine})
         first_end = pd.Timestamp(mine[0][1]) if mine else None
         if vehicle.faults:
             onset = start + pd.Timedelta(days=min(f.onset_day for f in vehicle.faults))

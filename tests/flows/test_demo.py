@@ -45,3 +45,28 @@ def test_demo_replaces_only_its_own_files(tmp_path):
     prepare_workdir(tmp_path)
     assert not (tmp_path / "telemetry").exists() and not (tmp_path / "mlflow.db").exists()
     assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_verdicts_name_the_night_a_multi_night_window_is_for():
+    from flows.demo import verdicts
+    from graybox.simulation import Fault, FleetSpec, VehicleSpec
+    from registry.alert import Alert
+
+    spec = FleetSpec((VehicleSpec("T-001", seed=1),
+                      VehicleSpec("T-002", seed=2, faults=(Fault("friction", 6.5, 0.5),))),
+                     days=9, sample_interval=10.0, start="2026-01-01")
+
+    def alert(asset, start, end):
+        return Alert(asset_id=asset, vehicle_class="turbine", window_start=f"{start}T00:00:00+00:00",
+                     window_end=f"{end}T00:00:00+00:00", channel="omega", tier="noise",
+                     zeta=2.0, epsilon=1.0, ratio=2.0, severity="major")
+
+    # two-night candidates of the nights 01-07 and 01-08 (onset 01-07 12:00)
+    alerts = [alert("T-002", "2026-01-06", "2026-01-08"), alert("T-002", "2026-01-07", "2026-01-09")]
+    healthy, faulty = verdicts(spec, alerts)
+    assert (healthy.alert_nights, healthy.verdict, healthy.ok) == ([], "quiet", True)
+    assert faulty.alert_nights == ["2026-01-07", "2026-01-08"]
+    assert faulty.ok and faulty.verdict == "detected: first alert in the window ending 12 h after onset"
+    # a window that ends before the onset is an alert before it, whatever its start
+    early, = verdicts(spec, [alert("T-002", "2026-01-05", "2026-01-07")])[1:]
+    assert not early.ok and early.alert_nights == ["2026-01-06"]
