@@ -27,7 +27,6 @@ import datetime
 import json
 import os
 import pathlib
-import re
 import shutil
 import subprocess
 import sys
@@ -35,12 +34,8 @@ import tempfile
 import time
 
 from benchmarks.measured_process import run_measured
-from benchmarks.scale_floor import (
-    Structure,
-    candidate_structure,
-    flops_per_asset_night,
-    matmul_rate,
-)
+from benchmarks.scale_floor import (Structure, candidate_structure, flops_per_asset_night,
+                                    matmul_rate)
 from benchmarks.scale_report import render_markdown, render_text
 from flows.config.settings import NightlySettings
 
@@ -107,10 +102,9 @@ def generate(root: pathlib.Path, n: int, days: int, seed: int, sample_interval: 
         chunk = dataclasses.replace(spec, vehicles=spec.vehicles[first:first + SIMULATION_CHUNK])
         for asset_id, frame in simulate_fleet(chunk).items():
             write_telemetry(root / "telemetry", asset_id, frame)
-    config = render_config(telemetry_root="telemetry", batch_size=batch_size)
+    config = render_config(telemetry_root="telemetry", batch_size=batch_size,
+                           candidate_nights=candidate_nights)
     config = config.replace("\n[schedule]", f'memory_budget = "{memory_budget}"\n\n[schedule]')
-    config = re.sub(r"(?m)^candidate_nights = \d+", f"candidate_nights = {candidate_nights}",
-                    config)
     (root / "fleet.toml").write_text(config)
     return time.perf_counter() - began
 

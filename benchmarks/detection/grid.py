@@ -157,6 +157,16 @@ def simulate_seed(grid: Grid, seed: int) -> list[VehicleData]:
     return out
 
 
+def trailing_nights(night: int, nights: int, first: int) -> range:
+    """The nights a candidate of ``night`` is fitted on with ``[nightly] candidate_nights =
+    nights``: it and the ``nights - 1`` before it, none before ``first`` (the baseline's end).
+
+    >>> list(trailing_nights(5, 2, 4)), list(trailing_nights(4, 2, 4))
+    ([4, 5], [4])
+    """
+    return range(max(first, night - nights + 1), night + 1)
+
+
 def fault_summary(grid: Grid) -> str:
     kinds = ", ".join(f"{k} {list(v)}" for k, v in grid.magnitudes.items())
     return (f"{len(grid.seeds)} seeds x {grid.vehicles} vehicles; kinds/magnitudes: {kinds}; "

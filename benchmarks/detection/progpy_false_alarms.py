@@ -36,14 +36,12 @@ import pandas as pd
 from scipy import stats
 
 import graybox as gb
-from flows.config.settings import NightlySettings
-from graybox.models.progpy_simulation import (
-    pump_cycle_load,
-    pump_stops,
-    simulate_progpy_fleet,
-    stopped_load,
-)
+from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops, simulate_progpy_fleet,
+                                              stopped_load)
 from graybox.telemetry.writing import write_telemetry
+
+from benchmarks.detection.grid import trailing_nights
+from flows.config.settings import NightlySettings
 
 SPEC = "graybox.models.progpy:CentrifugalPump"
 COLUMNS = {"Q": "Qout"}
@@ -167,8 +165,8 @@ def run(assets: int, baseline_windows: int, nights: int, window_hours: float, se
     clock["baselines"] = time.perf_counter() - began
     began = time.perf_counter()
     def trailing(name: str, night: int) -> list:
-        first = baseline_windows + max(0, night - span + 1)
-        return [windows[name, k] for k in range(first, baseline_windows + night + 1)
+        return [windows[name, k]
+                for k in trailing_nights(baseline_windows + night, span, baseline_windows)
                 if (name, k) in windows]
 
     candidates = [(n, k, gb.FitRequest(model, trailing(n, k), baseline=baselines[n][0],

@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.detection.classic import DETECTORS, ClassicSettings, calibrate, night_statistics
-from benchmarks.detection.grid import Grid, VehicleData, asset_id, simulate_seed
+from benchmarks.detection.grid import (Grid, VehicleData, asset_id, simulate_seed,
+                                       trailing_nights)
 
 TIERS = ("linear", "nonlinear", "noise", "level")
 CHANNEL = "omega"
@@ -39,8 +40,7 @@ class _Night:
 
 def _nights(grid: Grid, vehicle: VehicleData) -> list[_Night]:
     def trailing(days: dict, night: int) -> list[pd.DataFrame]:
-        first = max(grid.baseline_days, night - grid.candidate_nights + 1)
-        return [days[d] for d in range(first, night + 1)]
+        return [days[d] for d in trailing_nights(night, grid.candidate_nights, grid.baseline_days)]
 
     healthy = dict(enumerate(vehicle.healthy))
     out = [_Night(vehicle, "healthy", 0.0, d, healthy[d], trailing(healthy, d))

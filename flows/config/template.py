@@ -19,6 +19,7 @@ def render_config(*, telemetry_root: str = DEFAULT_TELEMETRY_ROOT,
                   columns: Mapping[str, str] | None = None,
                   false_alarm_rate: float = AlertSettings().false_alarm_rate,
                   batch_size: int = NightlySettings().batch_size,
+                  candidate_nights: int = NightlySettings().candidate_nights,
                   plots: str = NightlySettings().plots, cron: str = ScheduleSettings().cron,
                   retry_delay_seconds: float = NightlySettings().retry_delay_seconds,
                   grid: Mapping[str, Any] | None = None) -> str:
@@ -53,7 +54,7 @@ plots = "{plots}"                    # candidate plots: "alarms", "all" or "none
 retries = {nightly.retries}                          # retries of a batch after a transient error
 retry_delay_seconds = {retry_delay_seconds:g}
 lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
-candidate_nights = {nightly.candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
+candidate_nights = {candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
 task_runner = "{nightly.task_runner}"            # "dask": batches at once on the [dask] cluster
 
 # [dask]                                   # with task_runner = "dask" (README "Running on a Dask cluster")
