@@ -14,10 +14,11 @@ def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
                 tier: str) -> tuple[list[str], np.ndarray]:
     """Per-parameter changes whose squares sum to zeta.
 
-    Linear tier: ``a_i - a_i0``. Nonlinear tier: ``W_1j - W_1j0`` and ``w_jk - w_jk0``, so that
-    zeta is exactly Eq. 28. Noise tier: moment changes in units of the baseline noise standard
-    deviation (mean), relative (variance), or as they are (skewness, kurtosis), each scaled by
-    the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS` (see :mod:`graybox.tiers`).
+    Linear tier: ``a_i - a_i0``. Nonlinear tier: the change of the network's output on a fixed
+    reference set of delay vectors (function space; Eq. 28 on the weights for structures stored
+    before that measure, see :class:`graybox.tiers.NonlinearTierKind`). Noise tier: moment
+    changes in units of the baseline noise standard deviation (mean), relative (variance), or
+    as they are (skewness, kurtosis), each scaled by the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS` (see :mod:`graybox.tiers`).
 
     Parameters
     ----------
@@ -53,13 +54,19 @@ class ParameterChange:
 
 @dataclass(frozen=True)
 class TierDrift:
-    """Zeta of one tier of one channel, and its threshold when calibrated."""
+    """Zeta of one tier of one channel, and its threshold when calibrated.
+
+    ``parameter_zeta`` is the sum of the squared parameter changes where the alarm measure is
+    not (the nonlinear tier: ``zeta`` is its change in function space, ``parameter_zeta``
+    Eq. 28 on the weights, recorded and shown); None elsewhere.
+    """
 
     channel: str
     tier: str
     zeta: float
     epsilon: float | None
     top_changes: tuple[ParameterChange, ...]
+    parameter_zeta: float | None = None
 
     @property
     def ratio(self) -> float | None:
@@ -76,10 +83,11 @@ class TierDrift:
     @classmethod
     def from_dict(cls, data: dict) -> "TierDrift":
         """The entry of :meth:`Drift.to_dict` (or its JSON); other keys are ignored."""
-        epsilon = data.get("epsilon")
+        epsilon, parameter_zeta = data.get("epsilon"), data.get("parameter_zeta")
         return cls(str(data["channel"]), str(data["tier"]), float(data["zeta"]),
                    None if epsilon is None else float(epsilon),
-                   tuple(ParameterChange.from_dict(c) for c in data.get("top_changes", ())))
+                   tuple(ParameterChange.from_dict(c) for c in data.get("top_changes", ())),
+                   None if parameter_zeta is None else float(parameter_zeta))
 
 
 @dataclass(frozen=True)
@@ -157,13 +165,15 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             tier = kind.name
             names, current = kind.parameters(channel)
             _, reference = kind.parameters(healthy)
-            contributions = kind.deltas(channel, healthy) ** 2
+            zeta = float(np.sum(kind.deltas(channel, healthy) ** 2))
+            contributions = kind.parameter_changes(channel, healthy) ** 2
             order = np.argsort(contributions)[::-1][:top]
             changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
                                             float(contributions[i])) for i in order)
+            parameter_zeta = float(contributions.sum())
             epsilon = (None if calibration is None else
                        calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples,
                                            baseline_samples=healthy.n_samples))
-            entries.append(TierDrift(channel.channel, tier, float(contributions.sum()), epsilon,
-                                     changes))
+            entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
+                                     None if parameter_zeta == zeta else parameter_zeta))
     return Drift(tuple(entries), candidate.n_samples)

@@ -270,7 +270,7 @@ def _prepare_channel(name: str, segments: list[np.ndarray], frozen: ChannelStruc
             diff_order=differencing.order, ar_order=linear.order, center=center, scale=scale,
             tau=tau, embedding_dim=dim, hidden_units=settings.hidden_units, nn_scale=nn_scale,
             nonlinear_needed=False,  # decided after the held-out fit
-            init_seed=seed)
+            init_seed=seed, reference_points=settings.reference_points or None)
     else:
         structure = frozen
     span = structure.embedding_dim * structure.tau
@@ -304,6 +304,7 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
             if not members_now:
                 continue
             retrain = not needed and settings.null_network == "trained"
+            train = (needed and settings.trains_needed_network) or retrain
             problems, starts = [], []
             for item, _, channel in members_now:
                 # a needed network starts from its reference's weights (the same basin); a null
@@ -315,7 +316,7 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
                                               settings.network.init_scale) if retrain
                               else source.channel(channel.name).nonlinear.weight_arrays())
             fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
-                                train_input_weights=needed or retrain)
+                                train_input_weights=train)
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None,
                                                               fit.iterations)
@@ -325,7 +326,15 @@ def _fit_networks(prepared: list[_Prepared], settings: GrayBoxSettings, chunk_si
 
 def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int) -> None:
     """New baselines: fit on the head of every window, measure the gain on the held-out tails,
-    decide whether the tier is needed, then fit on everything."""
+    decide whether the tier is needed, then fit on everything.
+
+    With ``needed_network = "fixed_features"`` the trial network, like the needed network it
+    decides on, has ``needed_hidden_units`` seeded random hidden units and only its output
+    weights are fitted (one minimum, no torch); with ``"trained"`` it is a fully trained
+    network of ``hidden`` units.
+    """
+    fixed = not settings.trains_needed_network
+    needed_units = settings.needed_units
     train, test = [], []
     for _, _, channel in members:
         heads, tails = [], []
@@ -336,16 +345,17 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         train.append(_design(heads, channel.structure))
         test.append(_design(tails, channel.structure))
     seeds = [channel.structure.init_seed for _, _, channel in members]
-    head_fits = fit_networks(train, hidden, None, settings.network, random_state=seeds,
-                             chunk_size=chunk_size)
+    head_fits = fit_networks(train, needed_units, None, settings.network, random_state=seeds,
+                             chunk_size=chunk_size, train_input_weights=not fixed)
     gains = []
     for (_, _, channel), head, (X_test, y_test) in zip(members, head_fits, test):
         prediction = np.tanh(np.tanh(X_test @ head.w.T) @ head.W)
         zero_error = float(np.mean(y_test ** 2))
         gains.append(1.0 - float(np.mean((y_test - prediction) ** 2)) / zero_error
                      if zero_error > 0 else 0.0)
-        channel.structure = replace(channel.structure,
-                                    nonlinear_needed=bool(gains[-1] > settings.min_heldout_gain))
+        needed = bool(gains[-1] > settings.min_heldout_gain)
+        channel.structure = replace(channel.structure, nonlinear_needed=needed,
+                                    hidden_units=needed_units if needed else hidden)
     # The full fit starts from the seeded random weights, as the candidates of a baseline
     # without nonlinear structure do: zeta compares weights fitted by the same procedure.
     # Without structure, a fully trained network only fits noise, landing in one of many
@@ -356,9 +366,10 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         if not chosen:
             continue
         problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
-        fits = fit_networks(problems, hidden, None, settings.network,
+        trained = (not fixed) if needed else settings.null_network == "trained"
+        fits = fit_networks(problems, needed_units if needed else hidden, None, settings.network,
                             random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
-                            train_input_weights=needed or settings.null_network == "trained")
+                            train_input_weights=trained)
         for i, fit in zip(chosen, fits):
             members[i][2].nonlinear = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, gains[i],
                                                                 fit.iterations)

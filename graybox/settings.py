@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping
+from typing import ClassVar, Mapping
 
 from graybox import records
 from graybox.network_settings import FitSettings
@@ -69,6 +69,21 @@ class GrayBoxSettings:
         output weights are fitted (one minimum, so healthy zeta is stable). ``"trained"``:
         every weight is fitted from the same seeded start (more sensitive to a nonlinearity
         that appears, but a network fitted to noise can land in another shallow minimum).
+    needed_network : {"fixed_features", "trained"}
+        How a network is fitted where the baseline's held-out test says the residual needs
+        it. ``"fixed_features"`` (default): a seeded random hidden layer of
+        ``needed_hidden_units`` units stays fixed and only the output weights are fitted, a
+        problem with one minimum (fast, and a refit of the same function lands on the same
+        weights). ``"trained"``: every weight of a ``hidden_units`` network is trained by
+        L-BFGS in PyTorch (more flexible, 30-40 times the cost, and its weights are not
+        identifiable).
+    needed_hidden_units : int
+        Hidden units of a needed network with fixed features: random features need more
+        units than a trained layer to represent the same function.
+    reference_points : int
+        Delay vectors of the fixed reference set on which the nonlinear tier's drift is
+        measured in function space (``0``: Eq. 28 on the weights decides, as baselines stored
+        before this setting did).
     """
 
     residual: str = "one_step"
@@ -88,6 +103,14 @@ class GrayBoxSettings:
     calibration_splits: int = 8
     derivative_span: float = 60.0
     null_network: str = "fixed_features"
+    needed_network: str | None = "fixed_features"
+    needed_hidden_units: int | None = 32
+    reference_points: int | None = 256
+
+    #: None in settings stored before these fields (see :meth:`migrate`); written only when
+    #: set, so such settings read and write back as they were stored
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset(
+        {"needed_network", "needed_hidden_units", "reference_points"})
 
     def __post_init__(self):
         if self.residual not in RESIDUAL_METHODS:
@@ -96,9 +119,15 @@ class GrayBoxSettings:
             raise ValueError(f"ar_criterion must be 'aic' or 'bic', got {self.ar_criterion!r}")
         if not 0 < self.holdout_fraction < 1:
             raise ValueError("holdout_fraction must be in (0, 1)")
-        if self.null_network not in ("fixed_features", "trained"):
-            raise ValueError(f"null_network must be 'fixed_features' or 'trained', "
-                             f"got {self.null_network!r}")
+        for name, allowed in (("null_network", ("fixed_features", "trained")),
+                              ("needed_network", ("fixed_features", "trained", None))):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be 'fixed_features' or 'trained', "
+                                 f"got {getattr(self, name)!r}")
+        for name, low in (("needed_hidden_units", 1), ("reference_points", 0)):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or value < low):
+                raise ValueError(f"{name} must be >= {low}, got {value!r}")
         interval = self.analysis_interval
         if isinstance(interval, str):
             if interval not in ("auto", "native"):
@@ -112,6 +141,17 @@ class GrayBoxSettings:
                 raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
         if self.calibration_splits < 1:
             raise ValueError(f"calibration_splits must be >= 1, got {self.calibration_splits}")
+
+    @property
+    def trains_needed_network(self) -> bool:
+        """Whether a needed network's hidden layer is trained (not fixed random features)."""
+        return self.needed_network in ("trained", None)
+
+    @property
+    def needed_units(self) -> int:
+        """Hidden units of a network the residual needs."""
+        return (self.needed_hidden_units if self.needed_hidden_units is not None
+                and not self.trains_needed_network else self.hidden_units)
 
     def samples(self, seconds: float, interval: float, low: int = 1) -> int:
         """``seconds`` as a whole number of samples of ``interval`` seconds, at least ``low``."""
@@ -152,8 +192,15 @@ class GrayBoxSettings:
         Settings stored before the method was rate-invariant (with ``max_ar_order`` and
         ``max_delay`` counts) were fitted at the telemetry's own interval: they load with
         ``analysis_interval="native"``; their counts live on in the frozen structure.
+        Settings stored before ``needed_network`` existed trained their needed networks with
+        ``hidden_units`` units and compared weights (Eq. 28): they load with the three new
+        fields None, which means exactly that (:attr:`trains_needed_network`,
+        :attr:`needed_units`).
         """
         data = dict(data)
+        if "needed_network" not in data:
+            for key in ("needed_network", "needed_hidden_units", "reference_points"):
+                data.setdefault(key, None)
         if any(key in data for key in LEGACY_KEYS):
             for key in LEGACY_KEYS:
                 data.pop(key, None)

@@ -46,6 +46,10 @@ class ChannelStructure:
         Seed of the random starting weights. A network with nothing to explain decays to the
         all-zero saddle, where no gradient could move a candidate; candidates of such a
         baseline start from these random weights instead of the baseline's.
+    reference_points : int
+        Size of the fixed reference set of delay vectors on which the network's drift is
+        measured in function space (:class:`graybox.tiers.NonlinearTierKind`); None (or 0)
+        where the drift is Eq. 28 on the weights, as in signatures stored before the measure.
     """
 
     period: int
@@ -60,6 +64,10 @@ class ChannelStructure:
     nn_scale: float
     nonlinear_needed: bool
     init_seed: int
+    reference_points: int | None = None
+
+    #: written only when set, so structures stored before the measure read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"reference_points"})
 
     @property
     def differencing(self) -> Differencing:

@@ -87,6 +87,14 @@ class Tier:
                 f"the baseline {healthy.size}: fit the candidate with the baseline's structure")
         return current - healthy
 
+    def parameter_changes(self, candidate: ChannelSignature,
+                          baseline: ChannelSignature) -> np.ndarray:
+        """Per-parameter changes shown as an alarm's hint, in the order of :meth:`parameters`.
+
+        The same as :meth:`deltas` where zeta is a sum over the parameters themselves.
+        """
+        return self.deltas(candidate, baseline)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
 
@@ -104,7 +112,13 @@ class LinearTierKind(Tier):
 class NonlinearTierKind(Tier):
     """The network tier: output weights ``W_1j`` then input weights ``w_jk``.
 
-    Changes ``W_1j - W_1j0`` and ``w_jk - w_jk0``, so that zeta is exactly Eq. 28.
+    Its parameters are the weights, and :meth:`parameter_changes` their changes, so that Eq. 28
+    is recorded and shown. The alarm measure (:meth:`deltas`) is the change of the network's
+    *function* on a fixed reference set of delay vectors: hidden units permute and flip sign
+    (``tanh`` is odd: ``(w_j, W_1j) -> (-w_j, -W_1j)``) and trade weight along flat directions
+    while the function stays the same, so two fits of equally healthy data can land far apart
+    in weight space; their functions cannot. A structure without ``reference_points`` (stored
+    before the measure existed) keeps Eq. 28 on the weights.
     """
 
     name = "nonlinear"
@@ -114,6 +128,52 @@ class NonlinearTierKind(Tier):
         names = [f"W1_{j}" for j in range(1, len(W) + 1)]
         names += [f"w_{j}_{k}" for j in range(1, w.shape[0] + 1) for k in range(1, w.shape[1] + 1)]
         return names, np.concatenate([W, w.ravel()])
+
+    def parameter_changes(self, candidate: ChannelSignature,
+                          baseline: ChannelSignature) -> np.ndarray:
+        """``W_1j - W_1j0`` and ``w_jk - w_jk0``, whose squares sum to Eq. 28's zeta."""
+        return super().deltas(candidate, baseline)
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        """``(f(z_r) - f0(z_r)) / sqrt(R)`` over the reference set: their squares sum to the
+        mean squared change of the network's one-step prediction (scaled units)."""
+        reference = reference_set(baseline)
+        if reference is None:
+            return self.parameter_changes(candidate, baseline)
+        current, healthy = candidate.nonlinear, baseline.nonlinear
+        if (current.hidden_units, current.embedding_dim) != (healthy.hidden_units,
+                                                             healthy.embedding_dim):
+            raise StructureMismatchError(
+                f"channel {candidate.channel!r} nonlinear tier has {current.hidden_units} x "
+                f"{current.embedding_dim} input weights, the baseline {healthy.hidden_units} x "
+                f"{healthy.embedding_dim}: fit the candidate with the baseline's structure")
+        return (network_function(current, reference) -
+                network_function(healthy, reference)) / np.sqrt(len(reference))
+
+
+def network_function(tier, points: np.ndarray) -> np.ndarray:
+    """The Eq. 25 network's output ``tanh(tanh(z w^T) W)`` at delay vectors ``points``."""
+    w, W = tier.weight_arrays()
+    return np.tanh(np.tanh(points @ w.T) @ W)
+
+
+def reference_set(baseline: ChannelSignature) -> np.ndarray | None:
+    """The fixed delay vectors on which a network's drift is measured, or None (Eq. 28).
+
+    ``reference_points`` draws, seeded by the baseline's ``init_seed``, from a normal
+    distribution with independent coordinates at the spread of the network's scaled input
+    (the AR residual, nearly white, divided by ``nn_scale``): the same points for the
+    baseline, its calibration pieces and every candidate, placed where the data lie.
+    """
+    structure = baseline.structure
+    count = structure.reference_points or 0
+    if count <= 0:
+        return None
+    variance = float(baseline.noise.variance)
+    spread = (np.sqrt(variance) / structure.nn_scale
+              if np.isfinite(variance) and variance > 0 and structure.nn_scale > 0 else 0.25)
+    rng = np.random.default_rng([int(structure.init_seed), 0x2EF])
+    return rng.normal(0.0, spread, (count, structure.embedding_dim))
 
 
 class NoiseTierKind(Tier):

@@ -68,13 +68,19 @@ def test_non_json_is_refused():
 DATA = pathlib.Path(__file__).parent / "data"
 
 
+#: settings stored before the fixed-feature needed network and the function-space measure
+#: load with these fields None: needed networks trained, drift Eq. 28 on the weights
+BEFORE_FUNCTION_SPACE = dict(needed_network=None, needed_hidden_units=None, reference_points=None)
+
+
 def _format_1_signature():
     """The record the format-1 file in tests/graybox/data was written from (by the code
     that still kept ``model`` and ``settings`` as dicts)."""
     model = load_model("graybox.models.gas_turbine:LangevinShaft", {"gamma": 0.06})
     return make_signature((make_channel(), make_channel("torque", a=(1 / 3,), selection=False)),
                           model=ModelSpec.from_model(model),
-                          settings=GrayBoxSettings(hidden_units=2, analysis_interval=30.0),
+                          settings=GrayBoxSettings(hidden_units=2, analysis_interval=30.0,
+                                                   **BEFORE_FUNCTION_SPACE),
                           analysis_interval=30.0)
 
 
@@ -105,7 +111,9 @@ def test_settings_stored_before_rate_invariance_load_at_the_native_rate():
     data["settings"].pop("analysis_interval")
     data["settings"].update(max_ar_order=20, max_delay=20)
     loaded = Signature.from_dict(data)
-    assert loaded.settings == GrayBoxSettings(hidden_units=2, analysis_interval="native")
+    assert loaded.settings == GrayBoxSettings(hidden_units=2, analysis_interval="native",
+                                              **BEFORE_FUNCTION_SPACE)
+    assert loaded.settings.trains_needed_network and loaded.settings.needed_units == 2
 
 
 @pytest.mark.parametrize("mutate, message", [
