@@ -16,6 +16,14 @@ constant resolve the dynamics). The analysis interval is the largest whole multi
 the sample interval not above the target (``q = 1`` keeps the telemetry's rate). A model
 without dynamics in its states (``r = 0``) keeps the native rate.
 
+**Enough samples.** Decimation trades samples for signal: a slow plant (a heated room whose
+envelope settles in hours) would be left with a few dozen residual samples a day, too few to
+estimate anything. ``q`` is therefore also capped so that every baseline window keeps the
+analysis samples its tiers and their calibration need (``calibration_splits`` pieces of
+``min_samples``, see :meth:`graybox.settings.GrayBoxSettings.samples_per_window`): where the
+dynamics ask for more decimation than the data can pay for, the tiers see more, noisier
+samples rather than too few.
+
 **Decimation.** The residual is cut into consecutive blocks of ``q`` samples and each block
 is replaced by its mean. For the one-step residual this is the residual over the analysis
 interval: the sub-steps' one-step errors add up to the error over the whole interval (to
@@ -82,7 +90,8 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
 
 
 def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
-                             sample_interval: float, fraction: float = 0.5) -> float:
+                             sample_interval: float, fraction: float = 0.5,
+                             shortest_window: int | None = None, samples_needed: int = 0) -> float:
     """The analysis interval in seconds: a whole multiple of ``sample_interval``.
 
     Parameters
@@ -94,6 +103,13 @@ def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame
         Seconds between telemetry samples.
     fraction : float, default 0.5
         Target interval as a fraction of the fastest time constant.
+    shortest_window : int, optional
+        Telemetry samples (operating samples) of the baseline's shortest window.
+    samples_needed : int, default 0
+        Analysis samples every window must keep for the tiers and their calibration
+        (:meth:`graybox.settings.GrayBoxSettings.samples_per_window`): the decimation never
+        goes further than ``shortest_window // samples_needed``, so a slow plant is not
+        starved of samples by its own time constants.
 
     Returns
     -------
@@ -103,6 +119,8 @@ def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame
     if not rate > 0:
         return float(sample_interval)
     factor = max(1, int(np.floor(fraction / rate / sample_interval + 1e-9)))
+    if shortest_window is not None and samples_needed > 0:
+        factor = min(factor, max(1, shortest_window // samples_needed))
     return float(factor * sample_interval)
 
 

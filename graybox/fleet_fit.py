@@ -147,7 +147,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
             raise GrayBoxError(f"baseline was sampled every {baseline.sample_interval} s, "
                                f"this telemetry every {interval} s")
     frames, owners = _operating_segments(parts, settings, interval)
-    analysis = analysis_interval(request, settings, frames, interval)
+    analysis = analysis_interval(request, settings, frames, interval,
+                                 int(_per_window([len(f) for f in frames], owners).min()))
     factor = decimation_factor(analysis, interval)
     window = settings.derivative_window(interval)
     with timed(clock, "residual"):
@@ -201,15 +202,33 @@ def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
-                      frames: Sequence[pd.DataFrame], sample_interval: float) -> float:
-    """Seconds between the residual samples the tiers see (a candidate: its baseline's)."""
+                      frames: Sequence[pd.DataFrame], sample_interval: float,
+                      shortest_window: int | None = None) -> float:
+    """Seconds between the residual samples the tiers see (a candidate: its baseline's).
+
+    ``shortest_window``: telemetry samples of the shortest window, which caps the automatic
+    choice (:func:`graybox.analysis_rate.choose_analysis_interval`).
+    """
     if request.baseline is not None:
         return request.baseline.analysis_step
     if settings.analysis_interval == "native":
         return sample_interval
     if settings.analysis_interval == "auto":
-        return choose_analysis_interval(request.model, frames, sample_interval)
+        return choose_analysis_interval(request.model, frames, sample_interval,
+                                        shortest_window=shortest_window,
+                                        samples_needed=settings.samples_per_window)
     return max(1, round(settings.analysis_interval / sample_interval)) * sample_interval
+
+
+def _what_helps(settings: GrayBoxSettings, interval: float, shortest: int) -> str:
+    """The one setting that gives a starved window its samples."""
+    if not isinstance(settings.analysis_interval, str):
+        return (f"the class's settings fix analysis_interval = {settings.analysis_interval:g} s; "
+                f"use \"auto\" (the default), which keeps enough samples, or a shorter interval")
+    needed = (settings.min_samples + 1) * interval
+    return (f"a window must cover more than {needed:g} s of operation at this rate ("
+            f"{shortest} samples cover {shortest * interval:g} s): use longer windows "
+            f"([nightly] window), or for an intermittent asset a longer grid.min_duration")
 
 
 def _per_window(lengths: Sequence[int], owners: Sequence[int]) -> np.ndarray:
@@ -238,8 +257,8 @@ def _prepare_channel(name: str, segments: list[np.ndarray], frozen: ChannelStruc
         raise InsufficientDataError(
             f"channel {name!r}: window(s) {too_short} have {shortest} residual samples at the "
             f"{interval:g}-s analysis interval; the method needs more than {differencing.lost} "
-            f"for differencing plus min_samples = {settings.min_samples}: use longer windows "
-            f"([nightly] window) or lower min_samples in the class's settings")
+            f"for differencing plus min_samples = {settings.min_samples}: "
+            f"{_what_helps(settings, interval, shortest)}")
     # a segment too short to difference contributes nothing
     y = [differencing.apply(s) if len(s) > lost else s[:0] for s in segments]
     if frozen is None:

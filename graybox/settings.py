@@ -153,6 +153,13 @@ class GrayBoxSettings:
         return (self.needed_hidden_units if self.needed_hidden_units is not None
                 and not self.trains_needed_network else self.hidden_units)
 
+    @property
+    def samples_per_window(self) -> int:
+        """Analysis samples a window should keep for the tiers and their calibration:
+        ``calibration_splits`` pieces of ``min_samples`` (the cap on the analysis interval's
+        decimation, :func:`graybox.analysis_rate.choose_analysis_interval`)."""
+        return self.calibration_splits * self.min_samples
+
     def samples(self, seconds: float, interval: float, low: int = 1) -> int:
         """``seconds`` as a whole number of samples of ``interval`` seconds, at least ``low``."""
         return max(low, int(round(seconds / interval)))

@@ -5,7 +5,7 @@ import pytest
 from graybox import GrayBoxSettings, load_model
 from graybox.analysis_rate import (choose_analysis_interval, decimate, decimation_factor,
                                    fastest_rate)
-from graybox.models.linear import DriveTrain
+from graybox.models.linear import DriveTrain, LinearStateSpace, linear_parameters
 
 
 def frame(model, n=500, dt=1.0, seed=0):
@@ -38,6 +38,38 @@ def test_analysis_interval_is_the_largest_multiple_below_half_the_time_constant(
     data["omega"] = 1000.0         # gamma = (b + c + 2 d omega) / J = 0.06: 0.5 / gamma = 8.3 s
     assert fastest_rate(model, [data]) == pytest.approx(0.06, rel=1e-6)
     assert choose_analysis_interval(model, [data], dt) == expected
+
+
+class SlowRoom(LinearStateSpace):
+    """A room whose air settles in two hours: 0.5 / rate asks for an hour's blocks."""
+
+    states = ("air",)
+    inputs = ("heater",)
+    default_parameters = linear_parameters(states, inputs, A=[[-1 / 7200]], B=[[1e-4]])
+
+
+@pytest.mark.parametrize("dt, day, expected", [
+    (60.0, 1440, 60.0),         # a day at 60 s cannot pay for any decimation: native
+    (10.0, 8640, 50.0),         # 8640 // 1600 = 5 blocks of 10 s
+    (1.0, 86400, 54.0),         # 86400 // 1600 = 54 s, not the dynamics' 3600 s
+])
+def test_a_slow_plant_keeps_the_samples_its_tiers_need(dt, day, expected):
+    model = SlowRoom()
+    data = frame(model, n=64, dt=dt)
+    assert choose_analysis_interval(model, [data], dt) >= 3600.0 - dt   # uncapped: 24 a day
+    settings = GrayBoxSettings()
+    chosen = choose_analysis_interval(model, [data], dt, shortest_window=day,
+                                      samples_needed=settings.samples_per_window)
+    assert chosen == expected
+    assert day * dt / chosen >= min(day, settings.samples_per_window)
+
+
+def test_the_cap_leaves_a_fast_plant_alone():
+    model = load_model("graybox.models:GasTurbineShaft")
+    data = frame(model, dt=1.0)
+    data["omega"] = 1000.0
+    assert choose_analysis_interval(model, [data], 1.0, shortest_window=86400,
+                                    samples_needed=GrayBoxSettings().samples_per_window) == 8.0
 
 
 def test_block_means_and_dropped_tail():
