@@ -21,7 +21,22 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
 4. With g estimated from only K q pieces, a new healthy zeta divided by their mean is
    F(h, K q h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K q h): the
    uncertainty of a small sample is part of the threshold, not ignored.
-5. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
+5. Day-to-day variation. Pieces of one day share that day's conditions (load, weather, the
+   model error at that day's operating point), so their spread misses how much whole healthy
+   days differ. Each window's pieces together give the change of a whole day (rescaled to a
+   night); the pieces' deviations from their window's mean estimate the sampling variation
+   alone. Where the days' mean zeta exceeds that by an F test at 1 %
+   (:data:`DAY_TO_DAY_TEST_LEVEL`), epsilon is at least the days' mean zeta times
+   ``F(h, K h)``: a day-to-day component known from K days only, so a longer baseline
+   tightens it (F(1, 5 h) is 43 at alpha = 0.00125, F(1, 10 h) 20). Measured on the plant
+   zoo (``python -m benchmarks.zoo``): slow channels' level tiers varied 3-19 times more from
+   day to day than within a day and alarmed on healthy nights without this step. Only tiers
+   whose estimates have no small-sample bias take the test (``Tier.unbiased``: the level
+   tier); for Yule-Walker coefficients and a weight-decayed network the mean of short pieces
+   differs from a whole day's estimate by their O(1/n) bias (on the gas turbine 2-8 times
+   the within-day spread, with no day effect in the simulator's physics), which the test
+   would take for day-to-day variation.
+6. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
    gets epsilon scaled up by the ratio of sample counts, a longer one (several nights)
    scaled down (:mod:`graybox.epsilon_scaling`).
@@ -141,15 +156,57 @@ class Calibration:
         return cls.from_dict(records.parse_json(text, "calibration"))
 
 
-def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[float, float, float]:
-    """Epsilon from K healthy parameter changes (steps 2-3 of the module's method).
+#: significance of the test for a day-to-day component (step 5 of the module's method)
+DAY_TO_DAY_TEST_LEVEL = 0.01
+
+
+@dataclass(frozen=True)
+class DaySpread:
+    """What the K healthy windows say about day-to-day variation (step 5 of the method).
+
+    Attributes
+    ----------
+    day_zetas : tuple of float
+        Zetas of the K whole windows (each window's pieces together), rescaled to a night
+        against the full baseline.
+    within_zeta : float
+        The night-scale zeta the pieces' spread within their windows predicts: sampling
+        variation only.
+    within_count : int
+        Independent piece deviations behind ``within_zeta`` (pieces minus windows).
+    """
+
+    day_zetas: tuple[float, ...]
+    within_zeta: float
+    within_count: int
+
+    def significant(self, dof: float, level: float) -> bool:
+        """Whether the windows vary more than sampling explains: their mean zeta over
+        ``within_zeta`` is F(K h, (n - K) h) without a day-to-day component."""
+        if len(self.day_zetas) < 2 or self.within_count < 1:
+            return False
+        if self.within_zeta <= 0:
+            return float(np.mean(self.day_zetas)) > 0
+        ratio = float(np.mean(self.day_zetas)) / self.within_zeta
+        return ratio > stats.f.ppf(1.0 - level, len(self.day_zetas) * dof,
+                                   self.within_count * dof)
+
+
+def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
+                          days: DaySpread | None = None) -> tuple[float, float, float]:
+    """Epsilon from healthy parameter changes (steps 3-5 of the module's method).
 
     Parameters
     ----------
     deltas : sequence of ndarray
-        The K vectors ``d_k`` whose squared norms are healthy zetas.
+        The vectors ``d_k`` (pieces, rescaled to a night) whose squared norms are healthy
+        zetas.
     alpha : float
         Probability that a healthy zeta exceeds epsilon.
+    days : DaySpread, optional
+        Where the whole windows vary more than their pieces explain (an F test at
+        :data:`DAY_TO_DAY_TEST_LEVEL`), epsilon is at least their mean zeta times
+        ``F(h, K h)``: day-to-day variation, known from K days only.
 
     Returns
     -------
@@ -173,6 +230,10 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float) -> tuple[f
     dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
     epsilon = mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof))
+    if days is not None and days.significant(dof, DAY_TO_DAY_TEST_LEVEL):
+        count = len(days.day_zetas)
+        epsilon = max(epsilon, float(np.mean(days.day_zetas))
+                      * float(stats.f.ppf(1.0 - alpha, dof, count * dof)))
     return epsilon, mean, dof
 
 
@@ -223,24 +284,29 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         for k in range(count):
             rest = rests[first + k]
             window = fresh[p].windows[k]
-            shortest = max(_piece_need(sig, settings),
-                           int(np.ceil(settings.shortest_period / sig.sample_interval)))
-            for piece in _split(window, calibration_pieces(sig, _length(window), settings),
-                                shortest):
+            # a fragment must be as long as the fit asks of any operating period, and a
+            # piece as long as its frozen structure needs
+            shortest = int(np.ceil(settings.shortest_period / sig.sample_interval))
+            pieces = _split(window, calibration_pieces(sig, _length(window), settings), shortest)
+            for piece in _merge_short(pieces, sig, settings):
                 piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
                                               warm_start=rest if isinstance(rest, Signature) else sig))
                 owners.append((p, first + k))
     pieces = fit_signatures(piece_requests, settings, chunk_size, clock)
     collected: dict[int, list] = {p: [] for p, _, _ in jobs}
     for (p, rest_index), piece in zip(owners, pieces):
-        collected[p].append((rests[rest_index], piece))
+        collected[p].append((rest_index, rests[rest_index], piece))
     for p, sig, count in jobs:
         pairs = collected[p]
-        failure = next((x for pair in pairs for x in pair if isinstance(x, GrayBoxError)), None)
+        failure = next((x for _, *pair in pairs for x in pair if isinstance(x, GrayBoxError)),
+                       None)
         if failure is not None:
             results[p] = failure
             continue
-        results[p] = (sig, _calibrate(sig, pairs, count, false_alarm_rate))
+        try:
+            results[p] = (sig, _calibrate(sig, pairs, count, false_alarm_rate))
+        except GrayBoxError as error:
+            results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
     return results
 
 
@@ -309,10 +375,39 @@ def _split(window, parts: int, shortest: int = 1) -> list:
     return pieces
 
 
-def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], windows: int,
-               false_alarm_rate: float) -> Calibration:
-    """Epsilons from (rest, piece) pairs: a piece of a window against the baseline refitted
-    without that window, rescaled to a night against the full baseline."""
+def _merge_short(pieces: list, baseline: Signature, settings: GrayBoxSettings) -> list:
+    """Pieces of several operating periods joined with the next (the last with the one
+    before) until each keeps ``min_samples`` residual samples: every fragment loses its
+    channels' differencing, AR order and delays at its start, so a piece of many short
+    fragments needs more operation than one of a single period."""
+    factor = decimation_factor(baseline.analysis_step, baseline.sample_interval)
+    loss = max(c.structure.differencing.lost + c.structure.ar_order
+               + c.structure.embedding_dim * c.structure.tau for c in baseline.channels)
+
+    def enough(fragments: tuple) -> bool:
+        return sum(max(0, len(f) // factor - loss) for f in fragments) > settings.min_samples + 2
+
+    merged, pending = [], ()
+    for piece in pieces:
+        if not isinstance(piece, tuple):
+            merged.append(piece)
+            continue
+        pending = pending + piece
+        if enough(pending):
+            merged.append(pending)
+            pending = ()
+    if pending:
+        if merged and isinstance(merged[-1], tuple):
+            merged[-1] = merged[-1] + pending
+        else:
+            merged.append(pending)
+    return merged
+
+
+def _calibrate(baseline: Signature, pairs: list[tuple[int, Signature, Signature]],
+               windows: int, false_alarm_rate: float) -> Calibration:
+    """Epsilons from (window, rest, piece) triples: a piece of a window against the baseline
+    refitted without that window, rescaled to a night against the full baseline."""
     tests = sum(kind.present(c) for c in baseline.channels for kind in TIER_KINDS)
     alpha = false_alarm_rate / tests
     total = baseline.n_samples
@@ -322,16 +417,41 @@ def _calibrate(baseline: Signature, pairs: list[tuple[Signature, Signature]], wi
         for kind in TIER_KINDS:
             if not kind.present(baseline.channel(channel)):
                 continue
-            deltas = []
-            for rest, piece in pairs:
+            deltas, by_window = [], {}
+            for window, rest, piece in pairs:
                 delta = kind.deltas(piece.channel(channel), rest.channel(channel))
                 # Var(theta_n) ~ V / n: the piece and its reference are independent, so the
                 # change has variance V (1/n_piece + 1/n_rest); a night against the baseline
                 # has V (1/n_night + 1/n_baseline)
                 scale = (1 / reference + 1 / total) / (1 / piece.n_samples + 1 / rest.n_samples)
                 deltas.append(delta * np.sqrt(scale))
-            epsilon, mean, dof = threshold_from_deltas(deltas, alpha)
+                by_window.setdefault(window, []).append((delta, piece.n_samples, rest.n_samples))
+            days = (_day_spread(list(by_window.values()), 1 / reference + 1 / total)
+                    if kind.unbiased else None)
+            epsilon, mean, dof = threshold_from_deltas(deltas, alpha, days)
             thresholds.append(TierThreshold(channel, kind.name, epsilon, mean, dof,
                                             tuple(float(d @ d) for d in deltas)))
     return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
                        len(pairs))
+
+
+def _day_spread(windows: list[list[tuple[np.ndarray, int, int]]], night: float) -> DaySpread:
+    """Day-to-day evidence from each window's (raw change, piece samples, rest samples).
+
+    A piece's change is ``e_j - r`` (its own estimation error and its window's rest's):
+    the sample-weighted mean over a window of ``n`` samples has variance
+    ``V (1/n + 1/n_rest)``, rescaled to a night's ``V night``; a piece's deviation from
+    that mean has ``V (1/n_j - 1/n)``, which estimates ``V`` free of any day effect.
+    """
+    day_zetas, within, weight, count = [], 0.0, 0.0, 0
+    for parts in windows:
+        n = sum(size for _, size, _ in parts)
+        mean = sum(delta * size for delta, size, _ in parts) / n
+        day_zetas.append(float(mean @ mean) * night / (1 / n + 1 / parts[0][2]))
+        for delta, size, _ in parts:
+            within += float((delta - mean) @ (delta - mean))
+            weight += 1 / size - 1 / n
+        count += len(parts) - 1
+    within_zeta = within / weight * night if weight > 0 else 0.0
+    return DaySpread(tuple(day_zetas), within_zeta, count)
+

@@ -6,7 +6,8 @@ import pytest
 from conftest import make_channel, make_signature
 from scipy import stats
 
-from graybox.calibration import Calibration, TierThreshold, threshold_from_deltas
+from graybox.calibration import (DAY_TO_DAY_TEST_LEVEL, Calibration, DaySpread, TierThreshold,
+                                threshold_from_deltas)
 from graybox.drift import Drift, compute_drift, tier_deltas
 from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
 from graybox.noise_tier import MOMENT_WEIGHTS
@@ -120,3 +121,76 @@ def test_a_calibration_written_by_the_hand_written_reader_code_loads_equal():
         Calibration.from_json(text.replace('"dof": 3.2, ', ""))
     with pytest.raises(ArtifactError, match="Calibration.n_windows must be an integer"):
         Calibration.from_json(text.replace('"n_windows": 24', '"n_windows": "24"'))
+
+
+def _pieces(rng, days, per_day, day_sd, size=1):
+    """Night-scale piece changes: each day's pieces share a day effect of ``day_sd``."""
+    deltas, windows = [], []
+    for day in range(days):
+        effect = rng.normal(size=size) * day_sd
+        for _ in range(per_day):
+            deltas.append(effect + rng.normal(size=size))
+            windows.append(day)
+    return deltas, windows
+
+
+def _spread(deltas, windows):
+    """A DaySpread of unit-variance pieces (the night-scale change of a whole day of q
+    pieces is sqrt(q) times their mean)."""
+    groups = {}
+    for window, delta in zip(windows, deltas):
+        groups.setdefault(window, []).append(delta)
+    day_zetas = tuple(len(g) * float(np.mean(g, axis=0) @ np.mean(g, axis=0))
+                      for g in groups.values())
+    within = sum(float(((np.asarray(g) - np.mean(g, axis=0)) ** 2).sum()) for g in groups.values())
+    count = len(deltas) - len(groups)
+    return DaySpread(day_zetas, within / count, count)
+
+
+def test_day_to_day_variation_raises_epsilon_to_the_days_own_quantile():
+    """Known answer: with a day effect four times the pieces' spread, whole days vary far
+    more than their pieces, and epsilon comes from the K days' mean with F(h, K h)."""
+    rng = np.random.default_rng(3)
+    deltas, windows = _pieces(rng, days=6, per_day=8, day_sd=4.0)
+    days = _spread(deltas, windows)
+    plain, mean, dof = threshold_from_deltas(deltas, 0.001)
+    epsilon, _, _ = threshold_from_deltas(deltas, 0.001, days)
+    assert days.significant(dof, DAY_TO_DAY_TEST_LEVEL)
+    assert epsilon == pytest.approx(np.mean(days.day_zetas) * stats.f.ppf(0.999, dof, 6 * dof))
+    assert epsilon > 5 * plain
+
+
+def test_without_a_day_effect_the_pieces_decide_and_the_rate_holds():
+    """Without a day effect the test fires at about its level, and the threshold meets its
+    false-alarm rate for new healthy nights (each a day: sqrt(q) times a day's mean)."""
+    rng = np.random.default_rng(4)
+    fired, exceed, trials = 0, 0.0, 400
+    for _ in range(trials):
+        deltas, windows = _pieces(rng, days=5, per_day=8, day_sd=0.0, size=3)
+        days = _spread(deltas, windows)
+        epsilon, _, dof = threshold_from_deltas(deltas, 0.01, days)
+        fired += days.significant(dof, DAY_TO_DAY_TEST_LEVEL)
+        fresh = rng.normal(size=(200, 3))
+        exceed += np.mean((fresh ** 2).sum(axis=1) > epsilon)
+    assert fired / trials < 3 * DAY_TO_DAY_TEST_LEVEL
+    assert 0.001 < exceed / trials < 0.015
+
+
+def test_with_a_day_effect_new_days_stay_within_the_rate():
+    """Known answer for the day-to-day case: new days (their own effect plus sampling) exceed
+    epsilon at about alpha (1.26 % +- 0.1 % over 3,000 trials: F(h, K h) is exact, and the
+    1 % of baselines whose test misses the day effect keep the pieces' epsilon), where the
+    pieces alone would alarm far more often."""
+    rng = np.random.default_rng(5)
+    exceed, plain_exceed, trials = 0.0, 0.0, 300
+    for _ in range(trials):
+        deltas, windows = _pieces(rng, days=5, per_day=8, day_sd=2.0)
+        days = _spread(deltas, windows)
+        epsilon, _, _ = threshold_from_deltas(deltas, 0.01, days)
+        plain, _, _ = threshold_from_deltas(deltas, 0.01)
+        # a new night: one day effect and the sampling of a whole night
+        fresh = rng.normal(size=2000) * 2.0 * np.sqrt(8) + rng.normal(size=2000)
+        exceed += np.mean(fresh ** 2 > epsilon)
+        plain_exceed += np.mean(fresh ** 2 > plain)
+    assert exceed / trials < 0.02
+    assert plain_exceed / trials > 0.1
