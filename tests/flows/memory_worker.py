@@ -57,6 +57,9 @@ memory_budget = {{budget}}
 model = "graybox.models:GasTurbineShaft"
 assets = ["T-*"]
 columns = {{{{ omega = "shaft_speed" }}}}
+# the trained need test (PyTorch, batched over the group's assets): the workload whose
+# memory grows with the group, as every default fit's did before issue 18
+settings = {{{{ needed_network = "trained" }}}}
 '''
     # start-up, not the batch's working memory: imports, torch, the store's creation
     import torch  # noqa: F401
