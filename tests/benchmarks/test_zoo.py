@@ -1,0 +1,108 @@
+"""The plant zoo: its families simulate what they declare, and a reduced zoo run fits every
+baseline with the defaults and stays within the false-alarm bound."""
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+import graybox as gb
+from benchmarks.zoo.families import discover
+from benchmarks.zoo.family import AssetPlan
+from benchmarks.zoo.run import plan_fleet, run_family
+
+FAMILIES = discover()
+START = pd.Timestamp("2026-03-01", tz="UTC")
+
+
+def test_the_zoo_has_the_families_the_benchmark_promises():
+    assert len(FAMILIES) >= 6
+    rates = {f.sample_interval for f in FAMILIES.values()}
+    assert 60.0 in rates and 1.0 in rates
+    assert any(f.grid.get("intermittent") for f in FAMILIES.values())
+    held_out = [f for f in FAMILIES.values() if f.held_out]
+    assert 0 < len(held_out) < len(FAMILIES)
+    for family in FAMILIES.values():
+        assert 3 <= len(family.faults) <= 4
+        assert all(0 < small < large for small, large in (k.magnitudes for k in family.faults))
+        # the white box loads with the family's column map only, and reads declared channels
+        model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
+        assert set(model.required_columns) <= set(family.channels)
+        assert not family.spec.startswith("graybox.")
+
+
+@pytest.mark.parametrize("name", sorted(FAMILIES))
+def test_a_family_simulates_its_channels_deterministically(name):
+    family = FAMILIES[name]
+    plans = [AssetPlan("A-1", 11), AssetPlan("A-2", 12)]
+    frames = family.simulate(plans, START, 2, first_day=1)
+    again = family.simulate(plans[:1], START, 2, first_day=1)["A-1"]
+    day = family.samples_per_day
+    for frame in frames.values():
+        assert list(frame.columns) == list(family.channels)
+        assert len(frame) == day and frame.index.name == "timestamp"
+        assert str(frame.index.tz) == "UTC" and frame.index[0] == START + pd.Timedelta(days=1)
+        assert (np.diff(frame.index) == pd.Timedelta(seconds=family.sample_interval)).all()
+        assert np.isfinite(frame.to_numpy()).all()
+    # a day does not depend on which other assets or days are simulated with it
+    pd.testing.assert_frame_equal(frames["A-1"], again)
+    assert not frames["A-1"].equals(frames["A-2"])
+
+
+@pytest.mark.parametrize("name", sorted(FAMILIES))
+def test_a_fault_changes_the_plant_from_its_onset_only(name):
+    family = FAMILIES[name]
+    kind = family.faults[0]
+    onset = START + pd.Timedelta(hours=12)
+    healthy, faulty = family.simulate([AssetPlan("H", 5), AssetPlan("F", 5, kind, kind.magnitudes[1],
+                                                                       onset)], START, 1).values()
+    before, after = healthy.index < onset, healthy.index >= onset + pd.Timedelta(hours=1)
+    pd.testing.assert_frame_equal(healthy[before], faulty[before])
+    assert not np.allclose(healthy[after].to_numpy(), faulty[after].to_numpy())
+
+
+def test_faulty_assets_share_their_vehicles_seed_and_start_on_the_first_scored_night():
+    family = FAMILIES["thermal_room"]
+    vehicles, faulty = plan_fleet(family, 3, 1, seed=2, baseline_days=4)
+    assert len(faulty) == 2 * len(family.faults)
+    night = pd.Timestamp("2026-01-05", tz="UTC") + pd.Timedelta(days=4)
+    seeds = {v.seed for v in vehicles}
+    for plan in faulty:
+        assert plan.seed in seeds
+        assert night <= plan.onset < night + pd.Timedelta(days=1)
+
+
+def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
+    """Smallest k with P(Binomial(trials, rate) > k) < level."""
+    return next(k for k in range(trials + 1) if stats.binom.sf(k, trials, rate) < level)
+
+
+@pytest.mark.slow
+def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
+    # 5 baseline days, the zoo protocol's own: day-to-day variation is estimated from them
+    results = [run_family(family, healthy_assets=2, baseline_days=5, nights=2, faulty_per_cell=0,
+                          seed=3) for family in FAMILIES.values()]
+    for result in results:
+        assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
+        assert result["failed_baselines"] == {}, result["family"]
+        assert result["baselines_fitted"] == 2
+        assert result["false_alarms"]["asset_nights"] == 4
+    trials = sum(r["false_alarms"]["asset_nights"] for r in results)
+    alarms = sum(r["false_alarms"]["alarms"] for r in results)
+    assert alarms <= _bound(trials), {r["family"]: r["healthy_tiers"] for r in results}
+
+
+@pytest.mark.slow
+def test_a_slow_thermal_fleet_at_60_s_baselines_and_detects_a_fault_with_the_defaults():
+    """Issue 18's starting point: 1-minute rooms once failed every baseline (27 samples a day
+    at a 3120-s analysis interval). With the defaults they baseline at a rate that keeps a
+    day's samples, and a failing insulation alarms on the wall's level tier."""
+    family = FAMILIES["thermal_room"]
+    result = run_family(family, healthy_assets=2, baseline_days=5, nights=3, faulty_per_cell=1,
+                        seed=3)
+    assert result["failed_baselines"] == {} and result["baselines_fitted"] == 2
+    # 1,440 samples a day are fewer than the tiers' samples_per_window: no decimation at all
+    assert result["analysis_intervals"] == [60.0]
+    assert result["false_alarms"]["alarms"] == 0
+    insulation = result["detection"]["insulation", "large"]
+    assert insulation["detected"] == insulation["assets"] == 1
+    assert insulation["alarmed_before_onset"] == 0
