@@ -95,3 +95,11 @@ def test_period_found_when_the_series_holds_a_fractional_number_of_cycles(period
     t = np.arange(int(cycles * period))
     x = 3 * np.sin(2 * np.pi * t / period) + rng.normal(size=len(t))
     assert abs(find_period(x) - period) <= max(0, 0.01 * period)
+
+
+@pytest.mark.parametrize("n, window", [(100, 7), (100, 8), (1000, 2), (3000, 1998)])
+def test_box_sum_equals_the_direct_convolution(n, window):
+    from graybox.stationarize import _box_sum
+    x = np.random.default_rng(n).normal(size=n)
+    np.testing.assert_allclose(_box_sum(x, window), np.convolve(x, np.ones(window), "same"),
+                               atol=1e-9)
