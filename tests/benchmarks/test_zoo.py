@@ -106,3 +106,11 @@ def test_a_slow_thermal_fleet_at_60_s_baselines_and_detects_a_fault_with_the_def
     insulation = result["detection"]["insulation", "large"]
     assert insulation["detected"] == insulation["assets"] == 1
     assert insulation["alarmed_before_onset"] == 0
+
+
+def test_the_cost_benchmark_measures_a_small_family_run():
+    from benchmarks.zoo.cost import measure
+    result = measure(FAMILIES["thermal_room"], assets=1, baseline_days=3, nights=1)
+    assert result["s_per_baseline_day"] > 0 and result["s_per_night"] > 0
+    assert result["analysis_interval"] == 60.0 and result["states"] == 2
+    assert "residual" in result["baseline_stages"] and "residual" in result["night_stages"]
