@@ -22,20 +22,17 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
    F(h, K q h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K q h): the
    uncertainty of a small sample is part of the threshold, not ignored.
 5. Day-to-day variation. Pieces of one day share that day's conditions (load, weather, the
-   model error at that day's operating point), so their spread misses how much whole healthy
-   days differ. Each window's pieces together give the change of a whole day (rescaled to a
-   night); the pieces' deviations from their window's mean estimate the sampling variation
-   alone. Where the days' mean zeta exceeds that by an F test at 1 %
-   (:data:`DAY_TO_DAY_TEST_LEVEL`), epsilon is at least the days' mean zeta times
-   ``F(h, K h)``: a day-to-day component known from K days only, so a longer baseline
-   tightens it (F(1, 5 h) is 43 at alpha = 0.00125, F(1, 10 h) 20). Measured on the plant
-   zoo (``python -m benchmarks.zoo``): slow channels' level tiers varied 3-19 times more from
-   day to day than within a day and alarmed on healthy nights without this step. Only tiers
-   whose estimates have no small-sample bias take the test (``Tier.unbiased``: the level
-   tier); for Yule-Walker coefficients and a weight-decayed network the mean of short pieces
-   differs from a whole day's estimate by their O(1/n) bias (on the gas turbine 2-8 times
-   the within-day spread, with no day effect in the simulator's physics), which the test
-   would take for day-to-day variation.
+   model error at that day's operating point), so their spread can miss how much whole
+   healthy days differ. Each left-out window is therefore also fitted whole, as a nightly
+   candidate of its refit: K changes of exactly a night's kind (with a night's small-sample
+   bias too). Their mean zeta over the pieces' is the **day factor**, pooled (the mean of the
+   assets' ratios, at least 1) over the assets of the same white box that are calibrated
+   together, per channel and tier: five days of one asset say little about a variance
+   ratio, a fleet's hundred say much. epsilon = factor * mean(zeta_k) * F.ppf(1 - alpha; h,
+   1 / (1/(K q h) + 1/(D h))) for D pooled days. Measured on the plant zoo
+   (``python -m benchmarks.zoo``): without it healthy asset-nights alarmed on 5-28 % of
+   nights in four of six families; a per-asset test of the ratio (K = 5 days) had too little
+   power to see it.
 6. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
    gets epsilon scaled up by the ratio of sample counts, a longer one (several nights)
@@ -53,7 +50,7 @@ the pieces, all assets batched together (:func:`graybox.fleet_fit.fit_signatures
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 from scipy import stats
@@ -81,6 +78,11 @@ class TierThreshold:
     mean_zeta: float        #: mean healthy zeta of the K windows
     dof: float              #: effective degrees of freedom h
     healthy_zetas: tuple[float, ...]
+    #: whole days' zeta over pieces' (step 5), pooled over the white box's assets; absent
+    #: from calibrations stored before step 5 (factor 1)
+    day_factor: float | None = None
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"day_factor"})
 
 
 @dataclass(frozen=True)
@@ -156,44 +158,35 @@ class Calibration:
         return cls.from_dict(records.parse_json(text, "calibration"))
 
 
-#: significance of the test for a day-to-day component (step 5 of the module's method)
-DAY_TO_DAY_TEST_LEVEL = 0.01
-
-
 @dataclass(frozen=True)
-class DaySpread:
-    """What the K healthy windows say about day-to-day variation (step 5 of the method).
+class DayFactor:
+    """How much more whole healthy days vary than their pieces (step 5 of the method).
 
     Attributes
     ----------
-    day_zetas : tuple of float
-        Zetas of the K whole windows (each window's pieces together), rescaled to a night
-        against the full baseline.
-    within_zeta : float
-        The night-scale zeta the pieces' spread within their windows predicts: sampling
-        variation only.
-    within_count : int
-        Independent piece deviations behind ``within_zeta`` (pieces minus windows).
+    factor : float
+        Mean zeta of whole left-out windows over the mean zeta of their pieces (both rescaled
+        to a night), pooled over the assets of one white box, channel and tier; at least 1.
+    days : int
+        Whole windows behind it (assets times K).
     """
 
-    day_zetas: tuple[float, ...]
-    within_zeta: float
-    within_count: int
+    factor: float
+    days: int
 
-    def significant(self, dof: float, level: float) -> bool:
-        """Whether the windows vary more than sampling explains: their mean zeta over
-        ``within_zeta`` is F(K h, (n - K) h) without a day-to-day component."""
-        if len(self.day_zetas) < 2 or self.within_count < 1:
-            return False
-        if self.within_zeta <= 0:
-            return float(np.mean(self.day_zetas)) > 0
-        ratio = float(np.mean(self.day_zetas)) / self.within_zeta
-        return ratio > stats.f.ppf(1.0 - level, len(self.day_zetas) * dof,
-                                   self.within_count * dof)
+    @classmethod
+    def pooled(cls, changes: Sequence[tuple[Sequence[float], Sequence[float]]]) -> "DayFactor":
+        """From each asset's (day zetas, piece zetas): the mean of the assets' ratios."""
+        ratios = [float(np.mean(days)) / float(np.mean(pieces))
+                  for days, pieces in changes if len(days) and np.mean(pieces) > 0]
+        if not ratios:
+            return cls(1.0, 0)
+        return cls(max(1.0, float(np.mean(ratios))),
+                   sum(len(days) for days, pieces in changes))
 
 
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
-                          days: DaySpread | None = None) -> tuple[float, float, float]:
+                          days: DayFactor | None = None) -> tuple[float, float, float]:
     """Epsilon from healthy parameter changes (steps 3-5 of the module's method).
 
     Parameters
@@ -203,10 +196,9 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
         zetas.
     alpha : float
         Probability that a healthy zeta exceeds epsilon.
-    days : DaySpread, optional
-        Where the whole windows vary more than their pieces explain (an F test at
-        :data:`DAY_TO_DAY_TEST_LEVEL`), epsilon is at least their mean zeta times
-        ``F(h, K h)``: day-to-day variation, known from K days only.
+    days : DayFactor, optional
+        Scales the pieces' mean zeta to whole days'; the F quantile's second degrees of
+        freedom then count both estimates (``1 / (1/(n h) + 1/(D h))`` for n pieces and D days).
 
     Returns
     -------
@@ -229,12 +221,10 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     spread = float(zetas.var(ddof=1))
     dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
-    epsilon = mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof))
-    if days is not None and days.significant(dof, DAY_TO_DAY_TEST_LEVEL):
-        count = len(days.day_zetas)
-        epsilon = max(epsilon, float(np.mean(days.day_zetas))
-                      * float(stats.f.ppf(1.0 - alpha, dof, count * dof)))
-    return epsilon, mean, dof
+    if days is None or days.factor <= 1.0 or days.days == 0:
+        return mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof)), mean, dof
+    second = 1.0 / (1.0 / (k * dof) + 1.0 / (days.days * dof))
+    return days.factor * mean * float(stats.f.ppf(1.0 - alpha, dof, second)), mean, dof
 
 
 def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
@@ -278,33 +268,47 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
                              baseline=sig)
                      for p, sig, count in jobs for k in range(count)]
     rests = fit_signatures(rest_requests, settings, chunk_size, clock)
-    # ...and the left-out window's pieces are fitted as nightly candidates of that refit
-    piece_requests, owners = [], []
+    # ...and the left-out window's pieces are fitted as nightly candidates of that refit, and
+    # so is the whole window (a healthy night with its own day's conditions)
+    requests, owners = [], []
     for (p, sig, count), first in zip(jobs, np.cumsum([0] + [c for _, _, c in jobs])):
         for k in range(count):
             rest = rests[first + k]
             window = fresh[p].windows[k]
+            warm = rest if isinstance(rest, Signature) else sig
             # a fragment must be as long as the fit asks of any operating period, and a
             # piece as long as its frozen structure needs
             shortest = int(np.ceil(settings.shortest_period / sig.sample_interval))
             pieces = _split(window, calibration_pieces(sig, _length(window), settings), shortest)
-            for piece in _merge_short(pieces, sig, settings):
-                piece_requests.append(replace(fresh[p], windows=[piece], baseline=sig,
-                                              warm_start=rest if isinstance(rest, Signature) else sig))
-                owners.append((p, first + k))
-    pieces = fit_signatures(piece_requests, settings, chunk_size, clock)
-    collected: dict[int, list] = {p: [] for p, _, _ in jobs}
-    for (p, rest_index), piece in zip(owners, pieces):
-        collected[p].append((rest_index, rests[rest_index], piece))
+            for piece in _merge_short(pieces, sig, settings) + [window]:
+                requests.append(replace(fresh[p], windows=[piece], baseline=sig, warm_start=warm))
+                owners.append((p, first + k, piece is window))
+    fitted = fit_signatures(requests, settings, chunk_size, clock)
+    pairs: dict[int, list] = {p: [] for p, _, _ in jobs}
+    days: dict[int, list] = {p: [] for p, _, _ in jobs}
+    for (p, rest_index, whole), candidate in zip(owners, fitted):
+        (days if whole else pairs)[p].append((rests[rest_index], candidate))
+    changes = {}
     for p, sig, count in jobs:
-        pairs = collected[p]
-        failure = next((x for _, *pair in pairs for x in pair if isinstance(x, GrayBoxError)),
-                       None)
+        failure = next((x for pair in pairs[p] + days[p] for x in pair
+                        if isinstance(x, GrayBoxError)), None)
         if failure is not None:
             results[p] = failure
             continue
+        changes[p] = _changes(sig, pairs[p], days[p])
+    # step 5: the days' excess over their pieces, pooled over the assets of a white box
+    pooled: dict[tuple, list] = {}
+    for p, tiers in changes.items():
+        for (channel, tier), (deltas, day_deltas) in tiers.items():
+            pooled.setdefault((_model_key(fresh[p].model), channel, tier), []).append(
+                ([float(d @ d) for d in day_deltas], [float(d @ d) for d in deltas]))
+    factors = {key: DayFactor.pooled(value) for key, value in pooled.items()}
+    for p, tiers in changes.items():
+        sig = results[p]
         try:
-            results[p] = (sig, _calibrate(sig, pairs, count, false_alarm_rate))
+            results[p] = (sig, _calibrate(sig, tiers, len(pairs[p]), false_alarm_rate, {
+                (channel, tier): factors[_model_key(fresh[p].model), channel, tier]
+                for channel, tier in tiers}))
         except GrayBoxError as error:
             results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
     return results
@@ -404,54 +408,51 @@ def _merge_short(pieces: list, baseline: Signature, settings: GrayBoxSettings) -
     return merged
 
 
-def _calibrate(baseline: Signature, pairs: list[tuple[int, Signature, Signature]],
-               windows: int, false_alarm_rate: float) -> Calibration:
-    """Epsilons from (window, rest, piece) triples: a piece of a window against the baseline
-    refitted without that window, rescaled to a night against the full baseline."""
-    tests = sum(kind.present(c) for c in baseline.channels for kind in TIER_KINDS)
-    alpha = false_alarm_rate / tests
+def _model_key(model) -> tuple:
+    """Assets whose days are pooled for step 5: the same white box and channels."""
+    return type(model).__module__, type(model).__qualname__, tuple(model.states)
+
+
+def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
+             days: list[tuple[Signature, Signature]]) -> dict[tuple[str, str], tuple[list, list]]:
+    """Per channel and tier: the pieces' changes and the whole windows' changes against
+    their rest refits, each rescaled to a night against the full baseline.
+
+    Var(theta_n) ~ V / n: a candidate and its reference are independent, so the change has
+    variance V (1/n_candidate + 1/n_rest); a night against the baseline has
+    V (1/n_night + 1/n_baseline).
+    """
     total = baseline.n_samples
-    reference = total / windows
-    thresholds = []
+    night = 1 / (total / len(days)) + 1 / total
+    out = {}
     for channel in baseline.channel_names:
         for kind in TIER_KINDS:
-            if not kind.present(baseline.channel(channel)):
-                continue
-            deltas, by_window = [], {}
-            for window, rest, piece in pairs:
-                delta = kind.deltas(piece.channel(channel), rest.channel(channel))
-                # Var(theta_n) ~ V / n: the piece and its reference are independent, so the
-                # change has variance V (1/n_piece + 1/n_rest); a night against the baseline
-                # has V (1/n_night + 1/n_baseline)
-                scale = (1 / reference + 1 / total) / (1 / piece.n_samples + 1 / rest.n_samples)
-                deltas.append(delta * np.sqrt(scale))
-                by_window.setdefault(window, []).append((delta, piece.n_samples, rest.n_samples))
-            days = (_day_spread(list(by_window.values()), 1 / reference + 1 / total)
-                    if kind.unbiased else None)
-            epsilon, mean, dof = threshold_from_deltas(deltas, alpha, days)
-            thresholds.append(TierThreshold(channel, kind.name, epsilon, mean, dof,
-                                            tuple(float(d @ d) for d in deltas)))
-    return Calibration(tuple(thresholds), false_alarm_rate, alpha, int(round(reference)),
-                       len(pairs))
+            if kind.present(baseline.channel(channel)):
+                out[channel, kind.name] = (
+                    [_rescaled(kind, rest, piece, channel, night) for rest, piece in pairs],
+                    [_rescaled(kind, rest, whole, channel, night) for rest, whole in days])
+    return out
 
 
-def _day_spread(windows: list[list[tuple[np.ndarray, int, int]]], night: float) -> DaySpread:
-    """Day-to-day evidence from each window's (raw change, piece samples, rest samples).
+def _calibrate(baseline: Signature, changes: dict[tuple[str, str], tuple[list, list]],
+               pieces: int, false_alarm_rate: float,
+               factors: dict[tuple[str, str], DayFactor]) -> Calibration:
+    """Epsilons from the pieces' changes (:func:`_changes`), scaled by each tier's pooled
+    day factor."""
+    alpha = false_alarm_rate / len(changes)
+    thresholds = []
+    for (channel, tier), (deltas, _) in changes.items():
+        epsilon, mean, dof = threshold_from_deltas(deltas, alpha, factors[channel, tier])
+        thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
+                                        tuple(float(d @ d) for d in deltas),
+                                        factors[channel, tier].factor))
+    windows = len(next(iter(changes.values()))[1])
+    return Calibration(tuple(thresholds), false_alarm_rate, alpha,
+                       int(round(baseline.n_samples / windows)), pieces)
 
-    A piece's change is ``e_j - r`` (its own estimation error and its window's rest's):
-    the sample-weighted mean over a window of ``n`` samples has variance
-    ``V (1/n + 1/n_rest)``, rescaled to a night's ``V night``; a piece's deviation from
-    that mean has ``V (1/n_j - 1/n)``, which estimates ``V`` free of any day effect.
-    """
-    day_zetas, within, weight, count = [], 0.0, 0.0, 0
-    for parts in windows:
-        n = sum(size for _, size, _ in parts)
-        mean = sum(delta * size for delta, size, _ in parts) / n
-        day_zetas.append(float(mean @ mean) * night / (1 / n + 1 / parts[0][2]))
-        for delta, size, _ in parts:
-            within += float((delta - mean) @ (delta - mean))
-            weight += 1 / size - 1 / n
-        count += len(parts) - 1
-    within_zeta = within / weight * night if weight > 0 else 0.0
-    return DaySpread(tuple(day_zetas), within_zeta, count)
 
+def _rescaled(kind, rest: Signature, candidate: Signature, channel: str,
+              night: float) -> np.ndarray:
+    """A candidate's change against its rest refit, rescaled to a night's variance."""
+    delta = kind.deltas(candidate.channel(channel), rest.channel(channel))
+    return delta * np.sqrt(night / (1 / candidate.n_samples + 1 / rest.n_samples))

@@ -25,13 +25,6 @@ class Tier:
     ----------
     name : str
         The tier's name in signatures, drifts and calibrations.
-    unbiased : bool
-        Whether the tier's estimate has no small-sample bias (a mean, a regression
-        intercept), so that the mean of a day's pieces estimates the day's own value and
-        calibration can test for day-to-day variation (:class:`graybox.calibration.DaySpread`).
-        Yule-Walker coefficients and a weight-decayed network are biased by O(1/n): their
-        pieces differ from a whole day systematically, which such a test would mistake for
-        day-to-day variation.
 
     Notes
     -----
@@ -40,7 +33,6 @@ class Tier:
     """
 
     name: str = ""
-    unbiased: bool = False
 
     def present(self, channel: ChannelSignature) -> bool:
         """Whether ``channel`` has this tier (signatures stored before a tier existed lack it).
@@ -214,7 +206,6 @@ class LevelTierKind(Tier):
     """
 
     name = "level"
-    unbiased = True
 
     def present(self, channel: ChannelSignature) -> bool:
         return channel.level is not None

@@ -6,8 +6,7 @@ import pytest
 from conftest import make_channel, make_signature
 from scipy import stats
 
-from graybox.calibration import (DAY_TO_DAY_TEST_LEVEL, Calibration, DaySpread, TierThreshold,
-                                threshold_from_deltas)
+from graybox.calibration import Calibration, DayFactor, TierThreshold, threshold_from_deltas
 from graybox.drift import Drift, compute_drift, tier_deltas
 from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
 from graybox.noise_tier import MOMENT_WEIGHTS
@@ -123,74 +122,52 @@ def test_a_calibration_written_by_the_hand_written_reader_code_loads_equal():
         Calibration.from_json(text.replace('"n_windows": 24', '"n_windows": "24"'))
 
 
-def _pieces(rng, days, per_day, day_sd, size=1):
-    """Night-scale piece changes: each day's pieces share a day effect of ``day_sd``."""
-    deltas, windows = [], []
-    for day in range(days):
-        effect = rng.normal(size=size) * day_sd
-        for _ in range(per_day):
-            deltas.append(effect + rng.normal(size=size))
-            windows.append(day)
-    return deltas, windows
+
+def _asset_changes(rng, days, per_day, day_sd, size=1):
+    """Night-scale changes of one asset: ``per_day`` pieces a day, and each whole day, which
+    adds a day effect of ``day_sd`` (pieces of one day share it, so it cancels in their
+    spread around the asset's refit only when it is zero)."""
+    pieces = [rng.normal(size=size) for _ in range(days * per_day)]
+    wholes = [rng.normal(size=size) * day_sd + rng.normal(size=size) for _ in range(days)]
+    return pieces, wholes
 
 
-def _spread(deltas, windows):
-    """A DaySpread of unit-variance pieces (the night-scale change of a whole day of q
-    pieces is sqrt(q) times their mean)."""
-    groups = {}
-    for window, delta in zip(windows, deltas):
-        groups.setdefault(window, []).append(delta)
-    day_zetas = tuple(len(g) * float(np.mean(g, axis=0) @ np.mean(g, axis=0))
-                      for g in groups.values())
-    within = sum(float(((np.asarray(g) - np.mean(g, axis=0)) ** 2).sum()) for g in groups.values())
-    count = len(deltas) - len(groups)
-    return DaySpread(day_zetas, within / count, count)
-
-
-def test_day_to_day_variation_raises_epsilon_to_the_days_own_quantile():
-    """Known answer: with a day effect four times the pieces' spread, whole days vary far
-    more than their pieces, and epsilon comes from the K days' mean with F(h, K h)."""
-    rng = np.random.default_rng(3)
-    deltas, windows = _pieces(rng, days=6, per_day=8, day_sd=4.0)
-    days = _spread(deltas, windows)
-    plain, mean, dof = threshold_from_deltas(deltas, 0.001)
-    epsilon, _, _ = threshold_from_deltas(deltas, 0.001, days)
-    assert days.significant(dof, DAY_TO_DAY_TEST_LEVEL)
-    assert epsilon == pytest.approx(np.mean(days.day_zetas) * stats.f.ppf(0.999, dof, 6 * dof))
-    assert epsilon > 5 * plain
-
-
-def test_without_a_day_effect_the_pieces_decide_and_the_rate_holds():
-    """Without a day effect the test fires at about its level, and the threshold meets its
-    false-alarm rate for new healthy nights (each a day: sqrt(q) times a day's mean)."""
-    rng = np.random.default_rng(4)
-    fired, exceed, trials = 0, 0.0, 400
-    for _ in range(trials):
-        deltas, windows = _pieces(rng, days=5, per_day=8, day_sd=0.0, size=3)
-        days = _spread(deltas, windows)
-        epsilon, _, dof = threshold_from_deltas(deltas, 0.01, days)
-        fired += days.significant(dof, DAY_TO_DAY_TEST_LEVEL)
-        fresh = rng.normal(size=(200, 3))
-        exceed += np.mean((fresh ** 2).sum(axis=1) > epsilon)
-    assert fired / trials < 3 * DAY_TO_DAY_TEST_LEVEL
-    assert 0.001 < exceed / trials < 0.015
-
-
-def test_with_a_day_effect_new_days_stay_within_the_rate():
-    """Known answer for the day-to-day case: new days (their own effect plus sampling) exceed
-    epsilon at about alpha (1.26 % +- 0.1 % over 3,000 trials: F(h, K h) is exact, and the
-    1 % of baselines whose test misses the day effect keep the pieces' epsilon), where the
-    pieces alone would alarm far more often."""
+def test_a_day_factor_pooled_over_a_fleet_restores_the_false_alarm_rate():
+    """Known answer: whole days vary 1 + 4 = 5 times their pieces; pooled over 20 assets of
+    5 days the factor comes out near 5 and new days exceed epsilon at about alpha, where the
+    pieces alone would alarm on more than 10 % of them."""
     rng = np.random.default_rng(5)
-    exceed, plain_exceed, trials = 0.0, 0.0, 300
-    for _ in range(trials):
-        deltas, windows = _pieces(rng, days=5, per_day=8, day_sd=2.0)
-        days = _spread(deltas, windows)
-        epsilon, _, _ = threshold_from_deltas(deltas, 0.01, days)
-        plain, _, _ = threshold_from_deltas(deltas, 0.01)
-        # a new night: one day effect and the sampling of a whole night
-        fresh = rng.normal(size=2000) * 2.0 * np.sqrt(8) + rng.normal(size=2000)
-        exceed += np.mean(fresh ** 2 > epsilon)
-        plain_exceed += np.mean(fresh ** 2 > plain)
-    assert exceed / trials < 0.02
-    assert plain_exceed / trials > 0.1
+    fleet = [_asset_changes(rng, 5, 8, 2.0) for _ in range(20)]
+    factor = DayFactor.pooled([([float(d @ d) for d in w], [float(d @ d) for d in p])
+                               for p, w in fleet])
+    assert factor.days == 100 and factor.factor == pytest.approx(5.0, rel=0.3)
+    exceed, plain_exceed = [], []
+    for pieces, _ in fleet:
+        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, factor)
+        plain, _, _ = threshold_from_deltas(pieces, 0.01)
+        fresh = rng.normal(size=4000) * 2.0 + rng.normal(size=4000)
+        exceed.append(np.mean(fresh ** 2 > epsilon))
+        plain_exceed.append(np.mean(fresh ** 2 > plain))
+    assert 0.002 < np.mean(exceed) < 0.02
+    assert np.mean(plain_exceed) > 0.1
+
+
+def test_without_a_day_effect_the_factor_is_about_one_and_the_rate_holds():
+    rng = np.random.default_rng(6)
+    fleet = [_asset_changes(rng, 5, 8, 0.0, size=3) for _ in range(20)]
+    factor = DayFactor.pooled([([float(d @ d) for d in w], [float(d @ d) for d in p])
+                               for p, w in fleet])
+    assert factor.factor == pytest.approx(1.0, abs=0.25)
+    exceed = []
+    for pieces, _ in fleet:
+        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, factor)
+        exceed.append(np.mean((rng.normal(size=(2000, 3)) ** 2).sum(axis=1) > epsilon))
+    assert np.mean(exceed) < 0.015
+
+
+def test_a_factor_below_one_never_lowers_epsilon():
+    factor = DayFactor.pooled([([0.1, 0.2], [1.0, 1.2, 0.8])])
+    assert factor == DayFactor(1.0, 2)
+    deltas = [np.array([x]) for x in (0.5, -1.0, 1.5, -0.3)]
+    assert threshold_from_deltas(deltas, 0.01, factor) == threshold_from_deltas(deltas, 0.01)
+
