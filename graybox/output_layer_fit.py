@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from scipy.special import expit
 
 from graybox.network_settings import FitSettings, NetworkFit
 
@@ -48,15 +49,20 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         dim = X.shape[1]
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
         W, prediction, iterations = _levenberg_marquardt(
-            np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
+            _tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
         out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations))
     return out
+
+
+def _tanh(z: np.ndarray) -> np.ndarray:
+    """tanh as 2 expit(2 z) - 1: equal to rounding (3e-16), twice as fast as np.tanh here."""
+    return 2.0 * expit(2.0 * z) - 1.0
 
 
 def _loss(H: np.ndarray, y: np.ndarray, W: np.ndarray,
           decay: float) -> tuple[float, np.ndarray]:
     """The loss at ``W`` and the network's prediction there."""
-    prediction = np.tanh(H @ W)
+    prediction = _tanh(H @ W)
     return float(np.mean((y - prediction) ** 2) + decay * (W @ W)), prediction
 
 
@@ -66,16 +72,20 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
     n = len(y)
     decay = settings.weight_decay
     identity = np.eye(H.shape[1])
+    # the curvature only shapes the step (the gradient and loss, which decide the minimum,
+    # stay in float64): single precision halves its T x J^2 cost, the largest of a step
+    H_single = H.astype(np.float32)
     loss, prediction = _loss(H, y, W, decay)
     damping = 1e-3
     iterations = 0
     for _ in range(settings.max_iter):
         residual = y - prediction
-        J = H * (1.0 - prediction ** 2)[:, None]              # d prediction / d W
-        gradient = -2.0 * (J.T @ residual) / n + 2.0 * decay * W
+        slope = 1.0 - prediction ** 2                          # d prediction / d (H W)
+        gradient = -2.0 * (H.T @ (slope * residual)) / n + 2.0 * decay * W
         if np.abs(gradient).max() <= settings.tolerance:
             break
-        curvature = 2.0 * (J.T @ J) / n + 2.0 * decay * identity
+        J = H_single * slope.astype(np.float32)[:, None]      # d prediction / d W
+        curvature = 2.0 * (J.T @ J).astype(float) / n + 2.0 * decay * identity
         improved = False
         while damping < 1e12:
             step = np.linalg.solve(curvature + damping * np.diag(np.diag(curvature)) +
