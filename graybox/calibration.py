@@ -24,15 +24,15 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
 5. Day-to-day variation. Pieces of one day share that day's conditions (load, weather, the
    model error at that day's operating point), so their spread can miss how much whole
    healthy days differ. Each left-out window is therefore also fitted whole, as a nightly
-   candidate of its refit: K changes of exactly a night's kind (with a night's small-sample
-   bias too). Their mean zeta over the pieces' is the **day factor**, pooled (the mean of the
-   assets' ratios, at least 1) over the assets of the same white box that are calibrated
-   together, per channel and tier: five days of one asset say little about a variance
-   ratio, a fleet's hundred say much. epsilon = factor * mean(zeta_k) * F.ppf(1 - alpha; h,
-   1 / (1/(K q h) + 1/(D h))) for D pooled days. Measured on the plant zoo
-   (``python -m benchmarks.zoo``): without it healthy asset-nights alarmed on 5-28 % of
-   nights in four of six families; a per-asset test of the ratio (K = 5 days) had too little
-   power to see it.
+   candidate of its refit: K changes of exactly a night's kind (``TierThreshold.day_zetas``).
+   Their mean predicts a new night's zeta too, with F(h, K h) for K days: epsilon is the
+   larger of the pieces' threshold and the days'. Only the asset's own windows count, so a
+   baseline does not depend on which assets are fitted with it (a batch, a memory group, a
+   Dask worker). With few days the days' quantile is wide (F(1, 5) at 0.1 % is 43 where
+   the pieces' F(1, 40) is 12): the price of not knowing, from five days, whether days
+   differ.
+   Measured on the plant zoo (``python -m benchmarks.zoo``): without step 5 healthy
+   asset-nights alarmed on 5-28 % of nights in four of six families.
 6. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
    gets epsilon scaled up by the ratio of sample counts, a longer one (several nights)
@@ -78,11 +78,10 @@ class TierThreshold:
     mean_zeta: float        #: mean healthy zeta of the K windows
     dof: float              #: effective degrees of freedom h
     healthy_zetas: tuple[float, ...]
-    #: whole days' zeta over pieces' (step 5), pooled over the white box's assets; absent
-    #: from calibrations stored before step 5 (factor 1)
-    day_factor: float | None = None
+    #: zetas of the whole left-out windows (step 5); absent from calibrations stored before it
+    day_zetas: tuple[float, ...] | None = None
 
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"day_factor"})
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"day_zetas"})
 
 
 @dataclass(frozen=True)
@@ -158,35 +157,9 @@ class Calibration:
         return cls.from_dict(records.parse_json(text, "calibration"))
 
 
-@dataclass(frozen=True)
-class DayFactor:
-    """How much more whole healthy days vary than their pieces (step 5 of the method).
-
-    Attributes
-    ----------
-    factor : float
-        Mean zeta of whole left-out windows over the mean zeta of their pieces (both rescaled
-        to a night), pooled over the assets of one white box, channel and tier; at least 1.
-    days : int
-        Whole windows behind it (assets times K).
-    """
-
-    factor: float
-    days: int
-
-    @classmethod
-    def pooled(cls, changes: Sequence[tuple[Sequence[float], Sequence[float]]]) -> "DayFactor":
-        """From each asset's (day zetas, piece zetas): the mean of the assets' ratios."""
-        ratios = [float(np.mean(days)) / float(np.mean(pieces))
-                  for days, pieces in changes if len(days) and np.mean(pieces) > 0]
-        if not ratios:
-            return cls(1.0, 0)
-        return cls(max(1.0, float(np.mean(ratios))),
-                   sum(len(days) for days, pieces in changes))
-
-
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
-                          days: DayFactor | None = None) -> tuple[float, float, float]:
+                          day_zetas: Sequence[float] | None = None
+                          ) -> tuple[float, float, float]:
     """Epsilon from healthy parameter changes (steps 3-5 of the module's method).
 
     Parameters
@@ -196,9 +169,9 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
         zetas.
     alpha : float
         Probability that a healthy zeta exceeds epsilon.
-    days : DayFactor, optional
-        Scales the pieces' mean zeta to whole days'; the F quantile's second degrees of
-        freedom then count both estimates (``1 / (1/(n h) + 1/(D h))`` for n pieces and D days).
+    day_zetas : sequence of float, optional
+        Zetas of D whole windows (step 5): epsilon is at least their mean times
+        ``F.ppf(1 - alpha; h, D h)``.
 
     Returns
     -------
@@ -221,10 +194,12 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     spread = float(zetas.var(ddof=1))
     dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
-    if days is None or days.factor <= 1.0 or days.days == 0:
-        return mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof)), mean, dof
-    second = 1.0 / (1.0 / (k * dof) + 1.0 / (days.days * dof))
-    return days.factor * mean * float(stats.f.ppf(1.0 - alpha, dof, second)), mean, dof
+    epsilon = mean * float(stats.f.ppf(1.0 - alpha, dof, k * dof))
+    if day_zetas:
+        days = float(np.mean(day_zetas)) * float(stats.f.ppf(1.0 - alpha, dof,
+                                                               len(day_zetas) * dof))
+        epsilon = max(epsilon, days)
+    return epsilon, mean, dof
 
 
 def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
@@ -288,27 +263,15 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     days: dict[int, list] = {p: [] for p, _, _ in jobs}
     for (p, rest_index, whole), candidate in zip(owners, fitted):
         (days if whole else pairs)[p].append((rests[rest_index], candidate))
-    changes = {}
     for p, sig, count in jobs:
         failure = next((x for pair in pairs[p] + days[p] for x in pair
                         if isinstance(x, GrayBoxError)), None)
         if failure is not None:
             results[p] = failure
             continue
-        changes[p] = _changes(sig, pairs[p], days[p])
-    # step 5: the days' excess over their pieces, pooled over the assets of a white box
-    pooled: dict[tuple, list] = {}
-    for p, tiers in changes.items():
-        for (channel, tier), (deltas, day_deltas) in tiers.items():
-            pooled.setdefault((_model_key(fresh[p].model), channel, tier), []).append(
-                ([float(d @ d) for d in day_deltas], [float(d @ d) for d in deltas]))
-    factors = {key: DayFactor.pooled(value) for key, value in pooled.items()}
-    for p, tiers in changes.items():
-        sig = results[p]
         try:
-            results[p] = (sig, _calibrate(sig, tiers, len(pairs[p]), false_alarm_rate, {
-                (channel, tier): factors[_model_key(fresh[p].model), channel, tier]
-                for channel, tier in tiers}))
+            results[p] = (sig, _calibrate(sig, _changes(sig, pairs[p], days[p]), len(pairs[p]),
+                                          false_alarm_rate))
         except GrayBoxError as error:
             results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
     return results
@@ -408,11 +371,6 @@ def _merge_short(pieces: list, baseline: Signature, settings: GrayBoxSettings) -
     return merged
 
 
-def _model_key(model) -> tuple:
-    """Assets whose days are pooled for step 5: the same white box and channels."""
-    return type(model).__module__, type(model).__qualname__, tuple(model.states)
-
-
 def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
              days: list[tuple[Signature, Signature]]) -> dict[tuple[str, str], tuple[list, list]]:
     """Per channel and tier: the pieces' changes and the whole windows' changes against
@@ -435,17 +393,15 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
 
 
 def _calibrate(baseline: Signature, changes: dict[tuple[str, str], tuple[list, list]],
-               pieces: int, false_alarm_rate: float,
-               factors: dict[tuple[str, str], DayFactor]) -> Calibration:
-    """Epsilons from the pieces' changes (:func:`_changes`), scaled by each tier's pooled
-    day factor."""
+               pieces: int, false_alarm_rate: float) -> Calibration:
+    """Epsilons from the pieces' and the whole windows' changes (:func:`_changes`)."""
     alpha = false_alarm_rate / len(changes)
     thresholds = []
-    for (channel, tier), (deltas, _) in changes.items():
-        epsilon, mean, dof = threshold_from_deltas(deltas, alpha, factors[channel, tier])
+    for (channel, tier), (deltas, day_deltas) in changes.items():
+        day_zetas = tuple(float(d @ d) for d in day_deltas)
+        epsilon, mean, dof = threshold_from_deltas(deltas, alpha, day_zetas)
         thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
-                                        tuple(float(d @ d) for d in deltas),
-                                        factors[channel, tier].factor))
+                                        tuple(float(d @ d) for d in deltas), day_zetas))
     windows = len(next(iter(changes.values()))[1])
     return Calibration(tuple(thresholds), false_alarm_rate, alpha,
                        int(round(baseline.n_samples / windows)), pieces)

@@ -6,7 +6,7 @@ import pytest
 from conftest import make_channel, make_signature
 from scipy import stats
 
-from graybox.calibration import Calibration, DayFactor, TierThreshold, threshold_from_deltas
+from graybox.calibration import Calibration, TierThreshold, threshold_from_deltas
 from graybox.drift import Drift, compute_drift, tier_deltas
 from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
 from graybox.noise_tier import MOMENT_WEIGHTS
@@ -132,18 +132,15 @@ def _asset_changes(rng, days, per_day, day_sd, size=1):
     return pieces, wholes
 
 
-def test_a_day_factor_pooled_over_a_fleet_restores_the_false_alarm_rate():
-    """Known answer: whole days vary 1 + 4 = 5 times their pieces; pooled over 20 assets of
-    5 days the factor comes out near 5 and new days exceed epsilon at about alpha, where the
-    pieces alone would alarm on more than 10 % of them."""
+def test_whole_days_that_vary_more_than_their_pieces_raise_epsilon():
+    """Known answer: whole days vary 1 + 4 = 5 times their pieces. Each asset's own 5 days
+    give the threshold (a new day over their mean is about F(1, 5)-distributed), so new days
+    exceed it at about alpha, where the pieces alone would alarm on more than 10 % of them."""
     rng = np.random.default_rng(5)
-    fleet = [_asset_changes(rng, 5, 8, 2.0) for _ in range(20)]
-    factor = DayFactor.pooled([([float(d @ d) for d in w], [float(d @ d) for d in p])
-                               for p, w in fleet])
-    assert factor.days == 100 and factor.factor == pytest.approx(5.0, rel=0.3)
     exceed, plain_exceed = [], []
-    for pieces, _ in fleet:
-        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, factor)
+    for _ in range(40):
+        pieces, wholes = _asset_changes(rng, 5, 8, 2.0)
+        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, [float(d @ d) for d in wholes])
         plain, _, _ = threshold_from_deltas(pieces, 0.01)
         fresh = rng.normal(size=4000) * 2.0 + rng.normal(size=4000)
         exceed.append(np.mean(fresh ** 2 > epsilon))
@@ -152,22 +149,21 @@ def test_a_day_factor_pooled_over_a_fleet_restores_the_false_alarm_rate():
     assert np.mean(plain_exceed) > 0.1
 
 
-def test_without_a_day_effect_the_factor_is_about_one_and_the_rate_holds():
+def test_without_a_day_effect_the_rate_holds():
     rng = np.random.default_rng(6)
-    fleet = [_asset_changes(rng, 5, 8, 0.0, size=3) for _ in range(20)]
-    factor = DayFactor.pooled([([float(d @ d) for d in w], [float(d @ d) for d in p])
-                               for p, w in fleet])
-    assert factor.factor == pytest.approx(1.0, abs=0.25)
     exceed = []
-    for pieces, _ in fleet:
-        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, factor)
+    for _ in range(20):
+        pieces, wholes = _asset_changes(rng, 5, 8, 0.0, size=3)
+        epsilon, _, _ = threshold_from_deltas(pieces, 0.01, [float(d @ d) for d in wholes])
         exceed.append(np.mean((rng.normal(size=(2000, 3)) ** 2).sum(axis=1) > epsilon))
     assert np.mean(exceed) < 0.015
 
 
-def test_a_factor_below_one_never_lowers_epsilon():
-    factor = DayFactor.pooled([([0.1, 0.2], [1.0, 1.2, 0.8])])
-    assert factor == DayFactor(1.0, 2)
+def test_quiet_days_leave_the_pieces_threshold_and_loud_days_set_it():
     deltas = [np.array([x]) for x in (0.5, -1.0, 1.5, -0.3)]
-    assert threshold_from_deltas(deltas, 0.01, factor) == threshold_from_deltas(deltas, 0.01)
-
+    plain = threshold_from_deltas(deltas, 0.01)
+    assert threshold_from_deltas(deltas, 0.01, [1e-6, 2e-6]) == plain
+    _, mean, dof = plain
+    loud = [10.0, 30.0, 20.0]
+    epsilon = threshold_from_deltas(deltas, 0.01, loud)[0]
+    assert epsilon == pytest.approx(20.0 * stats.f.ppf(0.99, dof, 3 * dof))

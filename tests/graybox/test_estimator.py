@@ -3,7 +3,7 @@ import pytest
 
 from graybox import (FitRequest, GrayBox, GrayBoxError, GrayBoxSettings, InsufficientDataError,
                      Signature, TelemetryError, compute_drift, decompose, fit_signatures,
-                     load_model)
+                     fit_baselines, load_model)
 from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet
 
 
@@ -97,3 +97,13 @@ def test_decompose_reassembles_the_tiers(fleet, model, baseline):
     np.testing.assert_allclose(parts.ar_residual.to_numpy(), z[n:] - np.asarray(expected),
                                rtol=1e-10, atol=1e-12)
     assert parts.noise.index.equals(parts.network_prediction.index)
+
+
+def test_a_baseline_does_not_depend_on_the_assets_fitted_with_it(fleet, model):
+    """Batches, memory groups and Dask workers split a fleet differently; a baseline and its
+    calibration must come out the same whichever assets share its fit."""
+    alone = fit_baselines([FitRequest(model, fleet["A"][:4], asset_id="A")])[0]
+    together = fit_baselines([FitRequest(model, fleet["B"][:4], asset_id="B"),
+                              FitRequest(model, fleet["A"][:4], asset_id="A")])[1]
+    assert together == alone
+    assert all(len(t.day_zetas) == 4 for t in alone[1].thresholds)
