@@ -18,7 +18,6 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
-from scipy.special import expit
 
 from graybox.network_settings import FitSettings, NetworkFit
 
@@ -55,8 +54,9 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
 
 
 def _tanh(z: np.ndarray) -> np.ndarray:
-    """tanh as 2 expit(2 z) - 1: equal to rounding (3e-16), twice as fast as np.tanh here."""
-    return 2.0 * expit(2.0 * z) - 1.0
+    """numpy's tanh (vectorised: 4.6 ms for 86,400 x 32 values here, where 2 expit(2 z) - 1
+    takes 23 ms; it is torch's tanh that is slow on this machine)."""
+    return np.tanh(z)
 
 
 def _loss(H: np.ndarray, y: np.ndarray, W: np.ndarray,

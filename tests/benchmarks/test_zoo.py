@@ -114,3 +114,26 @@ def test_the_cost_benchmark_measures_a_small_family_run():
     assert result["s_per_baseline_day"] > 0 and result["s_per_night"] > 0
     assert result["analysis_interval"] == 60.0 and result["states"] == 2
     assert "residual" in result["baseline_stages"] and "residual" in result["night_stages"]
+
+
+def test_envelope_places_each_healthy_night_against_the_baseline_range():
+    from benchmarks.zoo import run
+    from benchmarks.zoo.envelope import outside_distances
+
+    family = discover()["thermal_room"]
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 3)
+    asset = vehicles[0].asset_id
+    result = {"baseline_days": 3, "nights": 2, "candidate_nights": 1, "healthy_assets": 1,
+              "seed": 1, "rows": [
+                  {"asset": asset, "night": 0, "fault": "", "alarm": False, "exceeded": ""},
+                  {"asset": asset, "night": 1, "fault": "", "alarm": True,
+                   "exceeded": "air/level"}]}
+    frame = outside_distances(family, result, "outdoor_temp")
+    assert list(frame["night"]) == [0, 1] and list(frame["alarm"]) == [False, True]
+    # night n is day 3 + n; its distance is its daily mean outside the range of days 0-2
+    telemetry = family.simulate(vehicles, run.START, 5)[asset]["outdoor_temp"]
+    means = [telemetry[run.START + pd.Timedelta(days=d):
+                       run.START + pd.Timedelta(days=d + 1) - pd.Timedelta(seconds=1)].mean()
+             for d in range(5)]
+    expected = [max(0.0, means[d] - max(means[:3]), min(means[:3]) - means[d]) for d in (3, 4)]
+    np.testing.assert_allclose(frame["outside"], expected, rtol=1e-12)
