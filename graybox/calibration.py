@@ -270,7 +270,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             results[p] = failure
             continue
         try:
-            results[p] = (sig, _calibrate(sig, _changes(sig, pairs[p], days[p]), len(pairs[p]),
+            results[p] = (sig, _calibrate(sig, _changes(sig, pairs[p], days[p]),
                                           false_alarm_rate))
         except GrayBoxError as error:
             results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
@@ -393,7 +393,7 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
 
 
 def _calibrate(baseline: Signature, changes: dict[tuple[str, str], tuple[list, list]],
-               pieces: int, false_alarm_rate: float) -> Calibration:
+               false_alarm_rate: float) -> Calibration:
     """Epsilons from the pieces' and the whole windows' changes (:func:`_changes`)."""
     alpha = false_alarm_rate / len(changes)
     thresholds = []
@@ -402,7 +402,7 @@ def _calibrate(baseline: Signature, changes: dict[tuple[str, str], tuple[list, l
         epsilon, mean, dof = threshold_from_deltas(deltas, alpha, day_zetas)
         thresholds.append(TierThreshold(channel, tier, epsilon, mean, dof,
                                         tuple(float(d @ d) for d in deltas), day_zetas))
-    windows = len(next(iter(changes.values()))[1])
+    pieces, windows = (len(c) for c in next(iter(changes.values())))
     return Calibration(tuple(thresholds), false_alarm_rate, alpha,
                        int(round(baseline.n_samples / windows)), pieces)
 

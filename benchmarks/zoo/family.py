@@ -197,6 +197,13 @@ class Family:
             onset=np.asarray(onsets, dtype=float))
 
 
+def day_clock(samples_per_day: int, warmup: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Seconds after midnight and hour of day of ``warmup`` samples before the day and the
+    day's ``samples_per_day`` (the warm-up's times are negative): arrays of that total length."""
+    t = (np.arange(warmup + samples_per_day) - warmup) * dt
+    return t, (t / 3600.0) % 24.0
+
+
 def spread(rng: np.random.Generator, nominal: float, relative: float) -> float:
     """``nominal`` with a relative normal spread (one asset's unit-to-unit variation)."""
     return float(nominal * (1.0 + relative * rng.standard_normal()))

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import DayBatch, Family, FaultKind, quantise, smooth_noise, spread
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
+                                   quantise, smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -77,9 +78,8 @@ class ConveyorDrive(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         n = self.samples_per_day
-        total = WARMUP + n
-        t = (np.arange(total) - WARMUP) * DT
-        hour = (t / 3600.0) % 24.0
+        t, hour = day_clock(n, WARMUP, DT)
+        total = len(t)
         setpoints = batch.uniform(90.0, 150.0, (6,))                    # rad/s, per 4-h shift
         reference = setpoints[:, (hour // 4).astype(int)]
         load = np.clip(batch.uniform(0.6, 1.2)[:, None]

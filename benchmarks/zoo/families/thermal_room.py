@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import DayBatch, Family, FaultKind, quantise, smooth_noise, spread
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
+                                   quantise, smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 60.0
@@ -79,9 +80,8 @@ class ThermalRoom(Family):
         p = batch.true
         n = self.samples_per_day
         warm = WARMUP_DAYS * n
-        total = warm + n
-        t = (np.arange(total) - warm) * DT                       # seconds after midnight
-        hour = (t / 3600.0) % 24.0
+        t, hour = day_clock(n, warm, DT)
+        total = len(t)
         # weather: the day's mean and swing, hours-long fluctuations
         mean = batch.uniform(-5.0, 10.0)[:, None]
         swing = batch.uniform(2.0, 6.0)[:, None]
