@@ -41,7 +41,10 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from graybox.integration import Integration
 from graybox.models.base import WhiteBoxModel
+from graybox.state_estimation import WindowStates, estimate_states, window_arrays
+from graybox.residual import infer_sample_interval
 
 OPERATING_POINTS = 64
 
@@ -53,8 +56,8 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
     Parameters
     ----------
     model : WhiteBoxModel
-    frames : sequence of DataFrame
-        Telemetry with the model's columns.
+    frames : sequence of DataFrame or WindowStates
+        Telemetry with the model's columns, or segments whose full state is estimated.
     points : int
         Operating points taken, evenly spaced over all frames.
     quantile : float
@@ -65,10 +68,9 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
     float
         0 when the model has no state dynamics (or they cannot be evaluated).
     """
-    x = np.concatenate([f.loc[:, list(model.state_columns)].to_numpy(dtype=float)
-                        for f in frames])
-    u = np.concatenate([f.loc[:, list(model.input_columns)].to_numpy(dtype=float)
-                        .reshape(len(f), -1) for f in frames])
+    windows = [_full_states(model, f) for f in frames]
+    x = np.concatenate([w.states for w in windows])
+    u = np.concatenate([w.u for w in windows])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
     x, u = x[finite], u[finite]
     if len(x) == 0:
@@ -89,6 +91,14 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
     return float(np.quantile(rates, quantile))
 
 
+def _full_states(model: WhiteBoxModel, frame) -> WindowStates:
+    if isinstance(frame, WindowStates):
+        return frame
+    y, u = window_arrays(model, frame)
+    interval = infer_sample_interval(frame.index) if model.hidden_states else 1.0
+    return estimate_states(model, y, u, interval, Integration())
+
+
 def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
                              sample_interval: float, fraction: float = 0.5,
                              shortest_window: int | None = None, samples_needed: int = 0) -> float:
@@ -97,8 +107,8 @@ def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame
     Parameters
     ----------
     model : WhiteBoxModel
-    frames : sequence of DataFrame
-        The baseline's telemetry windows.
+    frames : sequence of DataFrame or WindowStates
+        The baseline's telemetry windows (or their segments' full states).
     sample_interval : float
         Seconds between telemetry samples.
     fraction : float, default 0.5

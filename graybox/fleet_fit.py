@@ -21,6 +21,7 @@ from threadpoolctl import threadpool_limits
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.integration import Integration, IntegrationError, choose_integration
 from graybox.level_tier import (LevelTier, fit_level, horizon_samples, level_data,
                                 start_stride)
 from graybox.linear_tier import LinearTier, fit_ar
@@ -30,8 +31,10 @@ from graybox.noise_tier import describe_noise
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
 from graybox.residual import infer_sample_interval, residual_frame
 from graybox.settings import GrayBoxSettings
-from graybox.signature import ChannelSignature, ChannelStructure, Selection, Signature
+from graybox.signature import (ChannelSignature, ChannelStructure, HiddenStart, Selection,
+                               Signature)
 from graybox.stage_clock import StageClock, timed
+from graybox.state_estimation import WindowStates, estimate_states, window_arrays
 from graybox.stationarize import choose_differencing
 
 
@@ -86,6 +89,8 @@ class _Prepared:
     window_start: str | None
     window_end: str | None
     asset_id: str | None
+    integration: Integration
+    hidden_starts: tuple | None
     channels: list[_Channel] = field(default_factory=list)
 
 
@@ -147,24 +152,30 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
             raise GrayBoxError(f"baseline was sampled every {baseline.sample_interval} s, "
                                f"this telemetry every {interval} s")
     frames, owners = _operating_segments(parts, settings, interval)
-    analysis = analysis_interval(request, settings, frames, interval,
-                                 int(_per_window([len(f) for f in frames], owners).min()))
-    factor = decimation_factor(analysis, interval)
-    window = settings.derivative_window(interval)
+    model = request.model
     with timed(clock, "residual"):
-        residuals = [residual_frame(request.model, frame, settings.residual, interval, window)
-                     for frame in frames]
+        integration, states = _integrate(request, frames, interval)
+        analysis = analysis_interval(request, settings, states, interval,
+                                     int(_per_window([len(f) for f in frames], owners).min()))
+        factor = decimation_factor(analysis, interval)
+        window = settings.derivative_window(interval)
+        residuals = [residual_frame(model, frame, settings.residual, interval, window,
+                                    integration, segment)
+                     for frame, segment in zip(frames, states)]
         decimated = {name: [decimate(r[name].to_numpy(), factor) for r in residuals]
-                     for name in request.model.states}
+                     for name in model.outputs}
         del residuals
         # the level tier at the analysis interval too: a 1-Hz window costs several times fewer
-        # RK4 steps and loses nothing (the level moves far slower than a sample)
-        levels = _fit_levels(request, [frame.iloc[::factor] for frame in frames], analysis)
+        # integration steps and loses nothing (the level moves far slower than a sample)
+        levels = _fit_levels(request, [segment.decimated(factor) for segment in states],
+                             analysis, integration)
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
+    hidden = (tuple(HiddenStart(frame.index[0].isoformat(), segment.initial_hidden)
+                    for frame, segment in zip(frames, states)) if model.hidden_states else None)
     prepared = _Prepared(request, interval, analysis, min(starts).isoformat(),
-                         max(ends).isoformat(), asset_id)
-    for index, name in enumerate(request.model.states):
+                         max(ends).isoformat(), asset_id, integration, hidden)
+    for index, name in enumerate(model.outputs):
         frozen = None if baseline is None else baseline.channel(name).structure
         with timed(clock, "stationarize_ar"):
             prepared.channels.append(_prepare_channel(name, decimated[name], frozen, settings,
@@ -174,26 +185,62 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
     return prepared
 
 
-def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
-                interval: float) -> dict[str, LevelTier]:
-    """The level tier of every channel (:mod:`graybox.level_tier`) of ``frames`` sampled
+def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float
+               ) -> tuple[Integration, list[WindowStates]]:
+    """The integrator (a candidate: its baseline's) and every segment's full state.
+
+    A new baseline's integrator is chosen at the data's own states
+    (:func:`graybox.integration.choose_integration`); hidden states are first estimated with
+    RK4 (the L-stable method where RK4 diverges or the model asks for it), and again if the
+    choice differs.
+    """
+    model = request.model
+    arrays = [window_arrays(model, frame) for frame in frames]
+    if request.baseline is not None:
+        integration = request.baseline.integration_used
+        return integration, [estimate_states(model, y, u, interval, integration)
+                             for y, u in arrays]
+    first = Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
+    try:
+        states = [estimate_states(model, y, u, interval, first) for y, u in arrays]
+    except IntegrationError:
+        if model.integrator != "auto":
+            raise
+        # stiff hidden dynamics: RK4 diverged where the L-stable method will not
+        first = Integration("rosenbrock")
+        states = [estimate_states(model, y, u, interval, first) for y, u in arrays]
+    x = np.concatenate([s.states for s in states])
+    u = np.concatenate([s.u for s in states])
+    finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
+    steps = np.concatenate([np.diff(s.states, axis=0) for s in states])
+    change = np.sqrt(np.nanmean(steps ** 2, axis=0))
+    integration = choose_integration(model, x[finite], u[finite], interval, change)
+    if integration != first and model.hidden_states:
+        states = [estimate_states(model, y, u, interval, integration) for y, u in arrays]
+    return integration, states
+
+
+def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
+                interval: float, integration: Integration) -> dict[str, LevelTier]:
+    """The level tier of every channel (:mod:`graybox.level_tier`) of ``windows`` sampled
     every ``interval`` seconds (the analysis interval: every ``factor``-th telemetry sample).
 
     A candidate uses its baseline's horizon and operating centre; a candidate of a baseline
     stored without the tier gets none.
     """
     baseline = request.baseline
-    states = request.model.states
+    outputs = request.model.outputs
     if baseline is None:
-        horizon, references = horizon_samples(interval), {name: None for name in states}
+        horizon, references = horizon_samples(interval), {name: None for name in outputs}
     else:
-        references = {name: baseline.channel(name).level for name in states}
+        references = {name: baseline.channel(name).level for name in outputs}
         if any(level is None for level in references.values()):
             return {}
         horizon = next(iter(references.values())).horizon
-    data = level_data(request.model, frames, interval, horizon, start_stride(interval))
+    data = level_data(request.model, windows, interval, horizon, start_stride(interval),
+                      integration)
     levels = {}
-    for name in states:
+    for name in outputs:
         try:
             levels[name] = fit_level(*data[name], horizon, references[name])
         except InsufficientDataError as error:
@@ -202,7 +249,7 @@ def _fit_levels(request: FitRequest, frames: Sequence[pd.DataFrame],
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
-                      frames: Sequence[pd.DataFrame], sample_interval: float,
+                      frames: Sequence[WindowStates], sample_interval: float,
                       shortest_window: int | None = None) -> float:
     """Seconds between the residual samples the tiers see (a candidate: its baseline's).
 
@@ -410,7 +457,8 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
                                          channel.level))
     return Signature(tuple(channels), ModelSpec.from_model(item.request.model), settings.residual,
                      item.sample_interval, channels[0].n_samples, settings, item.asset_id,
-                     item.window_start, item.window_end, analysis_interval=item.analysis_interval)
+                     item.window_start, item.window_end, analysis_interval=item.analysis_interval,
+                     integration=item.integration, hidden_starts=item.hidden_starts)
 
 
 def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,

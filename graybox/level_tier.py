@@ -32,7 +32,9 @@ import pandas as pd
 
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
-from graybox.rk4 import rk4_step
+from graybox.integration import Integration, advance
+from graybox.state_estimation import (WindowStates, check_prediction, estimate_states,
+                                      window_arrays)
 
 #: how far ahead the prediction runs, in seconds; several time constants of the shaft
 #: models (1 / gamma ~ 17 s), so the start's bias has decayed to rounding level
@@ -87,22 +89,26 @@ def start_stride(sample_interval: float) -> int:
 
 
 def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: float, k: int,
-                      substeps: int = 2, stride: int = 1) -> np.ndarray:
-    """Free-run prediction of every sample from the observed state ``k`` samples earlier.
+                      substeps: int = 2, stride: int = 1,
+                      integration: Integration | None = None) -> np.ndarray:
+    """Free-run prediction of every sample from the (full) state ``k`` samples earlier.
 
     Parameters
     ----------
     model : WhiteBoxModel
     x : ndarray of shape (T, n_states)
+        Full states: measured ones as read, hidden ones estimated.
     u : ndarray of shape (T, n_inputs)
     dt : float
         Sample interval in seconds.
     k : int
         Samples predicted ahead (``k = 1`` is the one-step prediction of Eqs. 2-3).
     substeps : int, default 2
-        RK4 steps per sample (inputs linear inside a sample).
+        RK4 steps per sample (when ``integration`` is not given; inputs linear inside a
+        sample).
     stride : int, default 1
         Predict only every ``stride``-th sample.
+    integration : Integration, optional
 
     Returns
     -------
@@ -113,22 +119,20 @@ def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: fl
     u = np.asarray(u, dtype=float).reshape(len(x), -1)
     if len(x) <= k:
         raise InsufficientDataError(f"a {k}-step prediction needs more than {k} samples")
+    integration = integration or Integration("rk4", substeps)
     n = len(x) - k
     state = x[:n:stride].copy()
-    h = dt / substeps
     for j in range(k):
-        u0, u1 = u[j:j + n:stride], u[j + 1:j + 1 + n:stride]
-        for step in range(substeps):
-            begin = step / substeps
-            state = rk4_step(model.derivatives, state, u0 + (u1 - u0) * begin,
-                             u0 + (u1 - u0) * (begin + 0.5 / substeps),
-                             u0 + (u1 - u0) * (begin + 1.0 / substeps), h)
+        state = advance(model.derivatives, state, u[j:j + n:stride], u[j + 1:j + 1 + n:stride],
+                        dt, integration)
     return state
 
 
-def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, k: int,
-               stride: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per state channel, the k-step errors and their operating features, pooled over
+def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFrame], dt: float,
+               k: int,
+               stride: int = 1, integration: Integration | None = None
+               ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per output channel, the k-step errors and their operating features, pooled over
     segments (a prediction never crosses a segment border); one prediction every
     ``stride`` samples.
 
@@ -138,19 +142,24 @@ def level_data(model: WhiteBoxModel, frames: Sequence[pd.DataFrame], dt: float, 
         ``errors`` of shape (N,), ``features`` of shape (N, 1 + n_inputs): the channel's
         prediction, then the inputs at the predicted sample.
     """
-    errors = {name: [] for name in model.states}
-    features = {name: [] for name in model.states}
-    for frame in frames:
-        x = frame.loc[:, list(model.state_columns)].to_numpy(dtype=float)
-        u = frame.loc[:, list(model.input_columns)].to_numpy(dtype=float).reshape(len(frame), -1)
-        if len(x) <= k:
+    errors = {name: [] for name in model.outputs}
+    features = {name: [] for name in model.outputs}
+    for window in windows:
+        if isinstance(window, pd.DataFrame):
+            window = estimate_states(model, *window_arrays(model, window), dt,
+                                     integration or Integration())
+        if len(window.y) <= k:
             continue
-        predicted = k_step_prediction(model, x, u, dt, k, stride=stride)
-        for i, name in enumerate(model.states):
-            errors[name].append(x[k::stride, i] - predicted[:, i])
-            features[name].append(np.column_stack([predicted[:, i], u[k::stride]]))
+        predicted = k_step_prediction(model, window.states, window.u, dt, k, stride=stride,
+                                      integration=integration)
+        measured = window.y[k::stride]
+        predicted = model.output(predicted, window.u[k::stride])
+        check_prediction(model, measured, predicted, f"{k}-step prediction")
+        for i, name in enumerate(model.outputs):
+            errors[name].append(measured[:, i] - predicted[:, i])
+            features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
     out = {}
-    for name in model.states:
+    for name in model.outputs:
         if not errors[name]:
             raise InsufficientDataError(f"channel {name!r}: no segment is longer than the "
                                         f"level tier's horizon of {k} samples")

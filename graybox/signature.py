@@ -10,6 +10,8 @@ import numpy as np
 
 from graybox import records
 from graybox.exceptions import ArtifactError
+from graybox.frozen_map import FrozenMap
+from graybox.integration import Integration
 from graybox.level_tier import LevelTier
 from graybox.linear_tier import LinearTier
 from graybox.models.spec import ModelSpec
@@ -111,6 +113,26 @@ class ChannelSignature:
 
 
 @dataclass(frozen=True)
+class HiddenStart:
+    """A segment's fitted initial hidden state (:mod:`graybox.state_estimation`).
+
+    Attributes
+    ----------
+    start : str
+        ISO timestamp of the segment's first sample.
+    values : FrozenMap of str to float
+        Hidden state name -> value.
+    """
+
+    start: str
+    values: FrozenMap[str, float]
+
+    def __post_init__(self):
+        if not isinstance(self.values, FrozenMap):
+            object.__setattr__(self, "values", FrozenMap(self.values))
+
+
+@dataclass(frozen=True)
 class Signature:
     """Every tier's parameters for every residual channel of one asset and window.
 
@@ -136,6 +158,11 @@ class Signature:
         Seconds between the residual samples the tiers saw (a whole multiple of
         ``sample_interval``, see :mod:`graybox.analysis_rate`); None for signatures stored
         before it existed, which were analysed at ``sample_interval``.
+    integration : Integration or None
+        How the white box was integrated over a sample (:mod:`graybox.integration`); None
+        for signatures stored before it was chosen (RK4, 2 sub-steps).
+    hidden_starts : tuple of HiddenStart or None
+        Each segment's fitted initial hidden state; None for a model without hidden states.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -149,6 +176,16 @@ class Signature:
     window_end: str | None = None
     format_version: int = FORMAT_VERSION
     analysis_interval: float | None = None
+    integration: Integration | None = None
+    hidden_starts: tuple[HiddenStart, ...] | None = None
+
+    #: written only when present, so signatures stored before them read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts"})
+
+    @property
+    def integration_used(self) -> Integration:
+        """The integrator of the residual (RK4 with 2 sub-steps for older signatures)."""
+        return self.integration or Integration()
 
     @property
     def analysis_step(self) -> float:
@@ -170,7 +207,7 @@ class Signature:
         """Everything a candidate must share with this signature to be compared with it."""
         return {"model": self.model.to_dict(), "residual_method": self.residual_method,
                 "sample_interval": self.sample_interval, "analysis_interval": self.analysis_step,
-                "settings": self.settings.to_dict(),
+                "settings": self.settings.to_dict(), "integration": asdict(self.integration_used),
                 "channels": {c.channel: asdict(c.structure) for c in self.channels}}
 
     def parameter_vector(self) -> tuple[list[str], np.ndarray]:

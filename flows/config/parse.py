@@ -252,7 +252,8 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
     model = check.string(f"{key}.model", table["model"])
     parameters = check.table(f"{key}.parameters", table.get("parameters", {}))
     for pname, value in parameters.items():
-        check.number(f"{key}.parameters.{pname}", value)
+        if not isinstance(value, Mapping):   # a table is checked by the model below
+            check.number(f"{key}.parameters.{pname}", value)
     columns = check.table(f"{key}.columns", table.get("columns", {}))
     for cname, value in columns.items():
         check.string(f"{key}.columns.{cname}", value)

@@ -1,8 +1,10 @@
 """The physics-model plugin contract (docs/design.md section 3.1).
 
 A vehicle class names its white-box model as ``package.module:ClassName``. A model declares
-its state and input variables and its default parameters as class attributes, and computes
-the derivatives ``dx/dt = f(x, u)`` over a whole window at once.
+its state, output and input variables and its default parameters as class attributes, and
+computes the derivatives ``dx/dt = f(x, u)`` and the outputs ``y = g(x, u)`` over a whole
+window at once. States that are not outputs are hidden: the residual estimates them from the
+data (:mod:`graybox.hidden_states`).
 """
 from __future__ import annotations
 
@@ -14,22 +16,39 @@ from typing import ClassVar, Mapping, Sequence
 import numpy as np
 
 from graybox.exceptions import ModelSpecError, TelemetryError
+from graybox.models.table import Table, as_table
 
 _SPEC = re.compile(r"^[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_]\w*$")
 _NAME = re.compile(r"^[A-Za-z_]\w*$")
+#: how a residual integrates the model over a sample (:mod:`graybox.integration`)
+INTEGRATORS = ("auto", "rk4", "rosenbrock")
 
 
 class WhiteBoxModel:
     """Base class of physics models used as the residual filter (the white box).
 
-    Subclasses declare three class attributes and implement :meth:`derivatives`:
+    Subclasses declare these class attributes and implement :meth:`derivatives`:
 
     ``states``
-        Names of the state variables, observed in telemetry (tuple of identifiers).
+        Names of the state variables (tuple of identifiers).
     ``inputs``
         Names of the known inputs, observed in telemetry (tuple of identifiers, may be empty).
     ``default_parameters``
-        Mapping of parameter name to float.
+        Mapping of parameter name to a float or a :class:`~graybox.models.table.Table` (a
+        curve, e.g. open-circuit voltage over state of charge).
+    ``outputs`` (optional)
+        Names of the telemetry channels the model predicts. An output named like a state is
+        that state, measured; the others are computed by :meth:`output`, which a model
+        declaring them implements (it may use the inputs: direct feed-through). States that
+        are not outputs are *hidden*: estimated from the data, never read from telemetry.
+        Left out, the outputs are the states (every state measured, the identity map).
+    ``integrator`` (optional)
+        ``"auto"`` (default: fixed-step RK4 where it is accurate, an exponential integrator
+        where the model is stiff at the telemetry's rate), ``"rk4"`` or ``"exponential"``
+        (:mod:`graybox.integration`).
+    ``initial_state`` (optional)
+        Typical values of hidden states, where the search for a window's initial hidden
+        state starts (default 0).
 
     A subclass meant only as a base for others is declared with ``abstract=True``
     (``class LinearStateSpace(WhiteBoxModel, abstract=True)``) and is not checked.
@@ -44,12 +63,20 @@ class WhiteBoxModel:
 
     states: ClassVar[tuple[str, ...]] = ()
     inputs: ClassVar[tuple[str, ...]] = ()
-    default_parameters: ClassVar[Mapping[str, float]] = {}
+    outputs: ClassVar[tuple[str, ...]] = ()
+    default_parameters: ClassVar[Mapping[str, float | Table]] = {}
+    integrator: ClassVar[str] = "auto"
+    initial_state: ClassVar[Mapping[str, float]] = {}
     _abstract: ClassVar[bool] = True
+    _identity_outputs: ClassVar[bool] = True
 
     def __init_subclass__(cls, abstract: bool = False, **kwargs):
         super().__init_subclass__(**kwargs)
         cls._abstract = abstract
+        if cls.__dict__.get("outputs"):
+            cls._identity_outputs = False
+        if cls._identity_outputs:
+            cls.outputs = cls.states
         if not abstract:
             _check_declarations(cls)
 
@@ -63,9 +90,11 @@ class WhiteBoxModel:
                 raise ModelSpecError(
                     f"{self.spec()}: unknown parameter {name!r}; "
                     f"known parameters: {', '.join(sorted(merged)) or '(none)'}")
-            merged[name] = _as_finite_float(value, f"{self.spec()}: parameter {name!r}")
-        self.parameters: dict[str, float] = merged
-        variables = self.states + self.inputs
+            what = f"{self.spec()}: parameter {name!r}"
+            merged[name] = (as_table(value, what) if isinstance(merged[name], Table)
+                            else _as_finite_float(value, what))
+        self.parameters: dict[str, float | Table] = merged
+        variables = self.outputs + self.inputs
         mapping = {name: name for name in variables}
         for name, column in (columns or {}).items():
             if name not in mapping:
@@ -100,6 +129,23 @@ class WhiteBoxModel:
         """
         raise NotImplementedError
 
+    def output(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Return the predicted outputs ``y = g(x, u)``.
+
+        The default returns the measured states (outputs named like states), which is all a
+        model without other outputs needs.
+
+        Parameters
+        ----------
+        x : ndarray of shape (T, len(states))
+        u : ndarray of shape (T, len(inputs))
+
+        Returns
+        -------
+        ndarray of shape (T, len(outputs))
+        """
+        return x[..., [self.states.index(name) for name in self.outputs]]
+
     def check_parameters(self) -> None:
         """Raise :class:`ModelSpecError` if the parameters are physically invalid (hook)."""
 
@@ -115,15 +161,23 @@ class WhiteBoxModel:
         if not models or any(type(m) is not cls for m in models):
             raise ModelSpecError(f"{cls.__name__}.stacked needs one or more {cls.__name__} models")
         stack = cls.__new__(cls)
-        stack.parameters = {name: np.array([m.parameters[name] for m in models])
-                            for name in models[0].parameters}
+        stack.parameters = {}
+        for name, value in models[0].parameters.items():
+            if isinstance(value, Table):
+                if any(m.parameters[name] != value for m in models):
+                    raise ModelSpecError(f"{cls.__name__}.stacked: the models' tables "
+                                         f"{name!r} differ; a stack shares its tables")
+                stack.parameters[name] = value
+            else:
+                stack.parameters[name] = np.array([m.parameters[name] for m in models])
         stack.columns = dict(models[0].columns)
         return stack
 
     def subset(self, which) -> "WhiteBoxModel":
         """The models selected by ``which`` (index or mask) of a :meth:`stacked` model."""
         sub = type(self).__new__(type(self))
-        sub.parameters = {name: value[which] for name, value in self.parameters.items()}
+        sub.parameters = {name: value if isinstance(value, Table) else value[which]
+                          for name, value in self.parameters.items()}
         sub.columns = dict(self.columns)
         return sub
 
@@ -134,9 +188,19 @@ class WhiteBoxModel:
         return f"{cls.__module__}:{cls.__qualname__}"
 
     @property
+    def hidden_states(self) -> tuple[str, ...]:
+        """States that are not outputs: estimated from the data, never read."""
+        return tuple(name for name in self.states if name not in self.outputs)
+
+    @property
     def state_columns(self) -> tuple[str, ...]:
-        """Telemetry columns of the states, in declaration order."""
-        return tuple(self.columns[name] for name in self.states)
+        """Telemetry columns of the measured states (states that are outputs), in state order."""
+        return tuple(self.columns[name] for name in self.states if name in self.outputs)
+
+    @property
+    def output_columns(self) -> tuple[str, ...]:
+        """Telemetry columns of the outputs (the channels), in declaration order."""
+        return tuple(self.columns[name] for name in self.outputs)
 
     @property
     def input_columns(self) -> tuple[str, ...]:
@@ -145,14 +209,14 @@ class WhiteBoxModel:
 
     @property
     def required_columns(self) -> tuple[str, ...]:
-        """Every telemetry column the model reads: states, then inputs."""
-        return self.state_columns + self.input_columns
+        """Every telemetry column the model reads: outputs, then inputs."""
+        return self.output_columns + self.input_columns
 
     def check_columns(self, available, asset_id: str = "?", file: str | None = None) -> None:
         """Raise :class:`TelemetryError` naming every required column missing from ``available``."""
         available = set(available)
         missing = [f"{self.columns[v]!r} (model variable {v!r})"
-                   for v in self.states + self.inputs if self.columns[v] not in available]
+                   for v in self.outputs + self.inputs if self.columns[v] not in available]
         if missing:
             raise TelemetryError(
                 asset_id, "schema",
@@ -161,8 +225,9 @@ class WhiteBoxModel:
 
     def to_dict(self) -> dict:
         """Spec, parameters and column map: enough to rebuild the model with :func:`load_model`."""
-        return {"spec": self.spec(), "parameters": dict(self.parameters),
-                "columns": dict(self.columns)}
+        parameters = {name: value.to_dict() if isinstance(value, Table) else value
+                      for name, value in self.parameters.items()}
+        return {"spec": self.spec(), "parameters": parameters, "columns": dict(self.columns)}
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(parameters={self.parameters!r})"
@@ -180,7 +245,7 @@ def _as_finite_float(value, what: str) -> float:
 
 def _check_declarations(cls) -> None:
     name = cls.__qualname__
-    for attribute in ("states", "inputs"):
+    for attribute in ("states", "inputs", "outputs"):
         value = getattr(cls, attribute)
         if not isinstance(value, tuple) or not all(isinstance(v, str) and _NAME.match(v) for v in value):
             raise ModelSpecError(f"{name}.{attribute} must be a tuple of identifiers, got {value!r}")
@@ -191,12 +256,23 @@ def _check_declarations(cls) -> None:
     overlap = set(cls.states) & set(cls.inputs)
     if overlap:
         raise ModelSpecError(f"{name}: {sorted(overlap)} declared both as state and input")
+    overlap = set(cls.outputs) & set(cls.inputs)
+    if overlap:
+        raise ModelSpecError(f"{name}: {sorted(overlap)} declared both as output and input")
+    computed = [o for o in cls.outputs if o not in cls.states]
+    if computed and cls.output is WhiteBoxModel.output:
+        raise ModelSpecError(f"{name}: outputs {computed} are not states; implement "
+                             f"output(x, u) to compute them")
+    if cls.integrator not in INTEGRATORS:
+        raise ModelSpecError(f"{name}.integrator must be one of {INTEGRATORS}, got "
+                             f"{cls.integrator!r}")
     if not isinstance(cls.default_parameters, Mapping):
         raise ModelSpecError(f"{name}.default_parameters must be a mapping of name to float")
     for key, value in cls.default_parameters.items():
         if not isinstance(key, str):
             raise ModelSpecError(f"{name}.default_parameters has a non-string key {key!r}")
-        _as_finite_float(value, f"{name}.default_parameters[{key!r}]")
+        if not isinstance(value, Table):
+            _as_finite_float(value, f"{name}.default_parameters[{key!r}]")
     if cls.derivatives is WhiteBoxModel.derivatives:
         raise ModelSpecError(f"{name} must implement derivatives(x, u)")
 

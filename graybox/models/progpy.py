@@ -210,6 +210,7 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
                     f"the value it is held at when not observed is the parameter "
                     f"'{HOLD_PREFIX}{name}'")
         self.states = observed
+        self.outputs = observed
         super().__init__(parameters, columns)
         overrides = {name: self.parameters[name] for name in self.progpy_parameters
                      if self.parameters[name] != self.default_parameters[name]}

@@ -16,6 +16,7 @@ from graybox import records
 from graybox.exceptions import ModelSpecError
 from graybox.frozen_map import FrozenMap
 from graybox.models.base import WhiteBoxModel, load_model
+from graybox.models.table import Table
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,7 @@ class ModelSpec:
     ----------
     spec : str
         ``package.module:ClassName``, e.g. ``"graybox.models.gas_turbine:LangevinShaft"``.
-    parameters : FrozenMap of str to float
+    parameters : FrozenMap of str to float or Table
         The model's parameters (all of them when made by :meth:`from_model`).
     columns : FrozenMap of str to str
         Model variable -> telemetry column.
@@ -42,7 +43,7 @@ class ModelSpec:
     """
 
     spec: str
-    parameters: FrozenMap[str, float] = FrozenMap()
+    parameters: FrozenMap[str, float | Table] = FrozenMap()
     columns: FrozenMap[str, str] = FrozenMap()
 
     def __post_init__(self):

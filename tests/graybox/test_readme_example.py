@@ -16,3 +16,20 @@ def test_readme_python_api_example_runs(tmp_path, monkeypatch, capsys):
     exec(compile(code, "README.md", "exec"), {})
     out = capsys.readouterr().out
     assert out.count("zeta=") == 4 and '"channels"' in out
+
+
+def test_readme_hidden_state_model_is_a_valid_white_box():
+    import numpy as np
+
+    section = README.read_text().split("### Hidden states, an output map", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    pack = namespace["Pack"]({"ocv": {"breakpoints": [0.0, 0.5, 1.0],
+                                      "values": [322.0, 371.0, 401.0]}},
+                             {"voltage": "pack_voltage", "current": "pack_current"})
+    assert pack.hidden_states == ("soc", "v1", "v2")
+    assert pack.required_columns == ("pack_voltage", "temp", "pack_current", "ambient")
+    x, u = np.array([[0.5, 0.0, 0.0, 25.0]]), np.array([[100.0, 20.0]])
+    assert pack.output(x, u)[0, 0] == 371.0 - 0.06 * 100.0
+    assert pack.derivatives(x, u).shape == (1, 4)

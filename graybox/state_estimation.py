@@ -1,0 +1,263 @@
+"""The white box's full state over a window: measured states read, hidden states estimated.
+
+A model whose states are all outputs (every state measured) needs nothing here: its state at
+every sample is the telemetry. A model with hidden states (a battery's state of charge and RC
+voltages) is run through the window as an open-loop predictor of them:
+
+1. **The window's initial hidden state** is fitted by least squares
+   (``scipy.optimize.least_squares``) over the window's first :data:`INITIAL_FIT_SECONDS`
+   (at least :data:`INITIAL_FIT_MIN_SAMPLES` samples): the hidden start that makes the model
+   reproduce the computed outputs (and the measured states' one-step changes) best, each
+   scaled by its spread. The model's ``initial_state`` gives the search's start.
+2. **From it the hidden states run through the window** by the model's own dynamics, the
+   measured states reset to the telemetry at every sample (so only the hidden part is
+   open-loop). Sequential in time, this is computed by multiple shooting: the window is cut
+   into chunks of :data:`CHUNK_SAMPLES` that are integrated side by side from guessed starts,
+   each with the sensitivity of its end to its start (forward differences), and the chunks'
+   starts are chained by one Newton step per pass (exact after one pass when the hidden
+   dynamics are affine in the hidden states, as an equivalent circuit's are), until every
+   chunk starts where the previous one ends.
+
+The estimate is the white box's own (no measurement update after the start): a hidden state's
+error grows with its model's error over the window, and the one-step residual, which takes
+differences of the outputs (:mod:`graybox.residual`), is insensitive to it to first order.
+The fitted initial hidden state is recorded with the signature.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from graybox.exceptions import InsufficientDataError
+from graybox.integration import Integration, IntegrationError, advance
+
+INITIAL_FIT_SECONDS = 900.0
+INITIAL_FIT_MIN_SAMPLES = 20
+CHUNK_SAMPLES = 600
+MAX_PASSES = 6
+#: chained chunk starts agree with their predecessors' ends to this fraction of the hidden
+#: state's scale
+CHAIN_TOLERANCE = 1e-6
+#: a prediction further than this many times the channel's range from the data diverges
+DIVERGENCE_RANGES = 100.0
+
+
+@dataclass
+class WindowStates:
+    """One segment's telemetry and the model's full state over it.
+
+    Attributes
+    ----------
+    y : ndarray (T, n_outputs)
+        Measured outputs, in the model's ``outputs`` order.
+    u : ndarray (T, n_inputs)
+    states : ndarray (T, n_states)
+        Measured states as read; hidden states estimated.
+    initial_hidden : dict of str to float
+        The fitted hidden state at the first sample (empty without hidden states).
+    """
+
+    y: np.ndarray
+    u: np.ndarray
+    states: np.ndarray
+    initial_hidden: dict
+
+    def decimated(self, factor: int) -> "WindowStates":
+        """Every ``factor``-th sample."""
+        return WindowStates(self.y[::factor], self.u[::factor], self.states[::factor],
+                            self.initial_hidden)
+
+
+def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Outputs (T, n_outputs) and inputs (T, n_inputs) of a telemetry frame.
+
+    Raises
+    ------
+    TelemetryError
+        Naming every column of the model the frame lacks.
+    """
+    model.check_columns(frame.columns)
+    y = frame.loc[:, list(model.output_columns)].to_numpy(dtype=float)
+    u = frame.loc[:, list(model.input_columns)].to_numpy(dtype=float).reshape(len(frame), -1)
+    return y, u
+
+
+def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
+                    integration: Integration) -> WindowStates:
+    """The full state over one segment (see the module docstring).
+
+    Raises
+    ------
+    InsufficientDataError
+        If the segment has fewer than 2 samples.
+    IntegrationError
+        If the hidden states' run diverges.
+    """
+    layout = _Layout(model)
+    states = np.zeros((len(y), len(model.states)))
+    states[:, layout.measured] = y[:, layout.measured_outputs]
+    if not layout.hidden.size:
+        return WindowStates(y, u, states, {})
+    if len(y) < 2:
+        raise InsufficientDataError("estimating hidden states needs at least 2 samples")
+    start = _initial_hidden(model, layout, y, u, dt, integration)
+    hidden = _run_hidden(model, layout, y, u, dt, integration, start)
+    states[:, layout.hidden] = hidden
+    if not np.all(np.isfinite(hidden)):
+        raise IntegrationError(f"{type(model).__name__}: the hidden states "
+                               f"{list(model.hidden_states)} are not finite over the window: "
+                               f"the model diverges from the start fitted to the data")
+    return WindowStates(y, u, states, dict(zip(model.hidden_states, map(float, start))))
+
+
+def predict_one_step(model, states: np.ndarray, u: np.ndarray, dt: float,
+                     integration: Integration) -> np.ndarray:
+    """Every sample's full state predicted from the estimated state one sample earlier:
+    (T - 1, n_states)."""
+    return advance(model.derivatives, states[:-1], u[:-1], u[1:], dt, integration)
+
+
+def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: str) -> None:
+    """Raise :class:`IntegrationError` if a predicted output of a finite measurement is not
+    finite, or lies more than :data:`DIVERGENCE_RANGES` times its channel's scale (its range
+    in the window, at least 1 % of its magnitude) from the data.
+
+    A gap in the telemetry (a missing sample or input) leaves its prediction missing, which is
+    not divergence; a prediction that is missing where its data is not, is.
+    """
+    with np.errstate(invalid="ignore", over="ignore"):
+        span = np.nanmax(measured, axis=0) - np.nanmin(measured, axis=0)
+        scale = np.maximum(np.maximum(span, 0.01 * np.nanmax(np.abs(measured), axis=0)), 1e-6)
+        distance = np.abs(predicted - measured) / scale
+        overflow = np.isinf(predicted) | (distance > DIVERGENCE_RANGES)
+    bad = np.isfinite(measured) & overflow
+    if bad.any():
+        channel = model.outputs[int(np.argmax(bad.sum(axis=0)))]
+        raise IntegrationError(
+            f"{type(model).__name__}: the {what} of channel {channel!r} diverges "
+            f"({int(bad.sum())} predictions are infinite or lie more than "
+            f"{DIVERGENCE_RANGES:g} times the channel's range from the data). Check the "
+            f"model's signs and units; a stiff model declares integrator = \"rosenbrock\"")
+
+
+class _Layout:
+    """Where the measured and hidden states sit in the state vector."""
+
+    def __init__(self, model):
+        self.measured = np.array([i for i, s in enumerate(model.states) if s in model.outputs],
+                                 dtype=int)
+        self.measured_outputs = np.array([model.outputs.index(model.states[i])
+                                          for i in self.measured], dtype=int)
+        self.hidden = np.array([i for i, s in enumerate(model.states) if s not in model.outputs],
+                               dtype=int)
+        self.computed_outputs = np.array([j for j, o in enumerate(model.outputs)
+                                          if o not in model.states], dtype=int)
+        self.guess = np.array([float(model.initial_state.get(model.states[i], 0.0))
+                               for i in self.hidden])
+        self.n_states = len(model.states)
+
+
+def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
+         first: np.ndarray, length: int) -> np.ndarray:
+    """Hidden states of runs ``b`` from sample ``first[b]`` for ``length`` steps, the measured
+    states reset to the telemetry at each sample: (B, length + 1, n_hidden). Runs past the
+    window's end repeat its last sample."""
+    last = len(y) - 1
+    out = np.empty((len(starts), length + 1, len(layout.hidden)))
+    out[:, 0] = starts
+    full = np.zeros((len(starts), layout.n_states))
+    hidden = starts
+    for j in range(length):
+        now = np.minimum(first + j, last)
+        after = np.minimum(first + j + 1, last)
+        full[:, layout.measured] = y[now][:, layout.measured_outputs]
+        full[:, layout.hidden] = hidden
+        step = advance(model.derivatives, full, u[now], u[after], dt, integration)
+        hidden = np.where((first + j < last)[:, None], step[:, layout.hidden], hidden)
+        out[:, j + 1] = hidden
+    return out
+
+
+def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray:
+    n = min(len(y), max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt))))
+    part_y, part_u = y[:n], u[:n]
+    computed = part_y[:, layout.computed_outputs]
+    measured = part_y[:, layout.measured_outputs]
+    out_scale = np.maximum(np.std(computed, axis=0), 1e-6 * np.maximum(1, np.abs(computed).max(axis=0, initial=0)))
+    change = np.diff(measured, axis=0)
+    step_scale = np.maximum(np.std(change, axis=0), 1e-9) if len(change) else np.ones(0)
+    scale = np.maximum(1.0, np.abs(layout.guess))
+    cache = {}
+
+    def errors(batch: np.ndarray) -> np.ndarray:
+        hidden = _run(model, layout, part_y, part_u, dt, integration, batch,
+                      np.zeros(len(batch), dtype=int), n - 1)
+        full = np.zeros(hidden.shape[:2] + (layout.n_states,))
+        full[..., layout.measured] = measured[None]
+        full[..., layout.hidden] = hidden
+        parts = []
+        if layout.computed_outputs.size:
+            predicted = model.output(full.reshape(-1, layout.n_states),
+                                     np.tile(part_u, (len(batch), 1)))
+            predicted = predicted.reshape(len(batch), n, -1)[..., layout.computed_outputs]
+            parts.append(((computed[None] - predicted) / out_scale).reshape(len(batch), -1))
+        if layout.measured.size and n > 1:
+            onestep = advance(model.derivatives, full[:, :-1].reshape(-1, layout.n_states),
+                              np.tile(part_u[:-1], (len(batch), 1)),
+                              np.tile(part_u[1:], (len(batch), 1)), dt, integration)
+            onestep = onestep.reshape(len(batch), n - 1, -1)[..., layout.measured]
+            parts.append(((measured[None, 1:] - onestep) / step_scale).reshape(len(batch), -1))
+        return np.concatenate(parts, axis=1)
+
+    def evaluate(z):
+        key = z.tobytes()
+        if key not in cache:
+            delta = 1e-6 * scale
+            batch = np.vstack([z, z + np.diag(delta)])
+            e = errors(batch)
+            e = np.where(np.isfinite(e), e, 1e6)
+            cache.clear()
+            cache[key] = (e[0], ((e[1:] - e[0]) / delta[:, None]).T)
+        return cache[key]
+
+    fit = least_squares(lambda z: evaluate(z)[0], layout.guess, jac=lambda z: evaluate(z)[1],
+                        x_scale=scale, max_nfev=50)
+    return fit.x
+
+
+def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray) -> np.ndarray:
+    """The hidden states at every sample, started from ``start`` (multiple shooting)."""
+    total = len(y)
+    length = min(CHUNK_SAMPLES, total - 1)
+    firsts = np.arange(0, total - 1, length)
+    n_hidden = len(layout.hidden)
+    scale = np.maximum(1.0, np.abs(start))
+    delta = 1e-4 * scale
+    guesses = np.repeat(start[None], len(firsts), axis=0)
+    for _ in range(MAX_PASSES):
+        batch = np.concatenate([guesses] + [guesses + delta[i] * np.eye(n_hidden)[i]
+                                            for i in range(n_hidden)])
+        runs = _run(model, layout, y, u, dt, integration, batch,
+                    np.tile(firsts, n_hidden + 1), length)
+        base = runs[:len(firsts)]
+        ends = base[:, -1]
+        sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
+                                / delta[i] for i in range(n_hidden)], axis=-1)
+        chained = guesses.copy()
+        chained[0] = start
+        for c in range(1, len(firsts)):
+            chained[c] = ends[c - 1] + sensitivity[c - 1] @ (chained[c - 1] - guesses[c - 1])
+        mismatch = np.max(np.abs(chained - guesses) / scale)
+        if mismatch <= CHAIN_TOLERANCE:
+            break
+        if not np.isfinite(mismatch):
+            break
+        guesses = chained
+    hidden = np.empty((total, n_hidden))
+    for c, first in enumerate(firsts):
+        stop = min(first + length, total - 1)
+        hidden[first:stop + 1] = base[c, :stop - first + 1]
+    return hidden

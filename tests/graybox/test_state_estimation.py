@@ -1,0 +1,127 @@
+"""Known answers of the extended white-box contract: a hidden state, an output map with a
+table and feed-through, a stiff state, a diverging model."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.signal import cont2discrete, dlsim
+
+from graybox.integration import Integration, IntegrationError, advance, choose_integration
+from graybox.residual import residual_frame
+from graybox.state_estimation import estimate_states, window_arrays
+
+from contract_models import Armature, HiddenCharge, WrongSign
+
+DT = 1.0
+
+
+def _current(n: int, rng) -> np.ndarray:
+    """A drive-like current: slow random steps and a wander, A."""
+    steps = np.repeat(rng.uniform(-20, 25, n // 120 + 1), 120)[:n]
+    return steps + np.cumsum(rng.normal(0, 0.3, n)) * 0.1
+
+
+def _simulate_hidden(n: int, seed: int, q0: float, temp0: float):
+    """The model's own trajectory (fine RK4, no process noise) and its noisy outputs."""
+    model = HiddenCharge()
+    rng = np.random.default_rng(seed)
+    current = _current(n, rng)[:, None]
+    x = np.empty((n, 2))
+    x[0] = q0, temp0
+    fine = Integration("rk4", 16)
+    for t in range(1, n):
+        x[t] = advance(model.derivatives, x[t - 1:t], current[t - 1:t], current[t:t + 1], DT,
+                       fine)[0]
+    clean = model.output(x, current)
+    noise = np.array([0.002, 0.05])
+    index = pd.date_range("2026-01-01", periods=n, freq="1s", tz="UTC")
+    frame = pd.DataFrame({"voltage": clean[:, 0] + rng.normal(0, noise[0], n),
+                          "temp": clean[:, 1] + rng.normal(0, noise[1], n),
+                          "current": current[:, 0]}, index=index)
+    return model, frame, x, noise
+
+
+def test_a_hidden_state_is_estimated_and_the_output_residual_is_the_measurement_noise():
+    model, frame, truth, noise = _simulate_hidden(4000, 1, q0=0.62, temp0=40.0)
+    assert model.hidden_states == ("q",)
+    window = estimate_states(model, *window_arrays(model, frame), DT, Integration("rosenbrock"))
+    # the least-squares start over the first 15 minutes, then the model's own run
+    assert window.initial_hidden["q"] == pytest.approx(0.62, abs=0.005)
+    np.testing.assert_allclose(window.states[:, 0], truth[:, 0], atol=0.005)
+    residual = residual_frame(model, frame, integration=Integration("rosenbrock"), window=window)
+    assert list(residual.columns) == ["voltage", "temp"]
+    # differenced white noise: variance 2 sigma^2 and lag-1 correlation -1/2, to the
+    # precision of 4,000 samples (the standard deviation's relative error ~ 1.1 %)
+    for name, sigma in zip(residual.columns, noise):
+        r = residual[name].to_numpy()
+        assert r.std() == pytest.approx(np.sqrt(2) * sigma, rel=0.05), name
+        assert np.corrcoef(r[1:], r[:-1])[0, 1] == pytest.approx(-0.5, abs=0.05), name
+
+
+def test_the_feed_through_is_what_the_residual_explains():
+    # without its ohmic term, the voltage residual is dominated by r * delta current
+    model, frame, _, noise = _simulate_hidden(2000, 2, q0=0.4, temp0=30.0)
+    right = residual_frame(model, frame, integration=Integration("rosenbrock"))["voltage"]
+    wrong = residual_frame(HiddenCharge({"r": 0.0}), frame,
+                           integration=Integration("rosenbrock"))["voltage"]
+    assert right.std() < 1.1 * np.sqrt(2) * noise[0] < 0.1 * wrong.std()
+
+
+def test_a_table_parameter_is_overridden_and_round_trips():
+    from graybox.models.spec import ModelSpec
+    from graybox.models.table import Table
+
+    model = HiddenCharge({"curve": {"breakpoints": [0, 1], "values": [3.0, 4.0]}})
+    assert model.parameters["curve"] == Table((0.0, 1.0), (3.0, 4.0))
+    assert float(model.output(np.array([[0.25, 20.0]]), np.array([[0.0]]))[0, 0]) == 3.25
+    spec = ModelSpec.from_model(model)
+    assert ModelSpec.from_dict(spec.to_dict()) == spec
+    assert spec.load().parameters["curve"] == model.parameters["curve"]
+    with pytest.raises(Exception, match="breakpoints must increase"):
+        HiddenCharge({"curve": {"breakpoints": [1, 0], "values": [3.0, 4.0]}})
+    with pytest.raises(Exception, match="is a table"):
+        HiddenCharge({"curve": 3.0})
+
+
+def _armature_frame(n: int, seed: int, noise=(0.5, 0.01)):
+    """The armature's exact response (first-order-hold discretisation) to a random voltage."""
+    model = Armature()
+    a, b = model.matrices()
+    discrete = cont2discrete((a, b, np.eye(2), np.zeros((2, 1))), DT, method="foh")
+    rng = np.random.default_rng(seed)
+    v = 100 + np.cumsum(rng.normal(0, 1.0, n))
+    _, y, _ = dlsim(discrete, v[:, None], x0=[0.0, 190.0])
+    index = pd.date_range("2026-01-01", periods=n, freq="1s", tz="UTC")
+    return model, pd.DataFrame({"i": y[:, 0] + rng.normal(0, noise[0], n),
+                                "w": y[:, 1] + rng.normal(0, noise[1], n), "v": v}, index=index)
+
+
+def test_a_stiff_armature_at_1_hz_is_integrated_by_rosenbrock_to_its_sensor_noise():
+    model, frame = _armature_frame(3000, 3)
+    window = estimate_states(model, *window_arrays(model, frame), DT, Integration())
+    change = np.sqrt(np.mean(np.diff(window.states, axis=0) ** 2, axis=0))
+    chosen = choose_integration(model, window.states, window.u, DT, change)
+    assert chosen.method == "rosenbrock"
+    residual = residual_frame(model, frame, integration=chosen)
+    # i relaxes within the sample (6 ms): its residual is its own noise plus the speed noise
+    # through the back-EMF, k / R * 0.01 = 0.1 A. With i quasi-static the speed settles at
+    # (k^2 / R + b) / J = 2.7 /s, so its prediction forgets the noise of its start (e^-2.7):
+    # its residual is its own sensor noise, 0.01 rad/s
+    assert residual["i"].std() == pytest.approx(np.hypot(0.5, 0.1), rel=0.06)
+    assert residual["w"].std() == pytest.approx(0.01 * np.sqrt(1 + np.exp(-5.4)), rel=0.1)
+    # fixed-step RK4 with 2 steps a second diverges on it, and says so
+    with pytest.raises(IntegrationError, match="diverges"):
+        residual_frame(model, frame, integration=Integration("rk4", 2))
+
+
+def test_a_wrong_sign_fails_loudly_naming_the_model_and_the_state():
+    rng = np.random.default_rng(4)
+    index = pd.date_range("2026-01-01", periods=600, freq="1s", tz="UTC")
+    u = 10 + rng.normal(0, 1, 600)
+    frame = pd.DataFrame({"x": u + rng.normal(0, 0.1, 600), "u": u}, index=index)
+    model = WrongSign()
+    window = estimate_states(model, *window_arrays(model, frame), DT, Integration())
+    change = np.sqrt(np.mean(np.diff(window.states, axis=0) ** 2, axis=0))
+    with pytest.raises(IntegrationError, match=r"WrongSign: state 'x'.*signs"):
+        choose_integration(model, window.states, window.u, DT, change)
