@@ -179,10 +179,9 @@ def residual_frame(model: WhiteBoxModel, frame: pd.DataFrame, method: ResidualMe
     """
     if method not in RESIDUAL_METHODS:
         raise ValueError(f"residual method must be one of {RESIDUAL_METHODS}, got {method!r}")
-    model.check_columns(frame.columns)
     if sample_interval is None:
         sample_interval = infer_sample_interval(frame.index)
-    if window is None:
+    if window is None:   # window_arrays checks the frame's columns
         window = estimate_states(model, *window_arrays(model, frame), sample_interval, integration)
     if method == "one_step":
         values = output_residual(model, window, sample_interval, integration)

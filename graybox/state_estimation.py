@@ -251,9 +251,7 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
         for c in range(1, len(firsts)):
             chained[c] = ends[c - 1] + sensitivity[c - 1] @ (chained[c - 1] - guesses[c - 1])
         mismatch = np.max(np.abs(chained - guesses) / scale)
-        if mismatch <= CHAIN_TOLERANCE:
-            break
-        if not np.isfinite(mismatch):
+        if not mismatch > CHAIN_TOLERANCE:   # chained, or diverged (NaN): stop either way
             break
         guesses = chained
     hidden = np.empty((total, n_hidden))

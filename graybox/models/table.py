@@ -54,14 +54,6 @@ class Table:
         """The curve at ``x`` (any array shape)."""
         return np.interp(x, self.breakpoints, self.values)
 
-    def slope(self, x):
-        """``dy/dx`` at ``x`` (the slope of the segment ``x`` lies in; 0 beyond the ends)."""
-        x = np.asarray(x, dtype=float)
-        slopes = np.diff(self.values) / np.diff(self.breakpoints)
-        segment = np.clip(np.searchsorted(self.breakpoints, x, side="right") - 1, 0, len(slopes) - 1)
-        inside = (x >= self.breakpoints[0]) & (x <= self.breakpoints[-1])
-        return np.where(inside, slopes[segment], 0.0)
-
     def to_dict(self) -> dict:
         """``{"breakpoints": [...], "values": [...]}``, as fleet.toml and records write it."""
         return {"breakpoints": list(self.breakpoints), "values": list(self.values)}
