@@ -63,6 +63,7 @@ from graybox.fleet_fit import FitRequest, fit_signatures, window_periods
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock
+from graybox.state_cache import StateCache
 from graybox.tiers import TIER_KINDS, TIERS
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
@@ -226,7 +227,9 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
     settings = settings or GrayBoxSettings()
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
-    signatures = fit_signatures(fresh, settings, chunk_size, clock)
+    # every window is fitted several times below; its hidden states are estimated once
+    cache = StateCache()
+    signatures = fit_signatures(fresh, settings, chunk_size, clock, cache)
     results: list = list(signatures)
     jobs = []  # (position, baseline signature, number of windows)
     for position, (request, signature) in enumerate(zip(fresh, signatures)):
@@ -242,7 +245,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     rest_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
                              baseline=sig)
                      for p, sig, count in jobs for k in range(count)]
-    rests = fit_signatures(rest_requests, settings, chunk_size, clock)
+    rests = fit_signatures(rest_requests, settings, chunk_size, clock, cache)
     # ...and the left-out window's pieces are fitted as nightly candidates of that refit, and
     # so is the whole window (a healthy night with its own day's conditions)
     requests, owners = [], []
@@ -258,7 +261,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             for piece in _merge_short(pieces, sig, settings) + [window]:
                 requests.append(replace(fresh[p], windows=[piece], baseline=sig, warm_start=warm))
                 owners.append((p, first + k, piece is window))
-    fitted = fit_signatures(requests, settings, chunk_size, clock)
+    fitted = fit_signatures(requests, settings, chunk_size, clock, cache)
     pairs: dict[int, list] = {p: [] for p, _, _ in jobs}
     days: dict[int, list] = {p: [] for p, _, _ in jobs}
     for (p, rest_index, whole), candidate in zip(owners, fitted):

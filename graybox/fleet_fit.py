@@ -34,7 +34,8 @@ from graybox.settings import GrayBoxSettings
 from graybox.signature import (ChannelSignature, ChannelStructure, HiddenStart, Selection,
                                Signature)
 from graybox.stage_clock import StageClock, timed
-from graybox.state_estimation import WindowStates, estimate_states, window_arrays
+from graybox.state_cache import StateCache
+from graybox.state_estimation import WindowStates, window_arrays
 from graybox.stationarize import choose_differencing
 
 
@@ -137,7 +138,7 @@ def _operating_segments(parts, settings: GrayBoxSettings, interval: float
 
 
 def _prepare(request: FitRequest, settings: GrayBoxSettings,
-             clock: StageClock | None = None) -> _Prepared:
+             clock: StageClock | None = None, cache: StateCache | None = None) -> _Prepared:
     if not request.windows:
         raise InsufficientDataError("no telemetry windows to fit")
     parts = [_window_parts(w) for w in request.windows]
@@ -154,7 +155,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
     frames, owners = _operating_segments(parts, settings, interval)
     model = request.model
     with timed(clock, "residual"):
-        integration, states = _integrate(request, frames, interval)
+        integration, states = _integrate(request, frames, interval, cache or StateCache())
         analysis = analysis_interval(request, settings, states, interval,
                                      int(_per_window([len(f) for f in frames], owners).min()))
         factor = decimation_factor(analysis, interval)
@@ -185,8 +186,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
     return prepared
 
 
-def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float
-               ) -> tuple[Integration, list[WindowStates]]:
+def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
+               cache: StateCache) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
 
     A new baseline's integrator is chosen at the data's own states
@@ -198,17 +199,17 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
     arrays = [window_arrays(model, frame) for frame in frames]
     if request.baseline is not None:
         integration = request.baseline.integration_used
-        return integration, [estimate_states(model, y, u, interval, integration)
+        return integration, [cache.estimate(model, y, u, interval, integration)
                              for y, u in arrays]
     first = Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
     try:
-        states = [estimate_states(model, y, u, interval, first) for y, u in arrays]
+        states = [cache.estimate(model, y, u, interval, first) for y, u in arrays]
     except IntegrationError:
         if model.integrator != "auto":
             raise
         # stiff hidden dynamics: RK4 diverged where the L-stable method will not
         first = Integration("rosenbrock")
-        states = [estimate_states(model, y, u, interval, first) for y, u in arrays]
+        states = [cache.estimate(model, y, u, interval, first) for y, u in arrays]
     x = np.concatenate([s.states for s in states])
     u = np.concatenate([s.u for s in states])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
@@ -216,7 +217,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
     change = np.sqrt(np.nanmean(steps ** 2, axis=0))
     integration = choose_integration(model, x[finite], u[finite], interval, change)
     if integration != first and model.hidden_states:
-        states = [estimate_states(model, y, u, interval, integration) for y, u in arrays]
+        states = [cache.estimate(model, y, u, interval, integration) for y, u in arrays]
     return integration, states
 
 
@@ -462,8 +463,8 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
 
 
 def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
-                   chunk_size: int = 32, clock: StageClock | None = None
-                   ) -> list[Signature | GrayBoxError]:
+                   chunk_size: int = 32, clock: StageClock | None = None,
+                   cache: StateCache | None = None) -> list[Signature | GrayBoxError]:
     """Fit many assets' signatures; all networks of a shape train in batched computations.
 
     Parameters
@@ -479,6 +480,8 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     clock : StageClock, optional
         Accumulates the seconds of the stages ``residual``, ``stationarize_ar``, ``network``
         and ``noise``.
+    cache : StateCache, optional
+        Hidden-state estimates of segments fitted before (by a calibration's earlier fits).
 
     Returns
     -------
@@ -497,18 +500,20 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     with threadpool_limits(limits=1):
         for effective, positions in groups.items():
             for position, result in zip(positions, _fit_group([requests[p] for p in positions],
-                                                              effective, chunk_size, clock)):
+                                                              effective, chunk_size, clock,
+                                                              cache)):
                 results[position] = result
     return results
 
 
 def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
-               chunk_size: int, clock: StageClock | None) -> list[Signature | GrayBoxError]:
+               chunk_size: int, clock: StageClock | None, cache: StateCache | None
+               ) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     prepared, positions = [], []
     for position, request in enumerate(requests):
         try:
-            prepared.append(_prepare(request, settings, clock))
+            prepared.append(_prepare(request, settings, clock, cache))
             positions.append(position)
         except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
             results[position] = _as_graybox_error(error, request)

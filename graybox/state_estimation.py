@@ -58,17 +58,21 @@ class WindowStates:
         Measured states as read; hidden states estimated.
     initial_hidden : dict of str to float
         The fitted hidden state at the first sample (empty without hidden states).
+    chunk_starts : ndarray (n_chunks, n_hidden), optional
+        The chained hidden states at the multiple-shooting chunks' first samples: the run
+        again from them is the same estimate (:class:`graybox.state_cache.StateCache`).
     """
 
     y: np.ndarray
     u: np.ndarray
     states: np.ndarray
     initial_hidden: dict
+    chunk_starts: np.ndarray | None = None
 
     def decimated(self, factor: int) -> "WindowStates":
         """Every ``factor``-th sample."""
         return WindowStates(self.y[::factor], self.u[::factor], self.states[::factor],
-                            self.initial_hidden)
+                            self.initial_hidden, self.chunk_starts)
 
 
 def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -86,8 +90,12 @@ def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
-                    integration: Integration) -> WindowStates:
+                    integration: Integration, chunk_starts: np.ndarray | None = None
+                    ) -> WindowStates:
     """The full state over one segment (see the module docstring).
+
+    ``chunk_starts``, an earlier estimate's of the same data, model and integration, skips
+    the fit and the chaining: the hidden states are run once from them.
 
     Raises
     ------
@@ -103,14 +111,19 @@ def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
         return WindowStates(y, u, states, {})
     if len(y) < 2:
         raise InsufficientDataError("estimating hidden states needs at least 2 samples")
-    start = _initial_hidden(model, layout, y, u, dt, integration)
-    hidden = _run_hidden(model, layout, y, u, dt, integration, start)
+    if chunk_starts is None:
+        start = _initial_hidden(model, layout, y, u, dt, integration)
+        hidden, chunk_starts = _run_hidden(model, layout, y, u, dt, integration, start)
+    else:
+        start = chunk_starts[0]
+        hidden = _run_chunks(model, layout, y, u, dt, integration, chunk_starts)
     states[:, layout.hidden] = hidden
     if not np.all(np.isfinite(hidden)):
         raise IntegrationError(f"{type(model).__name__}: the hidden states "
                                f"{list(model.hidden_states)} are not finite over the window: "
                                f"the model diverges from the start fitted to the data")
-    return WindowStates(y, u, states, dict(zip(model.hidden_states, map(float, start))))
+    return WindowStates(y, u, states, dict(zip(model.hidden_states, map(float, start))),
+                        chunk_starts)
 
 
 def predict_one_step(model, states: np.ndarray, u: np.ndarray, dt: float,
@@ -228,11 +241,35 @@ def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray
     return fit.x
 
 
-def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray) -> np.ndarray:
-    """The hidden states at every sample, started from ``start`` (multiple shooting)."""
-    total = len(y)
+def _chunks(total: int) -> tuple[np.ndarray, int]:
+    """The multiple-shooting chunks' first samples and their length."""
     length = min(CHUNK_SAMPLES, total - 1)
-    firsts = np.arange(0, total - 1, length)
+    return np.arange(0, total - 1, length), length
+
+
+def _joined(runs: np.ndarray, firsts: np.ndarray, length: int, total: int) -> np.ndarray:
+    """The chunks' runs (n_chunks, length + 1, n_hidden) as one (total, n_hidden)."""
+    hidden = np.empty((total, runs.shape[-1]))
+    for c, first in enumerate(firsts):
+        stop = min(first + length, total - 1)
+        hidden[first:stop + 1] = runs[c, :stop - first + 1]
+    return hidden
+
+
+def _run_chunks(model, layout: _Layout, y, u, dt, integration,
+                chunk_starts: np.ndarray) -> np.ndarray:
+    """The hidden states at every sample, each chunk run from its given start."""
+    firsts, length = _chunks(len(y))
+    runs = _run(model, layout, y, u, dt, integration, chunk_starts, firsts, length)
+    return _joined(runs, firsts, length, len(y))
+
+
+def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The hidden states at every sample, started from ``start`` (multiple shooting), and
+    the chunks' chained starts."""
+    total = len(y)
+    firsts, length = _chunks(total)
     n_hidden = len(layout.hidden)
     scale = np.maximum(1.0, np.abs(start))
     delta = 1e-4 * scale
@@ -242,7 +279,7 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
                                             for i in range(n_hidden)])
         runs = _run(model, layout, y, u, dt, integration, batch,
                     np.tile(firsts, n_hidden + 1), length)
-        base = runs[:len(firsts)]
+        base, used = runs[:len(firsts)], guesses
         ends = base[:, -1]
         sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
                                 / delta[i] for i in range(n_hidden)], axis=-1)
@@ -254,8 +291,4 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
         if not mismatch > CHAIN_TOLERANCE:   # chained, or diverged (NaN): stop either way
             break
         guesses = chained
-    hidden = np.empty((total, n_hidden))
-    for c, first in enumerate(firsts):
-        stop = min(first + length, total - 1)
-        hidden[first:stop + 1] = base[c, :stop - first + 1]
-    return hidden
+    return _joined(base, firsts, length, total), used
