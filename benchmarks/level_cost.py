@@ -23,7 +23,7 @@ def main() -> None:
         step = choose_analysis_interval(model, [frame], dt)
         k = horizon_samples(step)
         start = time.perf_counter()
-        errors, features = level_data(model, [frame.iloc[::round(step / dt)]], step, k,
+        errors, features, _ = level_data(model, [frame.iloc[::round(step / dt)]], step, k,
                                       start_stride(step))["omega"]
         fit_level(errors, features, k)
         level = time.perf_counter() - start

@@ -59,6 +59,11 @@ class TierDrift:
     ``parameter_zeta`` is the sum of the squared parameter changes where the alarm measure is
     not (the nonlinear tier: ``zeta`` is its change in function space, ``parameter_zeta``
     Eq. 28 on the weights, recorded and shown); None elsewhere.
+
+    ``outside`` is set where the candidate lies outside the baseline's operating range and
+    the tier discounted its change for that (the level tier, above 1: the night's
+    operating-condition correction over the largest of a baseline day's, see
+    :func:`graybox.level_tier.extrapolation`); None elsewhere.
     """
 
     channel: str
@@ -67,6 +72,7 @@ class TierDrift:
     epsilon: float | None
     top_changes: tuple[ParameterChange, ...]
     parameter_zeta: float | None = None
+    outside: float | None = None
 
     @property
     def ratio(self) -> float | None:
@@ -84,10 +90,12 @@ class TierDrift:
     def from_dict(cls, data: dict) -> "TierDrift":
         """The entry of :meth:`Drift.to_dict` (or its JSON); other keys are ignored."""
         epsilon, parameter_zeta = data.get("epsilon"), data.get("parameter_zeta")
+        outside = data.get("outside")
         return cls(str(data["channel"]), str(data["tier"]), float(data["zeta"]),
                    None if epsilon is None else float(epsilon),
                    tuple(ParameterChange.from_dict(c) for c in data.get("top_changes", ())),
-                   None if parameter_zeta is None else float(parameter_zeta))
+                   None if parameter_zeta is None else float(parameter_zeta),
+                   None if outside is None else float(outside))
 
 
 @dataclass(frozen=True)
@@ -174,6 +182,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             epsilon = (None if calibration is None else
                        calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples,
                                            baseline_samples=healthy.n_samples))
+            outside = kind.outside(channel, healthy)
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
-                                     None if parameter_zeta == zeta else parameter_zeta))
+                                     None if parameter_zeta == zeta else parameter_zeta,
+                                     outside if outside is not None and outside > 1 else None))
     return Drift(tuple(entries), candidate.n_samples)

@@ -169,7 +169,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
         # the level tier at the analysis interval too: a 1-Hz window costs several times fewer
         # integration steps and loses nothing (the level moves far slower than a sample)
         levels = _fit_levels(request, [segment.decimated(factor) for segment in states],
-                             analysis, integration)
+                             analysis, integration, owners)
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
     hidden = (tuple(HiddenStart(frame.index[0].isoformat(), segment.initial_hidden)
@@ -222,9 +222,11 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
 
 
 def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
-                interval: float, integration: Integration) -> dict[str, LevelTier]:
+                interval: float, integration: Integration, owners: Sequence[int]
+                ) -> dict[str, LevelTier]:
     """The level tier of every channel (:mod:`graybox.level_tier`) of ``windows`` sampled
-    every ``interval`` seconds (the analysis interval: every ``factor``-th telemetry sample).
+    every ``interval`` seconds (the analysis interval: every ``factor``-th telemetry sample);
+    ``owners`` the telemetry window of each segment.
 
     A candidate uses its baseline's horizon and operating centre; a candidate of a baseline
     stored without the tier gets none.
@@ -243,7 +245,9 @@ def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
     levels = {}
     for name in outputs:
         try:
-            levels[name] = fit_level(*data[name], horizon, references[name])
+            errors, features, segments = data[name]
+            levels[name] = fit_level(errors, features, horizon, references[name],
+                                     np.asarray(owners)[segments])
         except InsufficientDataError as error:
             raise InsufficientDataError(f"channel {name!r}: level tier: {error}") from None
     return levels

@@ -25,7 +25,7 @@ small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 import pandas as pd
@@ -67,6 +67,13 @@ class LevelTier:
         ``k``, in telemetry samples.
     n_obs : int
         Error samples the fit used.
+    operating_point : tuple of float, optional
+        The fit's own feature means (a candidate's: its night's operating point).
+    reach : float, optional
+        A baseline's largest operating-condition correction of one of its windows: the norm
+        of the inputs' ``slopes * (window's feature means - center)``, in the channel's units
+        (see :func:`correction` and :func:`extrapolation`). None for candidates and records
+        stored before it.
     """
 
     level: float
@@ -75,6 +82,10 @@ class LevelTier:
     residual_std: float
     horizon: int
     n_obs: int
+    operating_point: tuple[float, ...] | None = None
+    reach: float | None = None
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -138,13 +149,15 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
 
     Returns
     -------
-    dict of str to (errors, features)
+    dict of str to (errors, features, segments)
         ``errors`` of shape (N,), ``features`` of shape (N, 1 + n_inputs): the channel's
-        prediction, then the inputs at the predicted sample.
+        prediction, then the inputs at the predicted sample; ``segments`` (N,): the position
+        in ``windows`` each sample comes from.
     """
     errors = {name: [] for name in model.outputs}
     features = {name: [] for name in model.outputs}
-    for window in windows:
+    segments = []
+    for position, window in enumerate(windows):
         if isinstance(window, pd.DataFrame):
             window = estimate_states(model, *window_arrays(model, window), dt,
                                      integration or Integration())
@@ -155,6 +168,7 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
         measured = window.y[k::stride]
         predicted = model.output(predicted, window.u[k::stride])
         check_prediction(model, measured, predicted, f"{k}-step prediction")
+        segments.append(np.full(len(measured), position))
         for i, name in enumerate(model.outputs):
             errors[name].append(measured[:, i] - predicted[:, i])
             features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
@@ -163,12 +177,14 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
         if not errors[name]:
             raise InsufficientDataError(f"channel {name!r}: no segment is longer than the "
                                         f"level tier's horizon of {k} samples")
-        out[name] = (np.concatenate(errors[name]), np.concatenate(features[name]))
+        out[name] = (np.concatenate(errors[name]), np.concatenate(features[name]),
+                     np.concatenate(segments))
     return out
 
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
-              baseline: LevelTier | None = None) -> LevelTier:
+              baseline: LevelTier | None = None, groups: np.ndarray | None = None
+              ) -> LevelTier:
     """Regress the k-step errors on the centred operating features; keep the intercept.
 
     Parameters
@@ -181,6 +197,9 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         A candidate's baseline: its centre and slopes are kept and only the level is
         refitted, so both are levels at the same operating point. None fits centre (the
         features' means), slopes and level.
+    groups : ndarray of shape (N,), optional
+        A new baseline's window of each sample: its ``reach`` is the largest correction of a
+        window's operating point (none without).
 
     Returns
     -------
@@ -190,6 +209,7 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     features = np.asarray(features, dtype=float).reshape(len(errors), -1)
     finite = np.isfinite(errors) & np.isfinite(features).all(axis=1)
     errors, features = errors[finite], features[finite]
+    groups = None if groups is None else np.asarray(groups)[finite]
     if len(errors) <= features.shape[1] + 2:
         raise InsufficientDataError(f"{len(errors)} finite k-step errors are too few for the "
                                     f"level tier")
@@ -206,5 +226,32 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         center, slopes = np.asarray(baseline.center, float), np.asarray(baseline.slopes, float)
         level = float(np.mean(errors - (features - center) @ slopes))
     residual = errors - level - (features - center) @ slopes
+    reach = None
+    if baseline is None and groups is not None:
+        reach = max(correction(features[groups == g].mean(axis=0), center, slopes)
+                    for g in np.unique(groups))
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
-                     float(residual.std()), int(horizon), int(len(errors)))
+                     float(residual.std()), int(horizon), int(len(errors)),
+                     tuple(float(c) for c in features.mean(axis=0)), reach)
+
+
+def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float]
+               ) -> float:
+    """The size of the inputs' operating-condition correction at ``point``: the norm of the
+    input features' shares ``slopes * (point - center)``, in the channel's units.
+
+    The first feature, the channel's own prediction, is left out: a sensor fault moves it
+    too (a bias enters the prediction through its start), and a fault must not read as a
+    night outside the operating range. The inputs set the operating condition."""
+    point, center, slopes = (np.asarray(v, float)[1:] for v in (point, center, slopes))
+    return float(np.sqrt(np.sum((slopes * (point - center)) ** 2)))
+
+
+def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:
+    """How far outside its baseline's operating range a candidate lies: its correction
+    (:func:`correction` of its operating point) over the baseline's ``reach``, the largest
+    of a baseline window's. Above 1, the night lies where the baseline's slopes were never
+    checked by a day of its own; 0 where either record lacks the figures."""
+    if candidate.operating_point is None or not baseline.reach:
+        return 0.0
+    return correction(candidate.operating_point, baseline.center, baseline.slopes) / baseline.reach

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from graybox.exceptions import StructureMismatchError
+from graybox.level_tier import extrapolation
 from graybox.noise_tier import MOMENT_WEIGHTS
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (graybox.signature imports this module)
@@ -94,6 +95,11 @@ class Tier:
         The same as :meth:`deltas` where zeta is a sum over the parameters themselves.
         """
         return self.deltas(candidate, baseline)
+
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float | None:
+        """How far outside the baseline's operating range the candidate lies, for a tier
+        that discounts its change there (above 1: outside); None for a tier that does not."""
+        return None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -202,7 +208,11 @@ class LevelTierKind(Tier):
     operating point.
 
     One parameter, ``level``; its change is in units of the baseline's regression residual
-    standard deviation. Absent from signatures stored before the tier existed.
+    standard deviation, divided by the candidate's :func:`~graybox.level_tier.extrapolation`
+    where that exceeds 1: a night whose operating-condition correction is twice the largest
+    of a baseline day's has its level change halved, since the slopes that make the
+    correction were only checked up to that reach (a slope's error grows the level error in
+    proportion to the distance). Absent from signatures stored before the tier existed.
     """
 
     name = "level"
@@ -219,7 +229,11 @@ class LevelTierKind(Tier):
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
         delta = super().deltas(candidate, baseline)
         spread = baseline.level.residual_std
-        return delta / spread if spread > 0 else delta
+        delta = delta / spread if spread > 0 else delta
+        return delta / max(1.0, self.outside(candidate, baseline) or 0.0)
+
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float | None:
+        return extrapolation(candidate.level, baseline.level)
 
 
 #: the tier kinds, in the order of every table, plot and parameter vector

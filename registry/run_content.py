@@ -25,7 +25,7 @@ from registry.submission import ResolvedFit
 
 _KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")
 #: the metrics logged per (channel, tier): ``<kind>.<channel>.<tier>``
-ENTRY_METRICS = ("zeta", "epsilon", "ratio", "healthy_zeta")
+ENTRY_METRICS = ("zeta", "epsilon", "ratio", "healthy_zeta", "outside")
 
 
 @functools.lru_cache(maxsize=1)
@@ -134,6 +134,8 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
                 metrics[entry_metric("epsilon", entry.channel, entry.tier)] = entry.epsilon
                 metrics[entry_metric("ratio", entry.channel, entry.tier)] = entry.ratio
                 ratios.append(entry.ratio)
+            if entry.outside is not None:
+                metrics[entry_metric("outside", entry.channel, entry.tier)] = entry.outside
         if ratios:
             metrics["max_ratio"] = max(ratios)
         metrics["alarm"] = float(drift.alarmed)
@@ -205,4 +207,9 @@ def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
         text += " ALARM" if s.drift.alarmed else " no alarm"
         if worst.ratio is not None:
             text += f" (largest zeta/epsilon {worst.ratio:.2f}, {worst.channel} {worst.tier} tier)."
+        outside = [e for e in s.drift.entries if e.outside is not None]
+        if outside:
+            text += (" Outside the baseline's operating range, changes discounted: "
+                     + ", ".join(f"{e.channel} {e.tier} tier x{e.outside:.1f}" for e in outside)
+                     + " (a longer or more varied baseline covers it).")
     return text

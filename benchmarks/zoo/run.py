@@ -167,7 +167,8 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
             "after_onset": plan.onset is not None and plan.onset < night_start + pd.Timedelta(days=1),
             "alarm": bool(exceeded),
             "exceeded": ";".join(f"{e.channel}/{e.tier}" for e in exceeded),
-            "max_ratio": max((e.ratio for e in drift.entries if e.ratio is not None), default=0.0)})
+            "max_ratio": max((e.ratio for e in drift.entries if e.ratio is not None), default=0.0),
+            "ratios": {f"{e.channel}/{e.tier}": e.ratio for e in drift.entries}})
     return summarise(family, rows, {
         "family": family.name, "title": family.title, "held_out": family.held_out,
         "healthy_assets": len(vehicles), "baseline_days": baseline_days, "nights": nights,

@@ -9,8 +9,9 @@ import pandas as pd
 import pytest
 
 from graybox import Calibration, FitRequest, Signature, compute_drift, fit_baselines, fit_signatures
-from graybox.level_tier import (LevelTier, fit_level, horizon_samples, k_step_prediction,
-                                level_data)
+from graybox.drift import Drift
+from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
+                                k_step_prediction, level_data)
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
 from graybox.rk4 import rk4_step
@@ -71,7 +72,7 @@ def test_the_level_of_a_biased_sensor_is_its_bias():
     model, frame = _langevin_frame(bias=0.5)
     k = horizon_samples(DT)
     assert k == 12
-    errors, features = level_data(model, [frame], DT, k)["omega"]
+    errors, features, _ = level_data(model, [frame], DT, k)["omega"]
     level = fit_level(errors, features, k)
     assert level.level == pytest.approx(0.5 * (1 - np.exp(-0.06 * 120)), rel=0.02)
     assert level.n_obs == len(frame) - k and level.horizon == 12
@@ -140,6 +141,58 @@ def test_level_drift_is_the_squared_move_in_residual_standard_deviations():
     assert entry.zeta == pytest.approx(9.0)
     assert (entry.top_changes[0].baseline, entry.top_changes[0].candidate) == (0.40, 0.55)
 
+
+
+def test_a_baselines_reach_is_its_farthest_windows_correction():
+    rng = np.random.default_rng(2)
+    # three windows at different loads; the error depends on the load with slope 0.3
+    loads = np.concatenate([rng.normal(mean, 2.0, 1000) for mean in (95.0, 100.0, 103.0)])
+    groups = np.repeat([0, 1, 2], 1000)
+    # features: the channel's prediction (unrelated to the error here), then the load input
+    features = np.column_stack([rng.normal(50.0, 1.0, 3000), loads])
+    errors = 0.5 + 0.3 * (loads - 100.0) + 1e-3 * rng.standard_normal(3000)
+    baseline = fit_level(errors, features, 12, groups=groups)
+    means = [loads[groups == g].mean() for g in range(3)]
+    center = baseline.center[1]
+    assert baseline.slopes[1] == pytest.approx(0.3, abs=1e-4)
+    assert baseline.reach == pytest.approx(max(abs(baseline.slopes[1] * (m - center))
+                                               for m in means), rel=1e-6)
+    # a candidate whose load lies twice as far from the centre as the farthest window
+    farthest = max(means, key=lambda m: abs(m - center))
+    night = center + 2 * (farthest - center) + rng.normal(0.0, 2.0, 800)
+    shifted = np.column_stack([rng.normal(50.0, 1.0, 800), night])
+    candidate = fit_level(0.5 + 0.3 * (night - 100.0), shifted, 12, baseline)
+    assert candidate.reach is None
+    assert extrapolation(candidate, baseline) == pytest.approx(2.0, rel=0.05)
+    inside = fit_level(errors[1000:1800], features[1000:1800], 12, baseline)
+    assert extrapolation(inside, baseline) < 1.0
+    # the prediction moving (a sensor bias enters it through its start) is not "outside"
+    biased = features[1000:1800] + [5.0, 0.0]
+    assert extrapolation(fit_level(errors[1000:1800], biased, 12, baseline), baseline) < 1.0
+    # a record stored without the figures is never discounted
+    assert extrapolation(inside, dataclasses.replace(baseline, reach=None)) == 0.0
+
+
+def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distance():
+    reference = dataclasses.replace(_level(0.40), operating_point=(100.0, 1.0), reach=0.5)
+    # the input's correction at 6.0: |-0.2 * 5| = 1.0, twice the reach (the prediction, the
+    # first feature, does not count)
+    night = dataclasses.replace(_level(0.55), operating_point=(130.0, 6.0))
+    baseline = make_signature((dataclasses.replace(make_channel(), level=reference),))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=night),))
+    assert tier_kind("level").deltas(candidate.channels[0], baseline.channels[0]) == \
+        pytest.approx([1.5])
+    entry = compute_drift(candidate, baseline).get("omega", "level")
+    assert entry.zeta == pytest.approx(2.25)
+    assert entry.outside == pytest.approx(2.0)
+    assert Drift.from_dict(compute_drift(candidate, baseline).to_dict()).get(
+        "omega", "level") == entry
+    # inside the range: undiscounted and not flagged
+    inside = dataclasses.replace(night, operating_point=(130.0, 1.5))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=inside),))
+    entry = compute_drift(candidate, baseline).get("omega", "level")
+    assert entry.zeta == pytest.approx(9.0) and entry.outside is None
+    assert Signature.from_json(baseline.to_json()) == baseline
 
 def _turbine_days(model_error, faults, days, vehicles=1):
     specs = []

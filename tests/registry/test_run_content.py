@@ -1,0 +1,41 @@
+"""What a candidate's MLflow run shows of a level change discounted outside the baseline's
+operating range: the ``outside`` metric, the drift document and the version description."""
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from graybox.drift import compute_drift
+from graybox.level_tier import LevelTier
+from registry.run_content import describe, drift_document, drift_from_document, fit_metrics
+from registry.submission import FitSubmission, ResolvedFit
+from tests.graybox.conftest import make_channel, make_signature
+
+
+def _signature(level: float, operating_point: tuple[float, ...], reach: float | None = None):
+    record = LevelTier(level, (0.1, -0.2), (100.0, 1.0), 0.05, 12, 8000, operating_point, reach)
+    return make_signature((dataclasses.replace(make_channel(), level=record),))
+
+
+def test_a_night_outside_the_baselines_range_says_so_in_its_run():
+    baseline = _signature(0.40, (100.0, 1.0), reach=0.5)
+    # its input's correction |-0.2 * (16 - 1)| = 3.0 is six times the reach
+    candidate = _signature(0.55, (100.0, 16.0))
+    drift = compute_drift(candidate, baseline)
+    metrics = fit_metrics(candidate, None, drift)
+    assert metrics["outside.omega.level"] == pytest.approx(6.0)
+    assert metrics["zeta.omega.level"] == pytest.approx((3.0 / 6.0) ** 2)
+    document = drift_document(drift, baseline_version=1)
+    entry = next(e for e in document["entries"] if e["tier"] == "level")
+    assert entry["outside"] == pytest.approx(6.0)
+    assert drift_from_document(document) == drift
+    submission = FitSubmission("T-001", "pump", candidate, role="candidate", drift=drift,
+                               plots=False)
+    text = describe(ResolvedFit(submission, "2026-01-01T00:00:00+00:00",
+                                "2026-01-02T00:00:00+00:00", "hash", "key"), 1)
+    assert "Outside the baseline's operating range, changes discounted: omega level tier x6.0" \
+        in text
+    # inside the range nothing is said
+    inside = compute_drift(_signature(0.55, (130.0, 1.5)), baseline)
+    assert not any(name.startswith("outside.") for name in fit_metrics(candidate, None, inside))
