@@ -35,7 +35,7 @@ from graybox.signature import (ChannelSignature, ChannelStructure, HiddenStart, 
                                Signature)
 from graybox.stage_clock import StageClock, timed
 from graybox.state_cache import StateCache
-from graybox.state_estimation import WindowStates, window_arrays
+from graybox.state_estimation import WindowStates, estimate_states, window_arrays
 from graybox.stationarize import choose_differencing
 
 
@@ -155,7 +155,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
     frames, owners = _operating_segments(parts, settings, interval)
     model = request.model
     with timed(clock, "residual"):
-        integration, states = _integrate(request, frames, interval, cache or StateCache())
+        integration, states = _integrate(request, frames, interval, cache)
         analysis = analysis_interval(request, settings, states, interval,
                                      int(_per_window([len(f) for f in frames], owners).min()))
         factor = decimation_factor(analysis, interval)
@@ -187,7 +187,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
 
 
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
-               cache: StateCache) -> tuple[Integration, list[WindowStates]]:
+               cache: StateCache | None) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
 
     A new baseline's integrator is chosen at the data's own states
@@ -197,19 +197,20 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
     """
     model = request.model
     arrays = [window_arrays(model, frame) for frame in frames]
+    estimate = estimate_states if cache is None else cache.estimate
     if request.baseline is not None:
         integration = request.baseline.integration_used
-        return integration, [cache.estimate(model, y, u, interval, integration)
+        return integration, [estimate(model, y, u, interval, integration)
                              for y, u in arrays]
     first = Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
     try:
-        states = [cache.estimate(model, y, u, interval, first) for y, u in arrays]
+        states = [estimate(model, y, u, interval, first) for y, u in arrays]
     except IntegrationError:
         if model.integrator != "auto":
             raise
         # stiff hidden dynamics: RK4 diverged where the L-stable method will not
         first = Integration("rosenbrock")
-        states = [cache.estimate(model, y, u, interval, first) for y, u in arrays]
+        states = [estimate(model, y, u, interval, first) for y, u in arrays]
     x = np.concatenate([s.states for s in states])
     u = np.concatenate([s.u for s in states])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
@@ -217,7 +218,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
     change = np.sqrt(np.nanmean(steps ** 2, axis=0))
     integration = choose_integration(model, x[finite], u[finite], interval, change)
     if integration != first and model.hidden_states:
-        states = [cache.estimate(model, y, u, interval, integration) for y, u in arrays]
+        states = [estimate(model, y, u, interval, integration) for y, u in arrays]
     return integration, states
 
 

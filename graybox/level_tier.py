@@ -172,14 +172,12 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
         for i, name in enumerate(model.outputs):
             errors[name].append(measured[:, i] - predicted[:, i])
             features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
-    out = {}
-    for name in model.outputs:
-        if not errors[name]:
-            raise InsufficientDataError(f"channel {name!r}: no segment is longer than the "
-                                        f"level tier's horizon of {k} samples")
-        out[name] = (np.concatenate(errors[name]), np.concatenate(features[name]),
-                     np.concatenate(segments))
-    return out
+    if not segments:
+        raise InsufficientDataError(f"channel {model.outputs[0]!r}: no segment is longer "
+                                    f"than the level tier's horizon of {k} samples")
+    positions = np.concatenate(segments)
+    return {name: (np.concatenate(errors[name]), np.concatenate(features[name]), positions)
+            for name in model.outputs}
 
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,

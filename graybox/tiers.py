@@ -230,9 +230,9 @@ class LevelTierKind(Tier):
         delta = super().deltas(candidate, baseline)
         spread = baseline.level.residual_std
         delta = delta / spread if spread > 0 else delta
-        return delta / max(1.0, self.outside(candidate, baseline) or 0.0)
+        return delta / max(1.0, self.outside(candidate, baseline))
 
-    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float | None:
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float:
         return extrapolation(candidate.level, baseline.level)
 
 
