@@ -10,25 +10,36 @@ Any :class:`progpy.PrognosticsModel` becomes a :class:`~graybox.models.base.Whit
       class MyPump(ProgPyModel):
           progpy_model = "mypackage.models:MyPump"
 
-**Variables.** The white box's inputs are the ProgPy model's inputs. Its states are the
-ProgPy states observed in telemetry: every state that is also a ProgPy output of the same
-name, plus every state named in the column map (``columns = {Q = "Qout"}`` observes the
-pump's flow ``Q`` in the column ``Qout``). A state not observed is held at its parameter
-``x0_<state>`` (default: the ProgPy model's ``parameters["x0"]``, 0 where it has none),
-which suits the slow wear and damage states (a pump's impeller area ``A``, friction
-coefficients, wear rates) and makes a drift of them show in the residual as the fault.
+**Variables.** The white box's inputs are the ProgPy model's inputs and its outputs the
+ProgPy outputs, predicted by ProgPy's own ``output(x)``. A ProgPy state named like an output
+(the pump's ``w``), or named in the column map (``columns = {Q = "Qout"}`` reads the pump's
+flow ``Q`` from the column ``Qout``, which then stands for that state and not for the output of
+the same name), is measured. The other states are of two kinds:
+
+- *hidden*: states with dynamics of their own (a battery's charge ``qb`` and RC charges), run
+  through each window by ProgPy's dynamics from a start estimated from the data
+  (:mod:`graybox.state_estimation`), like any white box's hidden states;
+- *held* at their parameter ``x0_<state>`` (default: the ProgPy model's ``parameters["x0"]``,
+  0 where it has none): the *constant* states, which do not move while the held states keep
+  their values (wear rates, and the impeller area and friction coefficients they drive:
+  slow damage, which the residual is to show as a fault, not follow), and the *algebraic*
+  states of a discrete model, which ``next_state`` sets afresh from the inputs (the pump's
+  ``QLeak``) and which have no derivative to integrate. Both are found once per class by
+  probing the ProgPy model at perturbed states and inputs (:func:`held_states`); a subclass
+  may list its own in ``held``.
 
 **Parameters.** Every scalar numeric ProgPy parameter (``I``, ``r``, ``c``, ... for the
 pump) is a white-box parameter of the same name, overridable in ``fleet.toml``; noise
 parameters, nested tables and parameters that a state of the same name overrides are not.
-Two more kinds: ``x0_<state>`` (above) and, for a discrete model, ``derivative_step``.
+Two more kinds: ``x0_<state>`` (the value a held state keeps, and where the search for a
+hidden state's start begins) and, for a discrete model, ``derivative_step``.
 
 **Dynamics.** A continuous model (one defining ``dx``) gives the derivatives directly. A
 discrete model (one defining only ``next_state``) is differentiated as
 ``(next_state(x, u, h) - x) / h`` with ``h = derivative_step`` seconds: exact for the
 Euler-form transitions of ProgPy's catalogue (``x + xdot * dt``, e.g. ``CentrifugalPump``),
-a first-order approximation otherwise. The residual then integrates these derivatives with
-RK4 exactly as for the built-in models. No noise is applied: the process and measurement
+a first-order approximation otherwise. The residual then integrates these derivatives as it
+does a built-in model's (:mod:`graybox.integration`). No noise is applied: the process and measurement
 noise are what the residual is made of.
 
 ProgPy is imported here only, on first use; without it, loading a ProgPy model is a
@@ -51,6 +62,8 @@ from graybox.models.base import WhiteBoxModel, import_spec
 HOLD_PREFIX = "x0_"
 #: seconds of the step that differentiates a discrete model's ``next_state``
 DEFAULT_DERIVATIVE_STEP = 1e-3
+#: perturbed states and inputs at which :func:`held_states` probes a ProgPy model
+PROBES = 4
 _NOT_PARAMETERS = frozenset({"process_noise", "measurement_noise", "process_noise_dist",
                              "measurement_noise_dist", "x0"})
 _INSTALL = "install it with: pip install 'fleet-health[progpy]'"
@@ -122,6 +135,73 @@ def _hold_defaults(parameters: Mapping[str, Any], states: tuple[str, ...]) -> di
     return defaults
 
 
+def progpy_rates(model, full: np.ndarray, inputs: np.ndarray, step: float) -> np.ndarray:
+    """ProgPy's ``dx`` of a continuous model, ``(next_state(x, u, step) - x) / step`` of a
+    discrete one, at the state columns ``full`` (n_states, T) and inputs (n_inputs, T)."""
+    state = model.StateContainer(full.copy())
+    load = model.InputContainer(inputs.copy())
+    if not model.is_discrete:
+        return np.asarray(model.dx(state, load).matrix, dtype=float).reshape(full.shape)
+    following = np.asarray(model.next_state(state, load, step).matrix, dtype=float)
+    return (following.reshape(full.shape) - full) / step
+
+
+def held_states(model, held_values: np.ndarray, step: float = DEFAULT_DERIVATIVE_STEP,
+                seed: int = 0) -> tuple[str, ...]:
+    """The states of a ProgPy model that the white box holds at ``held_values``.
+
+    *Algebraic* states of a discrete model (``next_state`` gives a value that does not depend
+    on the state's current one) and *constant* states: those whose rate is zero at every
+    probe, the states already found constant held at their values and the rest perturbed.
+    The search repeats until no more states join, so a wear rate (constant) makes the
+    area it wears (constant while the rate is held at 0) constant too.
+
+    Parameters
+    ----------
+    model : progpy.PrognosticsModel
+    held_values : ndarray (n_states,)
+        Each state's typical value (``x0``).
+    step : float
+        The derivative step of a discrete model.
+    seed : int
+        Seeds the probes (:data:`PROBES` perturbations of the states and inputs).
+    """
+    rng = np.random.default_rng(seed)
+    states = tuple(model.states)
+    n = len(states)
+    probes = (held_values[:, None] * (1 + 0.3 * rng.standard_normal((n, PROBES)))
+              + 0.3 * rng.standard_normal((n, PROBES)))
+    inputs = 1.0 + rng.standard_normal((len(model.inputs), PROBES))
+
+    def each_probe(function, at: np.ndarray) -> np.ndarray:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            return np.concatenate([function(at[:, [k]], inputs[:, [k]])
+                                   for k in range(PROBES)], axis=1)
+
+    def rates(at, load):
+        return progpy_rates(model, at, load, step)
+
+    def following(at, load):
+        return np.asarray(model.next_state(model.StateContainer(at.copy()),
+                                           model.InputContainer(load.copy()), step).matrix,
+                          dtype=float).reshape(at.shape)
+
+    held = np.zeros(n, dtype=bool)
+    if model.is_discrete:
+        base = each_probe(following, probes)
+        for j in range(n):
+            nudged = probes.copy()
+            nudged[j] += 0.1 * np.maximum(1.0, np.abs(probes[j]))
+            held[j] = np.array_equal(each_probe(following, nudged)[j], base[j])
+    while True:
+        at = np.where(held[:, None], held_values[:, None], probes)
+        still = np.all(each_probe(rates, at) == 0.0, axis=1) | held
+        if np.array_equal(still, held):
+            return tuple(s for s, h in zip(states, held) if h)
+        held = still
+
+
 class ProgPyModel(WhiteBoxModel, abstract=True):
     """Base of white boxes that wrap a ProgPy ``PrognosticsModel``.
 
@@ -143,15 +223,23 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
     progpy : progpy.PrognosticsModel
         The wrapped model, built with the ProgPy parameter overrides.
     progpy_states : tuple of str
-        All ProgPy states, observed or not.
+        All ProgPy states, measured, hidden or held.
+    held : tuple of str
+        The ProgPy states held at ``x0_<state>`` unless measured (class attribute).
     states : tuple of str
-        The observed states (instance attribute), in ProgPy's order.
+        The measured and hidden states (instance attribute), in ProgPy's order.
+    outputs : tuple of str
+        The measured states, then the ProgPy outputs computed by ``output(x)`` (instance
+        attribute).
     """
 
     progpy_model: ClassVar[str] = ""
     progpy_states: ClassVar[tuple[str, ...]] = ()
     progpy_outputs: ClassVar[tuple[str, ...]] = ()
     progpy_parameters: ClassVar[tuple[str, ...]] = ()
+    #: ProgPy states held at their ``x0_<state>`` when not measured (found by
+    #: :func:`held_states` unless a subclass lists them)
+    held: ClassVar[tuple[str, ...] | None] = None
 
     def __init_subclass__(cls, abstract: bool = False, **kwargs):
         if not abstract:
@@ -172,9 +260,10 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         cls.progpy_states = states
         cls.progpy_outputs = _identifiers(default.outputs, "outputs", cls.progpy_model)
         cls.inputs = _identifiers(default.inputs, "inputs", cls.progpy_model)
-        # the class-level states (checked by WhiteBoxModel) are all ProgPy states; each
-        # instance narrows them to the observed ones
+        # the class-level states and outputs (checked by WhiteBoxModel) are all ProgPy's;
+        # each instance narrows the states to the measured and hidden ones
         cls.states = states
+        cls.outputs = tuple(o for o in cls.progpy_outputs if o not in cls.inputs)
         parameters = _scalar_parameters(default.parameters, states)
         for name in _derived_parameters(progpy_class, default):
             parameters.pop(name, None)
@@ -184,40 +273,62 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
             parameters["derivative_step"] = DEFAULT_DERIVATIVE_STEP
         cls.default_parameters = parameters
         cls._progpy_class = progpy_class
+        if "held" in cls.__dict__:
+            unknown = sorted(set(cls.held or ()) - set(states))
+            if unknown:
+                raise ModelSpecError(f"{cls.__qualname__}.held names {unknown}, which are not "
+                                     f"states of {cls.progpy_model}")
+            cls.held = tuple(cls.held or ())
+        else:
+            values = np.array([parameters[HOLD_PREFIX + s] for s in states])
+            try:
+                cls.held = held_states(default, values)
+            except Exception:  # a model that cannot run at the probes: a subclass lists them
+                cls.held = ()
 
     def __init__(self, parameters: Mapping[str, float] | None = None,
                  columns: Mapping[str, str] | None = None):
         if type(self)._abstract:
             raise ModelSpecError(f"{type(self).__name__} is an abstract model base; subclass it")
         columns = dict(columns or {})
-        unknown = [n for n in columns if n not in self.progpy_states and n not in self.inputs]
+        variables = self.progpy_states + self.progpy_outputs + self.inputs
+        unknown = [n for n in columns if n not in variables]
         if unknown:
             raise ModelSpecError(
-                f"{self.spec()}: column map names {unknown}, which are not ProgPy states or "
-                f"inputs; states: {', '.join(self.progpy_states)}; inputs: "
-                f"{', '.join(self.inputs) or '(none)'}")
-        observed = tuple(s for s in self.progpy_states
+                f"{self.spec()}: column map names {unknown}, which are not ProgPy states, "
+                f"outputs or inputs; states: {', '.join(self.progpy_states)}; outputs: "
+                f"{', '.join(self.progpy_outputs)}; inputs: {', '.join(self.inputs) or '(none)'}")
+        measured = tuple(s for s in self.progpy_states
                          if s in self.progpy_outputs or s in columns)
-        if not observed:
+        taken = {columns.get(s, s) for s in measured}
+        computed = tuple(o for o in self.progpy_outputs
+                         if o not in self.progpy_states and columns.get(o, o) not in taken)
+        if not measured + computed:
             raise ModelSpecError(
-                f"{self.spec()}: no ProgPy state is observed: none is a ProgPy output of the "
-                f"same name ({', '.join(self.progpy_outputs)}); map at least one state to its "
-                f"telemetry column in 'columns' (states: {', '.join(self.progpy_states)})")
+                f"{self.spec()}: the model predicts no telemetry channel: it has no ProgPy "
+                f"outputs; map at least one state to its telemetry column in 'columns' "
+                f"(states: {', '.join(self.progpy_states)})")
         for name in parameters or {}:
             if name in self.progpy_states and name not in self.default_parameters:
                 raise ModelSpecError(
                     f"{self.spec()}: {name!r} is a ProgPy state of this model, not a parameter; "
-                    f"the value it is held at when not observed is the parameter "
+                    f"the value it is held at (or its hidden start's guess) is the parameter "
                     f"'{HOLD_PREFIX}{name}'")
-        self.states = observed
-        self.outputs = observed
+        self.states = tuple(s for s in self.progpy_states
+                            if s in measured or s not in self.held)
+        self.outputs = measured + computed
         super().__init__(parameters, columns)
         overrides = {name: self.parameters[name] for name in self.progpy_parameters
                      if self.parameters[name] != self.default_parameters[name]}
         self.progpy_overrides: dict[str, float] = overrides
         self.progpy = self.make_progpy()
-        self._observed_rows = np.array([self.progpy_states.index(s) for s in observed])
+        self.initial_state = {s: self.parameters[HOLD_PREFIX + s] for s in self.hidden_states}
+        self._state_rows = np.array([self.progpy_states.index(s) for s in self.states])
         self._held = np.array([self.parameters[HOLD_PREFIX + s] for s in self.progpy_states])
+        self._measured_outputs = np.array([self.states.index(o) for o in measured], dtype=int)
+        self._computed_rows = np.array([self.progpy_outputs.index(o) for o in computed],
+                                       dtype=int)
+        #: whether ProgPy takes a batch whose inputs vary (None: no such batch seen yet)
         self._inputs_batch: bool | None = None
 
     def make_progpy(self, **options):
@@ -247,11 +358,11 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         return bool(self.progpy.is_discrete)
 
     def full_state(self, x: np.ndarray) -> np.ndarray:
-        """ProgPy state matrix (n_progpy_states, T): observed rows from ``x`` (T, n_states),
-        the others held at their ``x0_<state>`` parameters."""
+        """ProgPy state matrix (n_progpy_states, T): measured and hidden rows from ``x``
+        (T, n_states), the held ones at their ``x0_<state>`` parameters."""
         x = np.asarray(x, dtype=float)
         full = np.repeat(self._held[:, None], len(x), axis=1)
-        full[self._observed_rows] = x.T
+        full[self._state_rows] = x.T
         return full
 
     def derivatives(self, x, u):
@@ -264,11 +375,34 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
             rates = np.empty_like(full)
             for t in range(full.shape[1]):
                 rates[:, t:t + 1] = self._progpy_rates(full[:, t:t + 1], u[t:t + 1].T)
-        return rates[self._observed_rows].T
+        return rates[self._state_rows].T
+
+    def output(self, x, u):
+        """The measured states as they are, the other outputs by ProgPy's ``output(x)``."""
+        x = np.asarray(x, dtype=float)
+        y = np.empty((len(x), len(self.outputs)))
+        y[:, :len(self._measured_outputs)] = x[:, self._measured_outputs]
+        if self._computed_rows.size:
+            full = self.full_state(x)
+            if self.progpy.is_vectorized:
+                z = self._progpy_outputs(full)
+            else:
+                z = np.concatenate([self._progpy_outputs(full[:, [t]])
+                                    for t in range(full.shape[1])], axis=1)
+            y[:, len(self._measured_outputs):] = z[self._computed_rows].T
+        return y
+
+    def _progpy_outputs(self, full: np.ndarray) -> np.ndarray:
+        state = self.progpy.StateContainer(full.copy())
+        values = np.asarray(self.progpy.output(state).matrix, dtype=float)
+        return values.reshape(len(self.progpy_outputs), full.shape[1])
 
     def _vectorised_rates(self, full: np.ndarray, u: np.ndarray) -> np.ndarray:
-        if self._inputs_batch is None:
+        uniform = bool(np.all(u == u[:1]))
+        if self._inputs_batch is None and not uniform:
             self._inputs_batch = self._batch_handles_varying_inputs(full, u)
+        if uniform:
+            return self._progpy_rates(full, u[:1].T)
         if self._inputs_batch:
             return self._progpy_rates(full, u.T)
         # One batch per distinct input: some vectorised ProgPy models fail (or, worse, build
@@ -283,30 +417,25 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         return rates
 
     def _batch_handles_varying_inputs(self, full: np.ndarray, u: np.ndarray) -> bool:
-        """Whether a batch with varying inputs gives the per-sample rates (probed on 3
-        samples with distinct inputs; ``None`` until probed)."""
+        """Whether a batch with varying inputs gives the per-sample rates (probed on up to 3
+        samples with distinct inputs, on the first batch whose inputs vary)."""
         _, first = np.unique(u, axis=0, return_index=True)
         probe = np.sort(first)[:3]
-        if len(probe) < 2:
-            return False
         alone = np.concatenate([self._progpy_rates(full[:, [t]], u[[t]].T) for t in probe], axis=1)
         try:
             together = self._progpy_rates(full[:, probe], u[probe].T)
         except (ValueError, TypeError, IndexError):
             return False
-        return together.shape == alone.shape and np.allclose(together, alone, rtol=1e-12,
-                                                             atol=0.0, equal_nan=True)
+        if together.shape != alone.shape:
+            return False
+        # each state to 1e-12 of its largest rate: a rate of 0 alone may be 1e-18 together
+        scale = np.nanmax(np.abs(alone), axis=1, keepdims=True, initial=0.0)
+        same = (np.abs(together - alone) <= 1e-12 * scale) | (np.isnan(together) & np.isnan(alone))
+        return bool(np.all(same))
 
     def _progpy_rates(self, full: np.ndarray, inputs: np.ndarray) -> np.ndarray:
-        model = self.progpy
-        state = model.StateContainer(full.copy())
-        load = model.InputContainer(inputs.copy())
-        if not model.is_discrete:
-            rates = model.dx(state, load)
-            return np.asarray(rates.matrix, dtype=float).reshape(full.shape)
-        step = self.parameters["derivative_step"]
-        following = np.asarray(model.next_state(state, load, step).matrix, dtype=float)
-        return (following.reshape(full.shape) - full) / step
+        return progpy_rates(self.progpy, full, inputs,
+                            self.parameters.get("derivative_step", DEFAULT_DERIVATIVE_STEP))
 
     @classmethod
     def progpy_class(cls) -> type:

@@ -154,7 +154,7 @@ def _derived_seed(seed: int, group: int) -> int:
 
 def _column(model: ProgPyModel, output: str) -> str:
     """An output named like a state goes to that state's column; others keep their name."""
-    return model.columns.get(output, output) if output in model.progpy_states else output
+    return model.columns.get(output, output)
 
 
 def _apply_changes(state, assets, changes: StateChanges, at: float) -> None:

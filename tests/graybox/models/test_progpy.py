@@ -13,6 +13,7 @@ import pytest
 
 pytest.importorskip("progpy")
 
+import progpy  # noqa: E402
 from progpy.models import BatteryCircuit, CentrifugalPump  # noqa: E402
 
 import graybox as gb  # noqa: E402
@@ -22,12 +23,16 @@ from graybox.models import ModelSpec, load_model  # noqa: E402
 from graybox.models.progpy import ProgPyModel  # noqa: E402
 from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops,  # noqa: E402
                                               simulate_progpy_fleet, stopped_load)
-from graybox.residual import one_step_residual  # noqa: E402
+from graybox.integration import Integration  # noqa: E402
+from graybox.residual import one_step_residual, residual_frame  # noqa: E402
+from graybox.state_estimation import estimate_states, window_arrays  # noqa: E402
 from graybox.telemetry.writing import write_telemetry  # noqa: E402
 
 PUMP = "graybox.models.progpy:CentrifugalPump"
 START = pd.Timestamp("2026-01-01", tz="UTC")
 V0 = 471.2389
+#: BatteryCircuit's full charge (its initial qb), coulombs
+FULL_CHARGE = 7856.3254
 
 
 #: near the pump's operating point, so that the telemetry starts warm
@@ -88,8 +93,14 @@ def test_catalogue_pump_variables_and_columns():
     assert p["x0_wA"] == 0.0 and p["derivative_step"] == 1e-3
     # wear rates are states of this pump (held at x0_w*), not parameters; noise is not one
     assert {"wA", "wRadial", "wThrust", "A", "process_noise", "x0"}.isdisjoint(p)
+    # wear (constant) and the leak flow (set afresh each step: algebraic) are held
+    assert type(model).held == ("A", "rRadial", "rThrust", "QLeak", "wA", "wRadial", "wThrust")
+    assert model.hidden_states == ()
+    # without the map, the flow Q is hidden and ProgPy's output Qout = Q - QLeak predicted
     without_flow = load_model(PUMP)
-    assert without_flow.states == ("w", "Tt", "Tr", "To")
+    assert without_flow.states == ("w", "Q", "Tt", "Tr", "To")
+    assert without_flow.outputs == ("w", "Tt", "Tr", "To", "Qout")
+    assert without_flow.hidden_states == ("Q",) and without_flow.initial_state == {"Q": 0.0}
 
 
 def test_model_spec_round_trip_rebuilds_the_same_white_box():
@@ -122,9 +133,8 @@ def test_derived_parameters_are_not_overridable():
 @pytest.mark.parametrize("spec, parameters, columns, message", [
     (PUMP, {"nonsense": 1.0}, {}, "unknown parameter 'nonsense'"),
     (PUMP, {"wA": 0.01}, {}, "'wA' is a ProgPy state .* parameter 'x0_wA'"),
-    (PUMP, {}, {"Qout": "flow"}, "not ProgPy states or inputs"),
+    (PUMP, {}, {"flow": "Qout"}, "not ProgPy states, outputs or inputs"),
     (PUMP, {"derivative_step": 0.0}, {}, "derivative_step must be > 0"),
-    ("graybox.models.progpy:BatteryCircuit", {}, {}, "no ProgPy state is observed"),
     ("graybox.models.progpy:NoSuchModel", {}, {}, "has no 'NoSuchModel'"),
 ])
 def test_bad_specs_are_clear_errors(spec, parameters, columns, message):
@@ -145,9 +155,44 @@ def test_a_subclass_wraps_any_progpy_model():
     class Battery(ProgPyModel):
         progpy_model = "progpy.models:BatteryCircuit"
 
-    model = Battery(columns={"tb": "temperature", "qb": "charge"})
-    assert model.states == ("tb", "qb") and model.required_columns == ("temperature", "charge", "i")
+    model = Battery(columns={"v": "voltage"})
+    # every state moves: all hidden, the temperature and voltage predicted by ProgPy's output
+    assert type(model).held == () and model.hidden_states == ("tb", "qb", "qcp", "qcs")
+    assert model.outputs == ("t", "v") and model.required_columns == ("t", "voltage", "i")
+    assert model.initial_state == {"tb": 292.1, "qb": 7856.3254, "qcp": 0.0, "qcs": 0.0}
     assert not model.is_discrete
+
+    class Charge(ProgPyModel):
+        progpy_model = "progpy.models:BatteryCircuit"
+        held = ("tb",)
+
+    assert Charge(columns={}).hidden_states == ("qb", "qcp", "qcs")
+    with pytest.raises(ModelSpecError, match=r"held names \['Tb'\]"):
+        class Misspelt(ProgPyModel):
+            progpy_model = "progpy.models:BatteryCircuit"
+            held = ("Tb",)
+
+
+class Drifter(progpy.PrognosticsModel):
+    """A ProgPy model without outputs."""
+
+    states, inputs, outputs = ["a"], [], []
+    default_parameters = {"x0": {"a": 0.0}}
+
+    def dx(self, x, u):
+        return self.StateContainer({"a": np.ones_like(x["a"])})
+
+    def output(self, x):
+        return self.OutputContainer({})
+
+
+def test_a_model_without_outputs_or_mapped_states_is_a_clear_error():
+    class Wrapped(ProgPyModel):
+        progpy_model = f"{__name__}:Drifter"
+
+    with pytest.raises(ModelSpecError, match="predicts no telemetry channel"):
+        Wrapped()
+    assert Wrapped(columns={"a": "drift"}).required_columns == ("drift",)
 
 
 def test_progpy_is_imported_only_when_a_model_is_used():
@@ -189,14 +234,17 @@ def test_overrides_reach_the_dynamics():
 
 
 def test_continuous_model_rates_are_progpys_dx():
-    model = load_model("graybox.models.progpy:BatteryCircuit", columns={"tb": "tb", "qb": "qb"})
-    x = np.array([[292.1, 7856.0], [300.0, 7000.0]])
+    model = load_model("graybox.models.progpy:BatteryCircuit")
+    x = np.array([[292.1, 7856.0, 0.0, 0.0], [300.0, 7000.0, 3.0, 1.0]])
     u = np.array([[2.0], [3.5]])
     battery = BatteryCircuit()
-    for row, current, rates in zip(x, u, model.derivatives(x, u)):
-        state = battery.StateContainer({"tb": row[0], "qb": row[1], "qcp": 0.0, "qcs": 0.0})
+    outputs = model.output(x, u)
+    for row, current, rates, y in zip(x, u, model.derivatives(x, u), outputs):
+        state = battery.StateContainer(dict(zip(("tb", "qb", "qcp", "qcs"), row)))
         dx = battery.dx(state, battery.InputContainer({"i": current[0]}))
-        assert rates == pytest.approx([dx["tb"], dx["qb"]], rel=1e-12)
+        assert rates == pytest.approx([dx[s] for s in ("tb", "qb", "qcp", "qcs")], rel=1e-12)
+        z = battery.output(state)
+        assert y == pytest.approx([z["t"], z["v"]], rel=1e-12)
     thrown = load_model("graybox.models.progpy:LinearThrownObject", columns={"v": "v"})
     np.testing.assert_allclose(thrown.derivatives(np.array([[10.0, 3.0]]), np.zeros((1, 0))),
                                [[3.0, -9.81]])
@@ -319,3 +367,29 @@ def test_worn_impeller_alarms_only_after_the_wear_starts(tmp_path):
                      for night in windows[3:])
     assert healthy == set()
     assert ("Q", "noise") in worn and {channel for channel, _ in worn} == {"Q"}
+
+
+# -- hidden states by ProgPy's own dynamics -----------------------------------------------------
+
+def test_battery_hidden_charge_runs_by_progpys_dynamics_and_the_residual_is_the_noise():
+    """ProgPy's BatteryCircuit (every state hidden; temperature and voltage by its output
+    map), simulated by ProgPy at 0.02-s steps with 2 mV of voltage-sensor noise: the white box
+    estimates the start (the full charge ProgPy starts from), the charge falls by exactly the
+    current drawn (Coulomb counting, not held), and the voltage residual is the injected noise
+    differenced, to 1 % of it."""
+    model = load_model("graybox.models.progpy:BatteryCircuit")
+    load = lambda t: {"i": 1.0 + 0.8 * np.sin(2 * np.pi * t / 300.0)}   # noqa: E731
+    noisy = simulate_progpy_fleet(model, ["B-1"], START, 600.0, load, step=0.02,
+                                  measurement_noise={"t": 0.0, "v": 0.002}, seed=3)["B-1"]
+    clean = simulate_progpy_fleet(model, ["B-1"], START, 600.0, load, step=0.02)["B-1"]
+    noisy, clean = noisy.set_index("timestamp"), clean.set_index("timestamp")
+    window = estimate_states(model, *window_arrays(model, noisy), 1.0, Integration())
+    assert window.initial_hidden["qb"] == pytest.approx(FULL_CHARGE, rel=1e-3)
+    charge = window.states[:, model.states.index("qb")]
+    current = noisy["i"].to_numpy()
+    drawn = np.sum((current[:-1] + current[1:]) / 2)
+    assert charge[0] - charge[-1] == pytest.approx(drawn, rel=1e-3)
+    residual = residual_frame(model, noisy, window=window)["v"]
+    noise = (noisy["v"] - clean["v"]).diff().iloc[1:]
+    assert noise.std() == pytest.approx(0.002 * np.sqrt(2), rel=0.1)
+    assert (residual - noise).std() < 0.01 * noise.std()
