@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from graybox.batched_lu import lu_factor
 from graybox.exceptions import GrayBoxError
 from graybox.rk4 import rk4_step
 
@@ -127,9 +128,10 @@ def _ros2_step(f, x: np.ndarray, ua: np.ndarray, ub: np.ndarray, h: float) -> np
     rate = (ub - ua) / h
     epsilon = 1e-7 * max(1.0, float(np.max(np.abs(ua), initial=0.0)))
     f_t = (f(x, ua + epsilon * rate) - fx) / epsilon if ua.shape[-1] else 0.0
-    matrix = np.eye(n) - _GAMMA * h * jacobian_x
-    k1 = np.linalg.solve(matrix, (fx + _GAMMA * h * f_t)[..., None])[..., 0]
-    k2 = np.linalg.solve(matrix, (f(x + h * k1, ub) - 2.0 * k1 - _GAMMA * h * f_t)[..., None])[..., 0]
+    # both stages solve with one matrix: factor it once
+    lu = lu_factor((np.eye(n) - _GAMMA * h * jacobian_x).reshape(-1, n, n))
+    k1 = lu.solve((fx + _GAMMA * h * f_t).reshape(-1, n)).reshape(x.shape)
+    k2 = lu.solve((f(x + h * k1, ub) - 2.0 * k1 - _GAMMA * h * f_t).reshape(-1, n)).reshape(x.shape)
     return x + 1.5 * h * k1 + 0.5 * h * k2
 
 
