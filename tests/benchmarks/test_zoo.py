@@ -11,6 +11,10 @@ from benchmarks.zoo.family import AssetPlan
 from benchmarks.zoo.run import plan_fleet, run_family
 
 FAMILIES = discover()
+#: plants whose simulation (20-Hz drive control loops; a pack's evening before each day) and
+#: hidden-state or stiff fits cost 1-2 minutes per family even reduced: their baselines and
+#: nights run in ``python -m benchmarks.zoo`` (docs/benchmarks.md), not in the suite
+HEAVY = {"ev_battery", "traction_drive"}
 START = pd.Timestamp("2026-03-01", tz="UTC")
 
 
@@ -19,6 +23,7 @@ def test_the_zoo_has_the_families_the_benchmark_promises():
     rates = {f.sample_interval for f in FAMILIES.values()}
     assert 60.0 in rates and 1.0 in rates
     assert any(f.grid.get("intermittent") for f in FAMILIES.values())
+    assert HEAVY <= set(FAMILIES)
     held_out = [f for f in FAMILIES.values() if f.held_out]
     assert 0 < len(held_out) < len(FAMILIES)
     for family in FAMILIES.values():
@@ -80,7 +85,7 @@ def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
 def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
     # 5 baseline days, the zoo protocol's own: day-to-day variation is estimated from them
     results = [run_family(family, healthy_assets=2, baseline_days=5, nights=2, faulty_per_cell=0,
-                          seed=3) for family in FAMILIES.values()]
+                          seed=3) for family in FAMILIES.values() if family.name not in HEAVY]
     for result in results:
         assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
         assert result["failed_baselines"] == {}, result["family"]
