@@ -209,6 +209,8 @@ class EvBattery(Family):
                   "failing pump, a clogged radiator)", (0.35, 0.75)),
         FaultKind("soft_short", "an internal leakage of m A the current sensor does not see "
                   "(its heat, m A x OCV, in the pack)", (0.1, 0.4)),
+        FaultKind("voltage_drift", "the pack-voltage sensor's offset drifts by m V per day "
+                  "from the onset on (an ageing divider or reference)", (0.3, 1.0)),
     )
 
     def true_parameters(self, rng):
@@ -311,7 +313,10 @@ class EvBattery(Family):
                            * (1.0 - cooling * on))
             temp = temp + DT * (heat - conductance * (temp - ambient[:, k])) / p["heat_capacity"]
         day = slice(WARMUP, total)
-        return {"pack_voltage": quantise(out["V"] + batch.normal((n,), 0.05), 0.01),
+        # the drift's offset grows with the time since the onset (onset is day-relative)
+        drifted = batch.active("voltage_drift", t[day]) * np.maximum(t[day] - batch.onset[:, None],
+                                                                      0.0) / 86400.0
+        return {"pack_voltage": quantise(out["V"] + drifted + batch.normal((n,), 0.05), 0.01),
                 "pack_current": quantise(out["I"] + p["current_offset"][:, None]
                                          + batch.normal((n,), 0.15), 0.05),
                 "pack_temp": quantise(out["T"] + batch.normal((n,), 0.05), 0.1),

@@ -140,6 +140,11 @@ class TractionDrive(Family):
                   "(relative)", (0.01, 0.03)),
         FaultKind("current_gain", "current sensor reads x (1 + m) (telemetry and the "
                   "current loop)", (0.03, 0.08)),
+        FaultKind("cooling_loss", "the winding's cooling (still air and fan) down by m "
+                  "(relative: a blocked duct, a broken fan blade)", (0.3, 0.6)),
+        FaultKind("encoder_noise", "the speed telemetry's noise up by m rad/s rms (a worn code "
+                  "wheel, a loose connector; the loop's own speed estimate filters it)",
+                  (0.05, 0.2)),
     )
 
     def true_parameters(self, rng):
@@ -234,14 +239,16 @@ class TractionDrive(Family):
                     squared += i * i
                     target += step
                 squared /= SUBSTEPS
-            cooling = (1.0 + p["fan"] * w / 300.0) / p["thermal_resistance"]
+            cooling = ((1.0 + p["fan"] * w / 300.0) / p["thermal_resistance"]
+                       * (1.0 - batch.active("cooling_loss", t[k])))
             heat = r_winding * squared + p["iron"] * w ** 2 - cooling * (temp - ambient[:, k])
             temp = temp + DT * heat / p["heat_capacity"]
         day = slice(WARMUP, total)
         gain = 1.0 + batch.active("current_gain", t[day])
         return {"armature_current": quantise(out["i"] * gain + batch.normal((n,), 0.5), 0.1),
                 "armature_voltage": quantise(out["v"] + batch.normal((n,), 0.1), 0.05),
-                "speed": quantise(out["w"] + batch.normal((n,), 0.02), 0.01),
+                "speed": quantise(out["w"] + batch.normal((n,), 0.02)
+                                  + batch.normal((n,), batch.active("encoder_noise", t[day])), 0.01),
                 "winding_temp": quantise(out["T"] + batch.normal((n,), 0.05), 0.01),
                 "ambient_temp": quantise(ambient[:, day] + batch.normal((n,), 0.1), 0.01)}
 
