@@ -60,8 +60,7 @@ def export_fleet(family: Family, out: pathlib.Path, assets: int = 2, baseline_da
     if unknown:
         raise ValueError(f"{family.name} has no fault {unknown}; it has {sorted(kinds)}")
     vehicles, faulty = plan_fleet(family, assets, 1, seed, baseline_days)
-    wanted = {f"{name}-{size}" for name, size in faults}
-    chosen = [plan for plan in faulty if plan.asset_id.split("-", 2)[2] in wanted]
+    chosen = [plan for plan in faulty if (plan.fault.name, plan.size) in set(faults)]
     days = baseline_days + nights
     out.mkdir(parents=True, exist_ok=True)
     telemetry = out / "telemetry"

@@ -41,6 +41,13 @@ class AssetPlan:
     magnitude: float = 0.0
     onset: pd.Timestamp | None = None
 
+    @property
+    def size(self) -> str:
+        """"small" or "large" (which of its kind's magnitudes), "" when healthy."""
+        if self.fault is None:
+            return ""
+        return "small" if self.magnitude == self.fault.magnitudes[0] else "large"
+
 
 @dataclass
 class DayBatch:

@@ -162,8 +162,7 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
         rows.append({
             "asset": plan.asset_id, "night": night,
             "fault": plan.fault.name if plan.fault else "",
-            "size": ("small" if plan.magnitude == plan.fault.magnitudes[0] else "large")
-            if plan.fault else "",
+            "size": plan.size,
             "after_onset": plan.onset is not None and plan.onset < night_start + pd.Timedelta(days=1),
             "alarm": bool(exceeded),
             "exceeded": ";".join(f"{e.channel}/{e.tier}" for e in exceeded),
