@@ -23,7 +23,7 @@ from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.integration import Integration, IntegrationError, choose_integration
 from graybox.level_tier import (LevelTier, fit_level, horizon_samples, level_data,
-                                start_stride)
+                                operating_features, start_stride)
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
@@ -248,7 +248,8 @@ def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
         try:
             errors, features, segments = data[name]
             levels[name] = fit_level(errors, features, horizon, references[name],
-                                     np.asarray(owners)[segments])
+                                     np.asarray(owners)[segments],
+                                     operating_features(request.model))
         except InsufficientDataError as error:
             raise InsufficientDataError(f"channel {name!r}: level tier: {error}") from None
     return levels

@@ -74,6 +74,10 @@ class LevelTier:
         of the inputs' ``slopes * (window's feature means - center)``, in the channel's units
         (see :func:`correction` and :func:`extrapolation`). None for candidates and records
         stored before it.
+    operating : tuple of int, optional
+        A baseline's features that set the operating condition in :func:`correction`: the
+        positions of the inputs that no controller sets. None (candidates, records stored
+        before it): every input.
     """
 
     level: float
@@ -84,8 +88,10 @@ class LevelTier:
     n_obs: int
     operating_point: tuple[float, ...] | None = None
     reach: float | None = None
+    operating: tuple[int, ...] | None = None
 
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach"})
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach",
+                                                             "operating"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -181,8 +187,8 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
 
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
-              baseline: LevelTier | None = None, groups: np.ndarray | None = None
-              ) -> LevelTier:
+              baseline: LevelTier | None = None, groups: np.ndarray | None = None,
+              operating: Sequence[int] | None = None) -> LevelTier:
     """Regress the k-step errors on the centred operating features; keep the intercept.
 
     Parameters
@@ -198,6 +204,9 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     groups : ndarray of shape (N,), optional
         A new baseline's window of each sample: its ``reach`` is the largest correction of a
         window's operating point (none without).
+    operating : sequence of int, optional
+        A new baseline's features that set the operating condition (:func:`correction`);
+        None: every input.
 
     Returns
     -------
@@ -225,24 +234,38 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         level = float(np.mean(errors - (features - center) @ slopes))
     residual = errors - level - (features - center) @ slopes
     reach = None
+    operating = None if baseline is not None or operating is None else tuple(
+        int(i) for i in operating)
     if baseline is None and groups is not None:
-        reach = max(correction(features[groups == g].mean(axis=0), center, slopes)
+        reach = max(correction(features[groups == g].mean(axis=0), center, slopes, operating)
                     for g in np.unique(groups))
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
                      float(residual.std()), int(horizon), int(len(errors)),
-                     tuple(float(c) for c in features.mean(axis=0)), reach)
+                     tuple(float(c) for c in features.mean(axis=0)), reach, operating)
 
 
-def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float]
-               ) -> float:
-    """The size of the inputs' operating-condition correction at ``point``: the norm of the
-    input features' shares ``slopes * (point - center)``, in the channel's units.
+def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float],
+               operating: Sequence[int] | None = None) -> float:
+    """The size of the operating-condition correction at ``point``: the norm of the
+    operating features' shares ``slopes * (point - center)``, in the channel's units.
 
-    The first feature, the channel's own prediction, is left out: a sensor fault moves it
-    too (a bias enters the prediction through its start), and a fault must not read as a
-    night outside the operating range. The inputs set the operating condition."""
-    point, center, slopes = (np.asarray(v, float)[1:] for v in (point, center, slopes))
+    ``operating`` lists the features that count (None: every input). The first feature, the
+    channel's own prediction, never counts: a sensor fault moves it too (a bias enters the
+    prediction through its start), and a fault must not read as a night outside the
+    operating range. Nor does an input a controller sets (``controlled_inputs`` of the white
+    box), for the same reason: a fault the loop compensates moves it."""
+    positions = (np.arange(1, len(center)) if operating is None
+                 else np.asarray(operating, dtype=int))
+    point, center, slopes = (np.asarray(v, float)[positions] for v in (point, center, slopes))
     return float(np.sqrt(np.sum((slopes * (point - center)) ** 2)))
+
+
+def operating_features(model: WhiteBoxModel) -> tuple[int, ...]:
+    """Positions, among a channel's level features (its prediction, then the inputs), of the
+    inputs that no controller sets: those that place a night in or outside the baseline's
+    operating range."""
+    return tuple(1 + i for i, name in enumerate(model.inputs)
+                 if name not in model.controlled_inputs)
 
 
 def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:
@@ -252,4 +275,5 @@ def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:
     checked by a day of its own; 0 where either record lacks the figures."""
     if candidate.operating_point is None or not baseline.reach:
         return 0.0
-    return correction(candidate.operating_point, baseline.center, baseline.slopes) / baseline.reach
+    return correction(candidate.operating_point, baseline.center, baseline.slopes,
+                      baseline.operating) / baseline.reach

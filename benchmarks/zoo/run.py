@@ -167,7 +167,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
             "alarm": bool(exceeded),
             "exceeded": ";".join(f"{e.channel}/{e.tier}" for e in exceeded),
             "max_ratio": max((e.ratio for e in drift.entries if e.ratio is not None), default=0.0),
-            "ratios": {f"{e.channel}/{e.tier}": e.ratio for e in drift.entries}})
+            "ratios": {f"{e.channel}/{e.tier}": e.ratio for e in drift.entries},
+            "outside": {f"{e.channel}/{e.tier}": e.outside for e in drift.entries
+                        if e.outside is not None}})
     return summarise(family, rows, {
         "family": family.name, "title": family.title, "held_out": family.held_out,
         "healthy_assets": len(vehicles), "baseline_days": baseline_days, "nights": nights,

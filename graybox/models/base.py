@@ -49,6 +49,12 @@ class WhiteBoxModel:
     ``initial_state`` (optional)
         Typical values of hidden states, where the search for a window's initial hidden
         state starts (default 0).
+    ``controlled_inputs`` (optional)
+        Inputs that a controller sets from the plant's own state (a thermostat's heater
+        power, a level loop's pump command, a speed loop's current). A fault the loop
+        compensates moves them, so they do not count when the level tier asks whether a night
+        lies outside the baseline's operating range (:func:`graybox.level_tier.extrapolation`);
+        they still take part in its regression. Default none: every input is exogenous.
 
     A subclass meant only as a base for others is declared with ``abstract=True``
     (``class LinearStateSpace(WhiteBoxModel, abstract=True)``) and is not checked.
@@ -67,6 +73,7 @@ class WhiteBoxModel:
     default_parameters: ClassVar[Mapping[str, float | Table]] = {}
     integrator: ClassVar[str] = "auto"
     initial_state: ClassVar[Mapping[str, float]] = {}
+    controlled_inputs: ClassVar[tuple[str, ...]] = ()
     _abstract: ClassVar[bool] = True
     _identity_outputs: ClassVar[bool] = True
 
@@ -245,7 +252,7 @@ def _as_finite_float(value, what: str) -> float:
 
 def _check_declarations(cls) -> None:
     name = cls.__qualname__
-    for attribute in ("states", "inputs", "outputs"):
+    for attribute in ("states", "inputs", "outputs", "controlled_inputs"):
         value = getattr(cls, attribute)
         if not isinstance(value, tuple) or not all(isinstance(v, str) and _NAME.match(v) for v in value):
             raise ModelSpecError(f"{name}.{attribute} must be a tuple of identifiers, got {value!r}")
@@ -259,6 +266,10 @@ def _check_declarations(cls) -> None:
     overlap = set(cls.outputs) & set(cls.inputs)
     if overlap:
         raise ModelSpecError(f"{name}: {sorted(overlap)} declared both as output and input")
+    unknown = set(cls.controlled_inputs) - set(cls.inputs)
+    if unknown:
+        raise ModelSpecError(f"{name}.controlled_inputs names {sorted(unknown)}, which are not "
+                             f"inputs; inputs: {', '.join(cls.inputs) or '(none)'}")
     computed = [o for o in cls.outputs if o not in cls.states]
     if computed and cls.output is WhiteBoxModel.output:
         raise ModelSpecError(f"{name}: outputs {computed} are not states; implement "

@@ -11,7 +11,9 @@ import pytest
 from graybox import Calibration, FitRequest, Signature, compute_drift, fit_baselines, fit_signatures
 from graybox.drift import Drift
 from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
-                                k_step_prediction, level_data)
+                                k_step_prediction, level_data, operating_features)
+from graybox.models.base import WhiteBoxModel
+from graybox.records import from_dict, to_dict
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
 from graybox.rk4 import rk4_step
@@ -171,6 +173,46 @@ def test_a_baselines_reach_is_its_farthest_windows_correction():
     assert extrapolation(fit_level(errors[1000:1800], biased, 12, baseline), baseline) < 1.0
     # a record stored without the figures is never discounted
     assert extrapolation(inside, dataclasses.replace(baseline, reach=None)) == 0.0
+
+
+def test_an_input_a_controller_sets_does_not_place_a_night_outside_the_range():
+    class Room(WhiteBoxModel):
+        states = ("air",)
+        inputs = ("heater", "outdoor")
+        controlled_inputs = ("heater",)
+
+        def derivatives(self, x, u):
+            return u[:, :1] - x
+
+    assert operating_features(Room()) == (2,)
+    assert operating_features(GasTurbineShaft()) == (1,)
+    rng = np.random.default_rng(3)
+    # three baseline days at outdoor means 5, 8 and 10 C; the heater works against the cold
+    outdoor = np.concatenate([rng.normal(mean, 1.0, 1000) for mean in (5.0, 8.0, 10.0)])
+    heater = 2.0 - 0.1 * outdoor + 0.05 * rng.standard_normal(3000)
+    groups = np.repeat([0, 1, 2], 1000)
+    features = np.column_stack([rng.normal(20.0, 0.1, 3000), heater, outdoor])
+    errors = 0.2 * heater + 0.05 * outdoor + 1e-3 * rng.standard_normal(3000)
+    baseline = fit_level(errors, features, 12, groups=groups, operating=(2,))
+    assert baseline.operating == (2,)
+    assert from_dict(LevelTier, json.loads(json.dumps(to_dict(baseline)))) == baseline
+    # an open window on a mild night: the thermostat doubles the heat, the outdoor
+    # temperature is inside the baseline's days
+    night = np.column_stack([rng.normal(20.0, 0.1, 800), 2.0 * heater[1000:1800],
+                             outdoor[1000:1800]])
+    candidate = fit_level(errors[1000:1800] + 0.3, night, 12, baseline)
+    assert candidate.operating is None
+    assert extrapolation(candidate, baseline) < 1.0
+    # counting the heater (every input, as a record stored before the field does), the
+    # same night reads as outside the range, and its level change would be discounted
+    every_input = fit_level(errors, features, 12, groups=groups)
+    assert every_input.operating is None
+    assert extrapolation(fit_level(errors[1000:1800] + 0.3, night, 12, every_input),
+                         every_input) > 1.5
+    # a cold night outside the baseline's days still is outside
+    cold = np.column_stack([rng.normal(20.0, 0.1, 800), 2.0 - 0.1 * (outdoor[:800] - 10.0),
+                            outdoor[:800] - 10.0])
+    assert extrapolation(fit_level(errors[:800], cold, 12, baseline), baseline) > 1.5
 
 
 def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distance():

@@ -63,6 +63,15 @@ def test_declarations_are_checked_when_the_class_is_defined():
 
             def derivatives(self, x, u):
                 return x
+    with pytest.raises(ModelSpecError, match=r"controlled_inputs names \['heater'\], which are "
+                                             r"not inputs; inputs: outdoor"):
+        class ControlsAState(WhiteBoxModel):
+            states = ("air",)
+            inputs = ("outdoor",)
+            controlled_inputs = ("heater",)
+
+            def derivatives(self, x, u):
+                return x
 
 
 def test_missing_columns_name_column_and_variable():

@@ -38,6 +38,7 @@ class ReceiverWhiteBox(WhiteBoxModel):
 
     states = ("p", "T")
     inputs = ("power", "demand", "ambient")
+    controlled_inputs = ("power",)  # the pressure switch starts and stops the motor
     default_parameters = {"volume": 26.0, "delivery_per_kw": 0.15, "temp_rise_per_kw": 1.1,
                           "cooling_time": 110.0}
 

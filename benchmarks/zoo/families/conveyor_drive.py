@@ -34,6 +34,7 @@ class DriveWhiteBox(WhiteBoxModel):
 
     states = ("w", "T")
     inputs = ("current", "load", "ambient")
+    controlled_inputs = ("current",)  # the speed loop sets it
     default_parameters = {"inertia": 6.0, "torque_constant": 1.7, "viscous": 0.22,
                           "load_torque": 38.0, "heat_capacity": 5.5e4, "resistance": 0.085,
                           "thermal_resistance": 0.042}

@@ -31,6 +31,7 @@ class TwoTankWhiteBox(WhiteBoxModel):
 
     states = ("h1", "h2", "q")
     inputs = ("u", "v")
+    controlled_inputs = ("u",)  # the level loop's pump command
     default_parameters = {"area1": 0.55, "area2": 0.45, "g12": 9.0, "g_demand": 4.0,
                           "q_max": 5.5, "pump_lag": 2.5}
 

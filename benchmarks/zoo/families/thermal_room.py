@@ -37,6 +37,7 @@ class RoomWhiteBox(WhiteBoxModel):
 
     states = ("air", "wall")
     inputs = ("heater", "outdoor")
+    controlled_inputs = ("heater",)  # the thermostat sets it
     default_parameters = {"c_air": 2.6e6, "c_wall": 2.6e7, "ua_air_wall": 380.0,
                           "ua_infiltration": 50.0, "ua_wall_out": 250.0}
 

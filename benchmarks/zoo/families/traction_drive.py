@@ -62,6 +62,7 @@ class TractionDriveWhiteBox(WhiteBoxModel):
 
     states = ("i", "w", "T")
     inputs = ("v", "ambient")
+    controlled_inputs = ("v",)  # the current loop sets the armature voltage
     default_parameters = {"resistance": 0.045, "inductance": 3.5e-4, "k": 0.282, "inertia": 1.7,
                           "viscous": 0.02, "drag": 2.6e-5, "rolling": 6.0,
                           "heat_capacity": 4600.0, "thermal_resistance": 0.09}
