@@ -16,12 +16,14 @@ or prefect.
 """
 from graybox.calibration import Calibration
 from graybox.decompose import decompose
+from graybox.diagnosis import Diagnosis, Hypothesis, diagnose
 from graybox.drift import Drift, compute_drift
 from graybox.estimator import FitRequest, GrayBox, GrayBoxSettings, fit_baselines, fit_signatures
 from graybox.exceptions import (ArtifactError, GrayBoxError, InsufficientDataError,
                                 InvalidAssetIdError, ModelSpecError, StructureMismatchError,
                                 TelemetryError)
 from graybox.models import WhiteBoxModel, load_model
+from graybox.parameter_estimation import ParameterEstimate, estimate_parameters
 from graybox.residual import residual_frame
 from graybox.signature import TIERS, Signature
 from graybox.telemetry import GridPolicy, TelemetryWindow, read_window
@@ -30,6 +32,7 @@ __all__ = [
     "GrayBox", "GrayBoxSettings", "FitRequest", "fit_signatures", "fit_baselines",
     "Signature", "Calibration", "Drift", "compute_drift", "decompose", "TIERS",
     "WhiteBoxModel", "load_model", "residual_frame",
+    "estimate_parameters", "ParameterEstimate", "diagnose", "Diagnosis", "Hypothesis",
     "read_window", "GridPolicy", "TelemetryWindow",
     "GrayBoxError", "ModelSpecError", "TelemetryError", "InsufficientDataError",
     "StructureMismatchError", "ArtifactError", "InvalidAssetIdError",

@@ -1,0 +1,409 @@
+"""Fault hypotheses: which single physical cause explains an alarmed window, and by how much.
+
+A **hypothesis** changes one thing against the healthy baseline and has one free value:
+
+``parameter``
+    one parameter of the white box (the model's ``diagnosable`` names, default every number
+    parameter; tables are not): the value.
+``bias``
+    a channel's sensor reads ``b`` high (``y = y_true + b``): ``b``, in the channel's units.
+``gain``
+    a channel's sensor reads ``1 + g`` times the truth: ``g`` (0.06 is +6 %).
+``noise``
+    a channel's errors spread ``s`` times the baseline's: ``s`` (1 is healthy).
+
+**The evidence** is the level tier's (:mod:`graybox.level_tier`): each channel's k-step
+prediction errors ``e(t) = y(t) - yhat(t | x(t - k), u)`` over the window, which carry a
+parameter change (the prediction drifts from the data over ``k`` samples), a sensor bias (the
+prediction forgets its biased start; the one-step residual cannot see a bias) and a gain. With
+an inexact white box the healthy errors depend on the operating condition, so the baseline's
+explanation is taken out first: ``r(t) = e(t) - level - slopes . (z(t) - centre)`` with the
+baseline's level tier (``z``: the channel's prediction and the inputs). Healthy, ``r`` is
+modelled as Gaussian with mean 0 and the baseline's ``residual_std``.
+
+**Fitting.** A parameter, bias or gain hypothesis transforms the white box (the parameter
+changed) or the telemetry (the channel corrected, ``y - b`` or ``y / (1 + g)``), the errors
+are computed again (hidden states re-estimated) and the free value minimises the weighted
+squared ``r`` of every channel (``scipy.optimize.least_squares``). A noise hypothesis keeps
+the baseline's ``r`` and fits the channel's variance (in closed form).
+
+**Score.** The errors are autocorrelated (overlapping predictions, slow model error), so the
+log-likelihood is the Gaussian one of each channel scaled by ``N_eff / N`` (a composite
+likelihood whose gain for a mean shift is chi-square with one degree of freedom when healthy;
+:func:`graybox.effective_samples.effective_sample_size` of the best hypothesis' remaining
+errors, per channel). The score is BIC's: ``2 (loglik - loglik_healthy) - log N_eff``, the
+effective samples of all channels. Positive: the data prefer the hypothesis to "healthy" even
+after paying for its free value. The hypotheses are ranked by score; if none is above
+``min_score`` (default 0) the diagnosis says that no single cause explains the window
+(``explained`` False) rather than name the least bad one.
+
+**Intervals.** From the same weighted likelihood: a parameter, bias or gain ``value +- z sd``
+with ``sd^2 = 1 / sum_c (N_eff,c / N_c) / (1 + N_c / N_base,c) sum_t (dr_c/dvalue)^2 /
+sigma_c^2``: the Gauss-Newton variance inflated by the effective-sample-size factor, as
+:mod:`graybox.parameter_estimation`, and by ``1 + N_c / N_base,c`` for the baseline's own
+estimate of the level it is compared with (its samples ``N_base`` taken as equally
+autocorrelated: the level tier records no more). The baseline's explanation
+``level + slopes . (z - centre)`` is read once, at the baseline white box's features of the
+window, and held fixed under every hypothesis: a hypothesis changes the prediction, not the
+operating condition, and re-reading the slopes at a changed prediction carried the slopes'
+own estimation noise into the estimate (measured: a friction change's estimate 3.5 sd off).
+A noise factor from the chi-square law of the variance
+with ``N_eff`` degrees of freedom (conservative: the variance's own effective sample size is
+larger than the mean's).
+
+What a noise hypothesis sees is the k-step error's spread: a sensor noise change shows in
+full where the sensor noise dominates the errors and only in part where the process noise
+accumulated over ``k`` samples does. Two hypotheses that change the prediction alike (a
+parameter and a gain through the same equilibrium; two parameters that only enter as a sum)
+score alike: the list shows both, and the gap between the first two scores says how sure the
+ranking is.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy import stats
+from scipy.optimize import least_squares
+
+from graybox.effective_samples import effective_sample_size
+from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
+from graybox.integration import Integration
+from graybox.level_tier import LevelTier, start_stride
+from graybox.models.base import WhiteBoxModel
+from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
+                                          float_parameters, operating_segments,
+                                          prediction_errors, with_parameters)
+from graybox.signature import Signature
+from graybox.state_estimation import window_arrays
+
+KINDS = ("parameter", "bias", "gain", "noise")
+#: the least-squares evaluations of one hypothesis
+MAX_EVALUATIONS = 50
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One fitted fault hypothesis.
+
+    Attributes
+    ----------
+    hypothesis : str
+        What it says, e.g. ``"parameter friction"``, ``"speed sensor bias"``.
+    kind : str
+        ``"parameter"``, ``"bias"``, ``"gain"`` or ``"noise"``.
+    target : str
+        The parameter's name, or the channel's (the model's output name).
+    baseline : float
+        The healthy value: the baseline's parameter; 0 for a bias or a gain; 1 for noise.
+    estimate : float
+        The value fitted on the window (a bias in the channel's units; a gain as a fraction,
+        0.06 for +6 %; noise as the factor on the errors' spread).
+    interval : tuple of (float, float)
+        Its confidence interval (95 % unless asked otherwise).
+    score : float
+        ``2 * log_likelihood_gain - log(effective samples)``; positive: preferred to healthy.
+    log_likelihood_gain : float
+        The log-likelihood over the healthy baseline's (effective-sample scaled).
+    """
+
+    hypothesis: str
+    kind: str
+    target: str
+    baseline: float
+    estimate: float
+    interval: tuple[float, float]
+    score: float
+    log_likelihood_gain: float
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+
+    @property
+    def change(self) -> float:
+        """``estimate - baseline``."""
+        return self.estimate - self.baseline
+
+    def describe(self) -> str:
+        """One line for a person, e.g. ``parameter friction 0.5 -> 0.59 (+18 %; interval
+        0.57 to 0.61), score 412``."""
+        low, high = self.interval
+        relative = (f" ({self.change / self.baseline:+.0%}; interval {low:.4g} to {high:.4g})"
+                    if self.baseline else f" (interval {low:.4g} to {high:.4g})")
+        return (f"{self.hypothesis} {self.baseline:.4g} -> {self.estimate:.4g}{relative}, "
+                f"score {self.score:.3g}")
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The ranked fault hypotheses of a window.
+
+    Attributes
+    ----------
+    hypotheses : tuple of Hypothesis
+        Best first (highest score).
+    explained : bool
+        Whether the best scores above ``min_score``; False reads "no single cause explains
+        it" (the ranking is then kept, for inspection, not as an answer).
+    min_score : float
+    channels : tuple of str
+    n_obs : int
+        k-step errors of the window, all channels together.
+    effective_samples : float
+        Their effective number (the score's penalty is its log).
+    """
+
+    hypotheses: tuple[Hypothesis, ...]
+    explained: bool
+    min_score: float
+    channels: tuple[str, ...]
+    n_obs: int
+    effective_samples: float
+
+    @property
+    def best(self) -> Hypothesis | None:
+        """The first hypothesis when it explains the window, else None."""
+        return self.hypotheses[0] if self.explained and self.hypotheses else None
+
+    def summary(self) -> str:
+        """The best hypothesis described, or "no single cause explains it"."""
+        return self.best.describe() if self.best else "no single cause explains it"
+
+
+def candidate_hypotheses(model: WhiteBoxModel) -> tuple[tuple[str, str], ...]:
+    """``(kind, target)`` of every hypothesis of ``model``: a parameter hypothesis for each of
+    its class attribute ``diagnosable`` (default: every number parameter), then a bias, a gain
+    and a noise hypothesis for each output channel.
+
+    Raises
+    ------
+    ModelSpecError
+        If ``diagnosable`` names something that is not a number parameter.
+    """
+    numbers = float_parameters(model)
+    names = tuple(getattr(model, "diagnosable", None) or numbers)
+    wrong = [n for n in names if n not in numbers]
+    if wrong:
+        raise ModelSpecError(f"{model.spec()}.diagnosable names {wrong}, which are not number "
+                             f"parameters: {', '.join(numbers)}")
+    sensors = tuple((kind, channel) for channel in model.outputs
+                    for kind in ("bias", "gain", "noise"))
+    return tuple(("parameter", n) for n in names) + sensors
+
+
+@dataclass
+class _Fit:
+    """A hypothesis fitted with the first weights: its value and, per channel, what the
+    score and the interval need."""
+
+    kind: str
+    target: str
+    baseline: float
+    scale: float
+    value: float
+    residuals: list[np.ndarray]
+    sensitivity: np.ndarray       # per channel, sum of (dr/dvalue)^2 / sigma^2
+    channel: int | None = None    # the channel a noise hypothesis scales
+
+
+def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
+             hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
+             min_score: float = 0.0) -> Diagnosis:
+    """Fit, score and rank the fault hypotheses of a window against its healthy baseline.
+
+    Parameters
+    ----------
+    baseline : Signature
+        The healthy baseline; its level tiers (every channel needs one), sample and analysis
+        intervals and integrator are used.
+    windows : sequence
+        The alarmed window(s): TelemetryWindow, DataFrame, or sequence of DataFrames (the
+        operating periods of one window).
+    model : WhiteBoxModel, optional
+        The baseline's white box (default ``baseline.model.load()``); its parameters are the
+        hypotheses' baseline values.
+    hypotheses : sequence of (kind, target), optional
+        Default :func:`candidate_hypotheses` of the model.
+    level : float, default 0.95
+        Of the intervals.
+    min_score : float, default 0
+        The best hypothesis must score above it to explain the window.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InsufficientDataError
+        If the baseline has no level tier, or no segment is longer than its horizon.
+    """
+    model = model or baseline.model.load()
+    levels = {c: baseline.channel(c).level for c in model.outputs}
+    if any(tier is None for tier in levels.values()):
+        raise InsufficientDataError("the baseline has no level tier (stored before it existed): "
+                                    "refit the baseline to diagnose its alerts")
+    analysis = baseline.analysis_step
+    setup = ErrorSetup(baseline.sample_interval, max(1, round(analysis / baseline.sample_interval)),
+                       next(iter(levels.values())).horizon, start_stride(analysis),
+                       baseline.integration_used)
+    return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
+                           min_score=min_score)
+
+
+def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
+                    setup: ErrorSetup | None = None, *,
+                    hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
+                    min_score: float = 0.0) -> Diagnosis:
+    """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
+    how the errors are computed (default: the level tier's at the telemetry's rate with
+    RK4, the horizon the level tiers'), without a signature."""
+    frames, interval = operating_segments(windows)
+    if setup is None:
+        setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
+                                   integration=Integration())
+    segments = [window_arrays(model, frame) for frame in frames]
+    channels = model.outputs
+    sigma = np.array([max(levels[c].residual_std, 1e-12) for c in channels])
+
+    # the baseline's explanation at the window's operating condition, read once at the
+    # baseline white box's features: a hypothesis changes the prediction, not the condition
+    data = prediction_errors(model, segments, setup)
+    explanation = [levels[c].level + (data[c][1] - np.asarray(levels[c].center))
+                   @ np.asarray(levels[c].slopes) for c in channels]
+    positions = data[channels[0]][2]
+
+    def remaining(trial: WhiteBoxModel, trial_segments) -> tuple[list[np.ndarray], np.ndarray]:
+        data = prediction_errors(trial, trial_segments, setup)
+        return [data[c][0] - known for c, known in zip(channels, explanation)], positions
+
+    healthy = [data[c][0] - known for c, known in zip(channels, explanation)]
+    finite = [np.isfinite(r) for r in healthy]
+    counts = np.array([int(f.sum()) for f in finite])
+    if counts.min() < 3:
+        raise InsufficientDataError("too few finite k-step errors to diagnose the window")
+    healthy = [r[f] for r, f in zip(healthy, finite)]
+    pieces = [positions[f] for f in finite]
+
+    def n_eff(residuals: list[np.ndarray]) -> np.ndarray:
+        return np.array([effective_sample_size([(r - r.mean())[p == s] for s in np.unique(p)])
+                         for r, p in zip(residuals, pieces)])
+
+    weights = n_eff(healthy) / counts
+    fits = [_fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy)
+            for kind, target in (hypotheses or candidate_hypotheses(model))]
+    # the second weights: the autocorrelation of what the best explanation leaves
+    first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
+    best = fits[int(np.argmax(first_gains))] if fits else None
+    effective = n_eff(best.residuals if best is not None else healthy)
+    weights = effective / counts
+    penalty = float(np.log(max(effective.sum(), 1.0)))
+    z = float(stats.norm.ppf(0.5 + level / 2))
+    # the baseline's level is an estimate too: a window compared with a baseline of as many
+    # samples (and the same autocorrelation) has twice the variance
+    compared = weights / (1.0 + counts / np.array([max(levels[c].n_obs, 1) for c in channels]))
+    results = []
+    for fit in fits:
+        gain = _gain(fit, healthy, sigma, weights)
+        results.append(Hypothesis(_name(fit.kind, fit.target), fit.kind, fit.target,
+                                  fit.baseline, _value(fit), _interval(fit, compared, effective,
+                                                                       z, level),
+                                  float(2 * gain - penalty), float(gain)))
+    results.sort(key=lambda h: -h.score)
+    explained = bool(results and results[0].score > min_score)
+    return Diagnosis(tuple(results), explained, float(min_score), tuple(channels),
+                     int(counts.sum()), float(effective.sum()))
+
+
+def _name(kind: str, target: str) -> str:
+    return {"parameter": f"parameter {target}", "bias": f"{target} sensor bias",
+            "gain": f"{target} sensor gain", "noise": f"{target} noise level"}[kind]
+
+
+def _transform(kind: str, target: str, model: WhiteBoxModel, segments, baseline: float,
+               scale: float) -> Callable[[float], tuple[WhiteBoxModel, list]]:
+    """The changed white box and telemetry for a free value ``x`` (in units of ``scale``)."""
+    if kind == "parameter":
+        return lambda x: (with_parameters(model, {target: baseline + scale * x}), segments)
+    column = model.outputs.index(target)
+
+    def corrected(x: float):
+        out = []
+        for y, u in segments:
+            y = y.copy()
+            y[:, column] = (y[:, column] - scale * x if kind == "bias"
+                            else y[:, column] / (1.0 + scale * x))
+            out.append((y, u))
+        return model, out
+    return corrected
+
+
+def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy) -> _Fit:
+    if kind not in KINDS:
+        raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
+    if kind == "noise":
+        channel = model.outputs.index(target)
+        spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
+        return _Fit(kind, target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
+    if kind == "parameter":
+        baseline = float(model.parameters[target])
+        scale = abs(baseline) if baseline else 1.0
+    else:
+        baseline = 0.0
+        scale = float(sigma[model.outputs.index(target)]) if kind == "bias" else 0.01
+    transform = _transform(kind, target, model, segments, baseline, scale)
+    row_weights = np.concatenate([np.full(int(f.sum()), np.sqrt(w) / s)
+                                  for f, w, s in zip(finite, weights, sigma)])
+
+    def weighted(x: np.ndarray) -> np.ndarray:
+        try:
+            residuals, _ = remaining(*transform(float(x[0])))
+            parts = [np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
+                                   neginf=-INVALID_ERROR * s) for r, f, s in
+                     zip(residuals, finite, sigma)]
+        except (GrayBoxError, FloatingPointError):
+            parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]
+        return np.concatenate(parts) * row_weights
+
+    bounds = (-1.0 / scale + 1e-6, np.inf) if kind == "gain" else (-np.inf, np.inf)
+    fit = least_squares(weighted, [0.0], bounds=bounds, diff_step=DIFF_STEP,
+                        max_nfev=MAX_EVALUATIONS)
+    raw = fit.fun / row_weights
+    slope = fit.jac[:, 0] / row_weights
+    edges = np.cumsum([0] + [int(f.sum()) for f in finite])
+    residuals = [raw[a:b] for a, b in zip(edges[:-1], edges[1:])]
+    # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
+    sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
+                            for a, b, s in zip(edges[:-1], edges[1:], sigma)])
+    return _Fit(kind, target, baseline, scale, float(fit.x[0]), residuals, sensitivity)
+
+
+def _gain(fit: _Fit, healthy, sigma, weights) -> float:
+    """The hypothesis' log-likelihood over the healthy one's, each channel's scaled by its
+    weight ``N_eff / N``."""
+    if fit.kind == "noise":
+        q = fit.value ** 2
+        n = weights[fit.channel] * len(healthy[fit.channel])
+        return float(n / 2 * (q - 1 - np.log(q))) if q > 0 else 0.0
+    return float(sum(w * (np.sum(h ** 2) - np.sum(r ** 2)) / (2 * s ** 2)
+                     for h, r, s, w in zip(healthy, fit.residuals, sigma, weights)))
+
+
+def _value(fit: _Fit) -> float:
+    return fit.value if fit.kind == "noise" else fit.baseline + fit.scale * fit.value
+
+
+def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[float, float]:
+    if fit.kind == "noise":
+        # the spread's square times N_eff / s^2 is chi-square with N_eff degrees of freedom
+        dof = max(float(effective[fit.channel]), 1.0)
+        tail = (1 - level) / 2
+        q = fit.value ** 2
+        return (float(np.sqrt(q * dof / stats.chi2.ppf(1 - tail, dof))),
+                float(np.sqrt(q * dof / stats.chi2.ppf(tail, dof))))
+    information = float(np.sum(weights * fit.sensitivity))
+    sd = fit.scale / np.sqrt(information) if information > 0 else np.inf
+    value = _value(fit)
+    return (float(value - z * sd), float(value + z * sd))
