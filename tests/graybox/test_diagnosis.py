@@ -142,3 +142,28 @@ def test_hypotheses_follow_the_models_diagnosable_parameters():
         diagnosable = ("wear",)
     with pytest.raises(ModelSpecError, match="diagnosable"):
         candidate_hypotheses(Wrong())
+
+
+def test_a_white_box_twenty_percent_off_tuned_on_the_baseline_diagnoses_each_fault():
+    # untuned, the white box's dynamic error (a wrong inertia) is not the level tier's static
+    # regression on the operating condition, and a healthy window reads "inertia"; tuned on
+    # the baseline days (the scale of J, k, f, C, h is not identifiable: inertia stays 20 %
+    # off and the others come back 1.19 times theirs, the same dynamics) it diagnoses
+    from graybox.parameter_estimation import estimate_parameters
+    off = with_parameters(Drive(), {"inertia": 24.0, "torque_gain": 1.2, "friction": 0.8,
+                                    "heat_capacity": 60.0, "cooling": 2.0})
+    days = [drive_frame(Drive(), 0), drive_frame(Drive(), 1)]
+    tuned = with_parameters(off, estimate_parameters(
+        off, days, ("torque_gain", "friction", "heat_capacity", "cooling")).parameters())
+    assert tuned.parameters["friction"] == pytest.approx(1.2, rel=0.02)
+    data = level_data(tuned, days, DT, 12)
+    levels = {c: fit_level(e, f, 12, None, s) for c, (e, f, s) in data.items()}
+    assert not diagnose_window(tuned, levels, [drive_frame(Drive(), 10)]).explained
+    for fault in ("friction", "bias", "gain", "noise"):
+        options, kind, target, _ = FAULTS[fault]
+        options = dict(options)
+        model = options.pop("model", Drive())
+        best = diagnose_window(tuned, levels, [drive_frame(model, 10, **options)]).best
+        assert (best.kind, best.target) == (kind, target)
+        if fault == "friction":   # +10 % of the tuned value
+            assert best.estimate / tuned.parameters["friction"] == pytest.approx(1.1, rel=0.01)
