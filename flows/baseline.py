@@ -143,8 +143,7 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
     windows = baseline_windows(config, start, end)
 
     def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
-        fits = fit_baselines(group, lambda p: config.classes[p.ref.vehicle_class].settings,
-                             config.alerts.false_alarm_rate, clock)
+        fits = fit_baselines(group, config.classes, config.alerts.false_alarm_rate, clock)
         for pending in group:
             record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
                             clock)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Iterator, Sequence
+from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import pandas as pd
 
@@ -35,7 +35,7 @@ from graybox.telemetry.layout import outside_links
 
 from flows import progress
 from flows.batching import guard_asset_error
-from flows.config import FleetConfig
+from flows.config import FleetConfig, VehicleClass
 from flows.fleet import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
@@ -324,9 +324,18 @@ def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = No
         window.fit = fit
 
 
-def fit_baselines(assets: Sequence[PendingAsset], settings_of: Callable[[PendingAsset], object],
+def fit_baselines(assets: Sequence[PendingAsset], classes: Mapping[str, VehicleClass],
                   false_alarm_rate: float, clock: StageClock | None = None) -> dict:
-    """Calibrated baselines of the assets (grouped by their class's settings).
+    """Calibrated baselines of the assets (grouped by their class's settings; each tunes the
+    white-box parameters its class names in ``estimate`` first).
+
+    Parameters
+    ----------
+    assets : sequence of PendingAsset
+    classes : mapping of str to VehicleClass
+        The fleet's vehicle classes by name.
+    false_alarm_rate : float
+    clock : StageClock, optional
 
     Returns
     -------
@@ -335,10 +344,11 @@ def fit_baselines(assets: Sequence[PendingAsset], settings_of: Callable[[Pending
     """
     groups: dict[object, list[PendingAsset]] = {}
     for asset in assets:
-        groups.setdefault(settings_of(asset), []).append(asset)
+        groups.setdefault(classes[asset.ref.vehicle_class].settings, []).append(asset)
     out = {}
     for settings, members in groups.items():
-        requests = [FitRequest(a.model, [w.telemetry for w in a.windows], asset_id=a.asset_id)
+        requests = [FitRequest(a.model, [w.telemetry for w in a.windows], asset_id=a.asset_id,
+                               estimate=classes[a.ref.vehicle_class].estimate)
                     for a in members]
         try:
             results = fit_calibrated_baselines(requests, settings, false_alarm_rate,

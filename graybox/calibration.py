@@ -59,7 +59,8 @@ from graybox import records
 from graybox.analysis_rate import decimation_factor
 from graybox.epsilon_scaling import epsilon_scale
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
-from graybox.fleet_fit import FitRequest, fit_signatures, window_periods
+from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.telemetry.window import window_periods
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock

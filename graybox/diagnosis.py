@@ -222,8 +222,9 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
         The alarmed window(s): TelemetryWindow, DataFrame, or sequence of DataFrames (the
         operating periods of one window).
     model : WhiteBoxModel, optional
-        The baseline's white box (default ``baseline.model.load()``); its parameters are the
-        hypotheses' baseline values.
+        The baseline's white box (default ``baseline.model.load()``); its parameters, with a
+        tuned baseline's estimates (``baseline.tuning``) over them, are the hypotheses'
+        baseline values.
     hypotheses : sequence of (kind, target), optional
         Default :func:`candidate_hypotheses` of the model.
     level : float, default 0.95
@@ -241,6 +242,8 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
         If the baseline has no level tier, or no segment is longer than its horizon.
     """
     model = model or baseline.model.load()
+    if baseline.tuning is not None:
+        model = with_parameters(model, baseline.tuning.parameters())
     levels = {c: baseline.channel(c).level for c in model.outputs}
     if any(tier is None for tier in levels.values()):
         raise InsufficientDataError("the baseline has no level tier (stored before it existed): "

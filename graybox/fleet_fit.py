@@ -28,6 +28,8 @@ from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
 from graybox.noise_tier import describe_noise
+from graybox.parameter_estimate import ParameterEstimate
+from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
 from graybox.residual import infer_sample_interval, residual_frame
 from graybox.settings import GrayBoxSettings
@@ -36,6 +38,7 @@ from graybox.signature import (ChannelSignature, ChannelStructure, HiddenStart, 
 from graybox.stage_clock import StageClock, timed
 from graybox.state_cache import StateCache
 from graybox.state_estimation import WindowStates, estimate_states, window_arrays
+from graybox.telemetry.window import window_periods
 from graybox.stationarize import choose_differencing
 
 
@@ -60,6 +63,11 @@ class FitRequest:
     asset_id : str, optional
     seed : int
         Seeds the random initial weights of a new baseline.
+    estimate : tuple of str
+        White-box parameters a new baseline first fits to the asset's windows
+        (:func:`~graybox.parameter_estimation.estimate_parameters`); the baseline is then
+        fitted with the tuned white box and records the estimates (``Signature.tuning``).
+        A candidate always uses its baseline's tuned values.
     """
 
     model: WhiteBoxModel
@@ -68,6 +76,7 @@ class FitRequest:
     warm_start: Signature | None = None
     asset_id: str | None = None
     seed: int = 0
+    estimate: tuple[str, ...] = ()
 
 
 @dataclass
@@ -93,19 +102,7 @@ class _Prepared:
     integration: Integration
     hidden_starts: tuple | None
     channels: list[_Channel] = field(default_factory=list)
-
-
-def window_periods(window) -> list[pd.DataFrame]:
-    """The operating periods of a window: a TelemetryWindow's, a DataFrame as one, or a
-    sequence of DataFrames as given."""
-    if hasattr(window, "periods"):
-        return window.periods()
-    frames = [window] if isinstance(window, pd.DataFrame) else list(window)
-    for frame in frames:
-        if not isinstance(frame, pd.DataFrame):
-            raise TypeError(f"expected a TelemetryWindow, a DataFrame or a sequence of "
-                            f"DataFrames, got {type(frame).__name__}")
-    return frames
+    tuning: ParameterEstimate | None = None
 
 
 def _window_parts(window) -> tuple[list[pd.DataFrame], float, str | None]:
@@ -465,7 +462,35 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
     return Signature(tuple(channels), ModelSpec.from_model(item.request.model), settings.residual,
                      item.sample_interval, channels[0].n_samples, settings, item.asset_id,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval,
-                     integration=item.integration, hidden_starts=item.hidden_starts)
+                     integration=item.integration, hidden_starts=item.hidden_starts,
+                     tuning=item.tuning)
+
+
+def tuned_request(request: FitRequest) -> tuple[FitRequest, ParameterEstimate | None]:
+    """The request with the white box it is fitted with: a candidate's tuned to its
+    baseline's estimates (``Signature.tuning``), a new baseline's that asks for it
+    (``estimate``) fitted to its own windows first, any other as given.
+
+    Returns
+    -------
+    (FitRequest, ParameterEstimate or None)
+        The estimate is returned for a new baseline that made one (recorded with it).
+    """
+    baseline = request.baseline
+    if baseline is not None:
+        if baseline.tuning is None:
+            return request, None
+        return replace(request, model=with_parameters(request.model,
+                                                      baseline.tuning.parameters())), None
+    if not request.estimate:
+        return request, None
+    try:
+        estimate = estimate_parameters(request.model, request.windows, request.estimate)
+    except GrayBoxError as error:
+        raise GrayBoxError(f"asset {request.asset_id!r}: tuning the white box's "
+                           f"{', '.join(request.estimate)} to the "
+                           f"baseline's windows: {error}") from error
+    return replace(request, model=with_parameters(request.model, estimate.parameters())), estimate
 
 
 def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
@@ -519,7 +544,10 @@ def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
     prepared, positions = [], []
     for position, request in enumerate(requests):
         try:
+            with timed(clock, "tuning"):
+                request, tuning = tuned_request(request)
             prepared.append(_prepare(request, settings, clock, cache))
+            prepared[-1].tuning = tuning
             positions.append(position)
         except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
             results[position] = _as_graybox_error(error, request)

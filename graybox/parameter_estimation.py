@@ -36,18 +36,18 @@ from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 from scipy.optimize import least_squares
 
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
-from graybox.fleet_fit import window_periods
 from graybox.integration import Integration
 from graybox.level_tier import horizon_samples, level_data, start_stride
 from graybox.models.base import WhiteBoxModel
 from graybox.models.table import Table
+from graybox.parameter_estimate import ParameterEstimate
 from graybox.residual import infer_sample_interval
 from graybox.state_estimation import estimate_states, window_arrays
+from graybox.telemetry.window import window_periods
 
 #: relative finite-difference step of the Jacobian (errors are smooth in the parameters, but
 #: hidden states come from an inner fit whose tolerance sets a floor)
@@ -55,58 +55,6 @@ DIFF_STEP = 1e-6
 #: a trial model that is invalid or diverges scores this, per error sample, in units of its
 #: channel's scale: far worse than any valid model, so the trust region steps back
 INVALID_ERROR = 1e3
-
-
-@dataclass(frozen=True)
-class ParameterEstimate:
-    """Parameters of a white box fitted to telemetry, with their standard errors.
-
-    Attributes
-    ----------
-    names : tuple of str
-        The estimated parameters.
-    values : tuple of float
-        Their estimates.
-    standard_errors : tuple of float
-        Their standard errors, corrected for the errors' autocorrelation (module docstring).
-    covariance : tuple of tuple of float
-        The estimates' covariance (same correction), in the order of ``names``.
-    initial : tuple of float
-        The values the fit started from.
-    channels : tuple of str
-        The output channels fitted.
-    error_std : tuple of float
-        Per channel, the RMS k-step prediction error at the estimate (channel units).
-    horizon : int
-        ``k``, in analysis samples.
-    n_obs : int
-        Prediction errors used, all channels together.
-    effective_samples : float
-        Their effective number, all channels together.
-    converged : bool
-        Whether the least-squares fit met its tolerance (not its evaluation limit).
-    """
-
-    names: tuple[str, ...]
-    values: tuple[float, ...]
-    standard_errors: tuple[float, ...]
-    covariance: tuple[tuple[float, ...], ...]
-    initial: tuple[float, ...]
-    channels: tuple[str, ...]
-    error_std: tuple[float, ...]
-    horizon: int
-    n_obs: int
-    effective_samples: float
-    converged: bool
-
-    def interval(self, level: float = 0.95) -> tuple[tuple[float, float], ...]:
-        """Normal confidence intervals ``value +- z sd``, one ``(low, high)`` per parameter."""
-        z = float(stats.norm.ppf(0.5 + level / 2))
-        return tuple((v - z * s, v + z * s) for v, s in zip(self.values, self.standard_errors))
-
-    def parameters(self) -> dict[str, float]:
-        """Name -> estimate, ready as a model's parameter overrides."""
-        return dict(zip(self.names, self.values))
 
 
 def with_parameters(model: WhiteBoxModel, changes: Mapping[str, float]) -> WhiteBoxModel:

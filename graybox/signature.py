@@ -15,6 +15,7 @@ from graybox.integration import Integration
 from graybox.level_tier import LevelTier
 from graybox.linear_tier import LinearTier
 from graybox.models.spec import ModelSpec
+from graybox.parameter_estimate import ParameterEstimate
 from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.settings import GrayBoxSettings
@@ -163,6 +164,10 @@ class Signature:
         for signatures stored before it was chosen (RK4, 2 sub-steps).
     hidden_starts : tuple of HiddenStart or None
         Each segment's fitted initial hidden state; None for a model without hidden states.
+    tuning : ParameterEstimate or None
+        A baseline whose white box was tuned to its asset: the estimated parameters with
+        their standard errors (``model`` holds the tuned values; its candidates use them).
+        None otherwise.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -178,9 +183,11 @@ class Signature:
     analysis_interval: float | None = None
     integration: Integration | None = None
     hidden_starts: tuple[HiddenStart, ...] | None = None
+    tuning: ParameterEstimate | None = None
 
     #: written only when present, so signatures stored before them read and write as before
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts"})
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts",
+                                                             "tuning"})
 
     @property
     def integration_used(self) -> Integration:

@@ -104,7 +104,8 @@ def structure_params(signature: Signature) -> dict[str, str]:
 
 def fit_metrics(signature: Signature, calibration: Calibration | None,
                 drift: Drift | None) -> dict[str, float]:
-    """Noise moments, fit errors, epsilon (and zeta, ratio, alarm for a drift) as metrics."""
+    """Noise moments, fit errors, the tuned white box's estimates, epsilon (and zeta, ratio,
+    alarm for a drift) as metrics."""
     metrics: dict[str, float] = {"n_samples": signature.n_samples}
     for channel in signature.channels:
         c = channel.channel
@@ -120,6 +121,17 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
         if channel.level is not None:
             metrics[f"level.{c}.level"] = channel.level.level
             metrics[f"level.{c}.residual_std"] = channel.level.residual_std
+    if signature.tuning is not None:
+        # the white box tuned to the asset: each estimate with its 95 % interval
+        tuning = signature.tuning
+        for name, value, error, (low, high), initial in zip(
+                tuning.names, tuning.values, tuning.standard_errors, tuning.interval(),
+                tuning.initial):
+            metrics[f"tuning.{name}"] = value
+            metrics[f"tuning.{name}.standard_error"] = error
+            metrics[f"tuning.{name}.low"] = low
+            metrics[f"tuning.{name}.high"] = high
+            metrics[f"tuning.{name}.initial"] = initial
     if calibration is not None:
         metrics["calibration.false_alarm_rate"] = calibration.false_alarm_rate
         metrics["calibration.n_windows"] = calibration.n_windows

@@ -45,6 +45,8 @@ Layout (every key and its default: docs/design.md section 3.3; every table but
     settings = { hidden_units = 8 }        # overrides of graybox GrayBoxSettings
     grid = { max_gap = "4min", stuck_after = "10min", min_duration = "1h" }
                                            # overrides of graybox GridPolicy: durations
+    estimate = ["turbine_gain"]            # white-box parameters each baseline fits to
+                                           # its asset first (default none)
 
 Every error is a :class:`ConfigError` whose message starts with the file and the dotted key,
 e.g. ``fleet.toml: classes.turbine.model: ...``.

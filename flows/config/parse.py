@@ -245,7 +245,8 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
     key = f"classes.{name}"
     if _CLASS_NAME.fullmatch(name) is None or name in (".", ".."):
         raise check.error(key, "a vehicle class name must match [A-Za-z0-9_.-]{1,64}")
-    check.keys(key, table, ("model", "parameters", "assets", "columns", "settings", "grid"))
+    check.keys(key, table, ("model", "parameters", "assets", "columns", "settings", "grid",
+                            "estimate"))
     if "model" not in table:
         raise check.error(f"{key}.model", "missing: name the physics model, e.g. "
                                           "\"graybox.models:GasTurbineShaft\"")
@@ -281,6 +282,8 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
         elif "column" in message:
             where = f"{key}.columns"
         raise check.error(where, message) from None
+    estimate = _estimate(check, f"{key}.estimate", table.get("estimate", []),
+                         load_model(model, dict(parameters), dict(columns)))
 
     overrides = dict(check.table(f"{key}.settings", table.get("settings", {})))
     for old, new in RENAMED_SETTINGS.items():
@@ -299,7 +302,25 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
 
     grid = _grid(check, f"{key}.grid", check.table(f"{key}.grid", table.get("grid", {})))
     return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
-                        grid)
+                        grid, estimate)
+
+
+def _estimate(check: Checker, key: str, names, model) -> tuple[str, ...]:
+    """The parameters a class's baselines tune to their asset: number parameters of its
+    white box, each once."""
+    if isinstance(names, str):
+        names = [names]
+    if not isinstance(names, list):
+        raise check.error(key, f"must be a list of the white box's parameter names, got "
+                               f"{names!r}")
+    known = [name for name, value in model.parameters.items() if isinstance(value, (int, float))]
+    for i, name in enumerate(names):
+        if name not in known:
+            raise check.error(f"{key}[{i}]", f"{name!r} is not a number parameter of "
+                                             f"{model.spec()}; they are: {', '.join(known)}")
+    if len(set(names)) != len(names):
+        raise check.error(key, f"names a parameter twice: {names}")
+    return tuple(names)
 
 
 # GridPolicy keys counted in samples before its limits became durations

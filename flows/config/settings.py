@@ -48,6 +48,9 @@ class VehicleClass:
         baseline's own settings).
     grid : GridPolicy
         How telemetry is checked and put on a grid.
+    estimate : tuple of str
+        White-box parameters each new baseline fits to its asset's healthy windows first
+        (``graybox.FitRequest.estimate``); default none.
     """
 
     name: str
@@ -57,6 +60,7 @@ class VehicleClass:
     columns: dict
     settings: Any
     grid: Any
+    estimate: tuple[str, ...] = ()
 
     def load_model(self):
         """The class's physics model (a :class:`graybox.models.WhiteBoxModel`)."""

@@ -153,3 +153,16 @@ class TelemetryWindow:
                 files=files, _filled_mask=mask.copy(), _file_span=span,
                 _period_starts=starts))
         return windows
+
+
+def window_periods(window) -> list[pd.DataFrame]:
+    """The operating periods of a window: a TelemetryWindow's, a DataFrame as one, or a
+    sequence of DataFrames as given."""
+    if hasattr(window, "periods"):
+        return window.periods()
+    frames = [window] if isinstance(window, pd.DataFrame) else list(window)
+    for frame in frames:
+        if not isinstance(frame, pd.DataFrame):
+            raise TypeError(f"expected a TelemetryWindow, a DataFrame or a sequence of "
+                            f"DataFrames, got {type(frame).__name__}")
+    return frames

@@ -176,6 +176,17 @@ def test_grid_durations_as_strings_or_seconds(tmp_path):
         sample_interval=1.0, max_gap=5.0, stuck_after=7200.0, min_duration=5400.0)
 
 
+def test_a_class_names_the_white_box_parameters_its_baselines_tune(tmp_path):
+    config = load_config(write(tmp_path, MINIMAL + 'estimate = ["turbine_gain", '
+                                                   '"compressor_linear"]\n'))
+    assert config.classes["turbine"].estimate == ("turbine_gain", "compressor_linear")
+    assert load_config(write(tmp_path, MINIMAL)).classes["turbine"].estimate == ()
+    with pytest.raises(ConfigError, match=r"classes\.turbine\.estimate\[1\]: 'gain' is not a "
+                                          r"number parameter of graybox.models.gas_turbine:"
+                                          r"GasTurbineShaft; they are: inertia, turbine_gain"):
+        load_config(write(tmp_path, MINIMAL + 'estimate = ["inertia", "gain"]\n'))
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="no such configuration file"):
         load_config(tmp_path / "nope.toml")

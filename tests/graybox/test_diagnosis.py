@@ -14,6 +14,7 @@ from graybox.integration import Integration, advance
 from graybox.level_tier import fit_level, level_data
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
+from graybox.parameter_estimate import ParameterEstimate
 from graybox.parameter_estimation import with_parameters
 from tests.graybox.conftest import make_channel, make_signature
 
@@ -131,6 +132,11 @@ def test_diagnose_reads_the_baselines_signature(levels):
     diagnosis = diagnose(signature, window, Drive())
     assert diagnosis == diagnose_window(Drive(), levels, window)
     assert (diagnosis.best.kind, diagnosis.best.target) == ("gain", "speed")
+    # a tuned baseline's estimates replace the class's values in the model it is given
+    tuning = ParameterEstimate(("friction",), (1.0,), (0.01,), ((1e-4,),), (1.3,), ("speed",),
+                               (0.1,), 12, 2000, 500.0, True)
+    tuned = dataclasses.replace(signature, tuning=tuning)
+    assert diagnose(tuned, window, with_parameters(Drive(), {"friction": 1.3})) == diagnosis
 
 
 def test_hypotheses_follow_the_models_diagnosable_parameters():

@@ -8,6 +8,7 @@ import pytest
 
 from graybox.drift import compute_drift
 from graybox.level_tier import LevelTier
+from graybox.parameter_estimate import ParameterEstimate
 from registry.run_content import describe, drift_document, drift_from_document, fit_metrics
 from registry.submission import FitSubmission, ResolvedFit
 from tests.graybox.conftest import make_channel, make_signature
@@ -39,3 +40,17 @@ def test_a_night_outside_the_baselines_range_says_so_in_its_run():
     # inside the range nothing is said
     inside = compute_drift(_signature(0.55, (130.0, 1.5)), baseline)
     assert not any(name.startswith("outside.") for name in fit_metrics(candidate, None, inside))
+
+
+def test_a_tuned_baseline_shows_each_estimate_with_its_interval_in_its_run():
+    tuning = ParameterEstimate(("inertia",), (51.0,), (0.5,), ((0.25,),), (60.0,), ("omega",),
+                               (1.2,), 12, 8000, 2000.0, True)
+    baseline = dataclasses.replace(_signature(0.40, (100.0, 1.0), reach=0.5), tuning=tuning)
+    metrics = fit_metrics(baseline, None, None)
+    assert metrics["tuning.inertia"] == 51.0
+    assert metrics["tuning.inertia.initial"] == 60.0
+    assert metrics["tuning.inertia.standard_error"] == 0.5
+    assert (metrics["tuning.inertia.low"], metrics["tuning.inertia.high"]) == pytest.approx(
+        (51.0 - 1.96 * 0.5, 51.0 + 1.96 * 0.5), abs=1e-3)
+    assert not any(name.startswith("tuning.")
+                   for name in fit_metrics(_signature(0.40, (100.0, 1.0)), None, None))
