@@ -6,8 +6,9 @@ Every flow works on :class:`PendingAsset` records (an asset, its reference versi
 1. :func:`read` -- read, validate and grid each window (stage ``read``);
 2. :func:`fit_candidates` or :func:`fit_baselines` -- one batched fit for a group of assets
    (stages ``residual``, ``stationarize_ar``, ``network``, ``noise``);
-3. :func:`record_candidates` -- drift against the reference (``drift``), the registry record
-   (``registry``) and the alerts of each window.
+3. :func:`record_candidates` -- drift against the reference (``drift``), the physical
+   diagnosis of an alarmed window (``diagnosis``), the registry record (``registry``) and
+   the alerts of each window.
 
 The flows differ only in what they select (which windows, against which version) and what
 they commit (alerts file and watermarks for the nightly run; a baseline version for the
@@ -21,9 +22,11 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
+import numpy as np
 import pandas as pd
 
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
+from graybox.diagnosis import Diagnosis, diagnose
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError, TelemetryError
 from graybox.fleet_fit import FitRequest, fit_signatures
@@ -40,6 +43,7 @@ from flows.fleet import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
+from registry.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry.entities import LoadedVersion
 from registry.submission import FitSubmission
 
@@ -376,7 +380,9 @@ def _fit_alone(request: FitRequest, settings, false_alarm_rate: float,
 
 def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,
                       stop_at_error: bool, clock: StageClock | None = None) -> list[Alert]:
-    """Drift, record and alert every fitted window of an asset, in time order.
+    """Drift, record and alert every fitted window of an asset, in time order; an alarmed
+    window is diagnosed first (:func:`diagnose_alarm`), its diagnosis recorded with the
+    candidate run and given to its alerts.
 
     A failed fit or recording fails the asset; with ``stop_at_error`` (the nightly run) the
     later windows wait for the next run, otherwise they go on. Transient errors are raised
@@ -398,12 +404,17 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
         try:
             with timed(clock, "drift"):
                 drift = compute_drift(window.fit, reference.signature, reference.calibration)
+            diagnosis = None
+            if drift.alarmed:
+                with timed(clock, "diagnosis"):
+                    diagnosis = diagnose_alarm(asset, window)
             with timed(clock, "registry"):
                 record = registry.record_fit(FitSubmission(
                     asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
                     drift=drift, window=window.recorded_data, window_start=window.start,
                     window_end=window.end, baseline_version=reference.version,
-                    plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis))
+                    plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis,
+                    diagnosis=diagnosis))
         except Exception as error:  # noqa: BLE001 - one window never stops the batch
             guard_asset_error(error, asset.ref, f"recording the window from "
                                                 f"{window.start.isoformat()}")
@@ -417,7 +428,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             version=None if reanalysis else record.version, baseline_version=reference.version,
             run_id=record.run_id, major_ratio=config.alerts.major_ratio,
             critical_ratio=config.alerts.critical_ratio,
-            source=REANALYSIS if reanalysis else NIGHTLY)
+            source=REANALYSIS if reanalysis else NIGHTLY, diagnosis=alert_entries(diagnosis))
         out += alerts
         asset.result.alerts += alerts
         asset.result.windows.append(WindowResult(
@@ -427,6 +438,22 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
     if asset.stop is not None:
         asset.fail(asset.stop, asset.stop_start)
     return out
+
+
+def diagnose_alarm(asset: PendingAsset, window: PendingWindow) -> Diagnosis | DiagnosisFailure:
+    """The physical diagnosis of an alarmed window: its fault hypotheses fitted on the
+    telemetry the candidate was fitted on, against the reference's level tiers, with the
+    reference's white box (:func:`graybox.diagnosis.diagnose`).
+
+    A diagnosis that cannot be made (a GrayBoxError, e.g. a baseline stored before level
+    tiers existed, or a numerical failure) is returned as a :class:`DiagnosisFailure` with
+    its reason: it is recorded and shown with the alerts, and neither the asset nor the
+    alerts are lost.
+    """
+    try:
+        return diagnose(asset.reference.signature, window.parts, asset.model)
+    except (GrayBoxError, ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
+        return DiagnosisFailure(f"{type(error).__name__}: {error}")
 
 
 def max_ratio(drift: Drift) -> float | None:

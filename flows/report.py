@@ -10,6 +10,7 @@ from rich.table import Table
 
 from flows.results import FAILED, UNUSABLE_BASELINE, RunSummary
 from registry.alert import Alert
+from registry.alert_diagnosis import NO_SINGLE_CAUSE
 
 
 def _when(value: str | None, fmt: str = "%Y-%m-%d %H:%M") -> str:
@@ -48,15 +49,25 @@ def fleet_rows(summary: RunSummary) -> list[dict]:
 
 
 def alert_rows(alerts: Sequence[Alert]) -> list[dict]:
-    """One row per alert (asset, window, tier, channel): the alert table."""
+    """One row per alert (asset, window, tier, channel): the alert table, with the window's
+    likely cause (the diagnosis' best hypothesis with its estimate and interval, "no single
+    cause", or "diagnosis failed: ..."; empty when not diagnosed)."""
     rows = []
     for alert in sorted(alerts, key=lambda a: (a.window_start, a.asset_id, -(a.ratio or 0))):
         rows.append({"asset": alert.asset_id,
                      "night": window_label(alert.window_start, alert.window_end),
                      "tier": alert.tier, "channel": alert.channel,
                      "zeta/epsilon": _ratio(alert.ratio),
-                     "severity": alert.severity, "moved most": alert.hint()})
+                     "severity": alert.severity, "moved most": alert.hint(),
+                     "likely cause": likely_cause(alert)})
     return rows
+
+
+def likely_cause(alert: Alert) -> str:
+    """The run table's short cause: ``parameter inertia 50 -> 33.4 (-33 %; interval 33.1 to
+    33.7)``, ``no single cause``, ``diagnosis failed: ...``, or ``""``."""
+    text = alert.likely_cause()
+    return "no single cause" if text == NO_SINGLE_CAUSE else text
 
 
 def flow_result(summary: RunSummary, config):
@@ -124,15 +135,16 @@ def alert_table(alerts: Sequence[Alert], title: str | None = None):
     rows = alert_rows(alerts)
     table = Table(title=title or f"Alerts ({len(rows)})", title_justify="left")
     for column in ("asset", "night", "tier", "channel", "zeta/epsilon", "severity",
-                   "moved most"):
-        table.add_column(column, no_wrap=column != "moved most",
+                   "moved most", "likely cause"):
+        table.add_column(column, no_wrap=column not in ("moved most", "likely cause"),
                          justify="right" if column == "zeta/epsilon" else "left")
     styles = {"critical": "bold red", "major": "red", "minor": "yellow"}
     for row in rows:
         style = styles.get(row["severity"], "")
         table.add_row(row["asset"], row["night"], row["tier"], row["channel"],
                       row["zeta/epsilon"], f"[{style}]{row['severity']}[/]" if style
-                      else row["severity"], _escape(row["moved most"]))
+                      else row["severity"], _escape(row["moved most"]),
+                      _escape(row["likely cause"]))
     return table
 
 

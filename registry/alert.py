@@ -13,7 +13,9 @@ registry may import the flows.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
+
+from registry.alert_diagnosis import cause_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
@@ -82,6 +84,14 @@ class Alert:
         ``drift`` (the fields above), or ``stale``: the asset's telemetry stopped arriving
         (:func:`stale_alert`: ``window_start`` and ``window_end`` are both the time of its
         newest sample, ``zeta`` its age and ``epsilon`` the ``stale_after`` limit, in days).
+    diagnosis : tuple of dict
+        The physical diagnosis of the alert's window (the same for every alert of the
+        window), ranked: ``hypothesis``, ``kind``, ``target``, ``baseline``, ``estimate``,
+        ``interval`` (``[low, high]``) and ``score``. ``diagnosis[0]`` is the likely cause; or
+        the marker ``kind`` ``"none"`` (``hypothesis`` "no single cause explains it", the
+        ranking after it kept for inspection) or ``"failed"`` (``hypothesis`` "diagnosis
+        failed: <reason>"). ``()``: not diagnosed (a stale alert, or recorded before
+        diagnoses). See :mod:`registry.alert_diagnosis`. A list given is kept as a tuple.
     """
 
     asset_id: str
@@ -100,9 +110,11 @@ class Alert:
     run_id: str | None = None
     source: str = NIGHTLY
     kind: str = DRIFT
+    diagnosis: tuple[dict, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "top_changes", tuple(dict(c) for c in self.top_changes))
+        object.__setattr__(self, "diagnosis", tuple(dict(h) for h in self.diagnosis))
 
     @property
     def key(self) -> tuple[str, str, str, str, str]:
@@ -122,10 +134,16 @@ class Alert:
         return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
                          for c in self.top_changes[:count])
 
+    def likely_cause(self) -> str:
+        """The diagnosis' first entry in a line (see
+        :func:`registry.alert_diagnosis.cause_text`), ``""`` when not diagnosed."""
+        return cause_text(self.diagnosis[0] if self.diagnosis else None)
+
     def to_dict(self) -> dict[str, Any]:
-        """The alert as plain JSON types (``top_changes`` a list of dicts)."""
+        """The alert as plain JSON types (``top_changes`` and ``diagnosis`` lists of dicts)."""
         data = asdict(self)
         data["top_changes"] = [dict(c) for c in self.top_changes]
+        data["diagnosis"] = [dict(h) for h in self.diagnosis]
         return data
 
     @classmethod
@@ -145,7 +163,7 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
                       window_end: str, version: int | None, baseline_version: int | None,
                       run_id: str | None, major_ratio: float = MAJOR_RATIO,
                       critical_ratio: float = CRITICAL_RATIO,
-                      source: str = NIGHTLY) -> list[Alert]:
+                      source: str = NIGHTLY, diagnosis: Sequence[dict] = ()) -> list[Alert]:
     """The alerts of a drift: one per entry whose zeta exceeds epsilon, largest ratio first.
 
     Parameters
@@ -159,6 +177,9 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
         Severity thresholds (see :func:`severity`).
     source : str
         ``nightly`` or ``reanalysis``.
+    diagnosis : sequence of dict, optional
+        The window's diagnosis (:func:`registry.alert_diagnosis.alert_entries`), given to
+        each alert.
 
     Returns
     -------
@@ -176,7 +197,8 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
             ratio=float(ratio) if ratio is not None else float("nan"),
             severity=severity(ratio, major_ratio, critical_ratio),
             top_changes=tuple(asdict(c) for c in entry.top_changes),
-            version=version, baseline_version=baseline_version, run_id=run_id, source=source))
+            version=version, baseline_version=baseline_version, run_id=run_id, source=source,
+            diagnosis=tuple(diagnosis)))
     out.sort(key=lambda a: -a.ratio)
     return out
 

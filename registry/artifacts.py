@@ -44,6 +44,7 @@ CALIBRATION_FILE = "calibration.json"
 WEIGHTS_FILE = "weights.safetensors"
 MANIFEST_FILE = "manifest.json"
 DRIFT_FILE = "drift.json"
+DIAGNOSIS_FILE = "diagnosis.json"
 
 BUNDLE_FORMAT = "fleet-health-signature-bundle"
 BUNDLE_VERSION = 1

@@ -4,7 +4,8 @@ Both come from tag-filtered run searches (complete runs only, reanalyses left ou
 per asset and window: the latest recorded). The history reads the runs' per-entry metrics
 (one search, no download); the alerts are made from each alarmed run's ``drift.json`` by
 :func:`registry.alert.alerts_from_drift`, as the nightly run made them from the drift
-itself, so both return the same :class:`registry.alert.Alert` records.
+itself, with the run's diagnosis (``diagnosis.json``, when its tag ``fleet_health.diagnosis``
+says it has one), so both return the same :class:`registry.alert.Alert` records.
 """
 from __future__ import annotations
 
@@ -22,7 +23,8 @@ from graybox.exceptions import ArtifactError
 from graybox.signature import TIERS
 from registry import naming
 from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
-from registry.artifacts import DRIFT_FILE
+from registry.alert_diagnosis import entries_from_document, failure_entry
+from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
 from registry.backend import Backend, is_not_found
 from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
 from registry.retry import call_with_retry
@@ -134,6 +136,7 @@ def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
             baseline = tags.get(naming.TAG_BASELINE_VERSION)
             out += alerts_from_drift(
                 _recorded_drift(backend, run, pathlib.Path(scratch)),
+                diagnosis=_recorded_diagnosis(backend, run, pathlib.Path(scratch)),
                 asset_id=tags.get(naming.TAG_ASSET_ID),
                 vehicle_class=tags.get(naming.TAG_VEHICLE_CLASS),
                 window_start=tags.get(naming.TAG_WINDOW_START),
@@ -156,17 +159,38 @@ def _versions_of(backend: Backend, run_ids: list[str]) -> dict[str, int]:
     return out
 
 
+def _download(backend: Backend, run, name: str, scratch: pathlib.Path) -> dict:
+    """The run's JSON artifact ``name``, parsed."""
+    repository = backend.artifact_repository(run.info.artifact_uri)
+    destination = scratch / run.info.run_id
+    destination.mkdir(parents=True, exist_ok=True)
+    local = call_with_retry(repository.download_artifacts, name, str(destination),
+                            policy=backend.retry, what=f"download {name}")
+    return json.loads(pathlib.Path(local).read_text(encoding="utf-8"))
+
+
+def _recorded_diagnosis(backend: Backend, run, scratch: pathlib.Path) -> tuple[dict, ...]:
+    """The alerts' ``diagnosis`` of the run, from its ``diagnosis.json`` when its tag says it
+    has one (``()`` otherwise: recorded before diagnoses). A missing or unreadable file is
+    said in a ``failed`` entry, not raised: the alerts stay readable (other errors, e.g. an
+    unreachable server, are raised as they are)."""
+    if naming.TAG_DIAGNOSIS not in run.data.tags:
+        return ()
+    try:
+        return entries_from_document(_download(backend, run, DIAGNOSIS_FILE, scratch))
+    except (FileNotFoundError, ValueError, KeyError, TypeError, MlflowException) as error:
+        if isinstance(error, MlflowException) and not is_not_found(error):
+            raise
+        return (failure_entry(f"{DIAGNOSIS_FILE} of run {run.info.run_id} missing or "
+                              f"unreadable: {type(error).__name__}: {error}"),)
+
+
 def _recorded_drift(backend: Backend, run, scratch: pathlib.Path) -> Drift:
     """The run's drift, from its ``drift.json`` (other errors, e.g. an unreachable server,
     are raised as they are)."""
     run_id = run.info.run_id
     try:
-        repository = backend.artifact_repository(run.info.artifact_uri)
-        destination = scratch / run_id
-        destination.mkdir(parents=True, exist_ok=True)
-        local = call_with_retry(repository.download_artifacts, DRIFT_FILE, str(destination),
-                                policy=backend.retry, what="download drift")
-        return drift_from_document(json.loads(pathlib.Path(local).read_text(encoding="utf-8")))
+        return drift_from_document(_download(backend, run, DRIFT_FILE, scratch))
     except (FileNotFoundError, ValueError, KeyError, TypeError, MlflowException) as error:
         if isinstance(error, MlflowException) and not is_not_found(error):
             raise

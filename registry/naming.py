@@ -60,6 +60,8 @@ TAG_ROLLED_BACK_AT = _P + "rolled_back_at"
 TAG_ROLLED_BACK_BY = _P + "rolled_back_by"
 TAG_ROLLBACK_REASON = _P + "rollback_reason"
 TAG_REANALYSIS = _P + "reanalysis"               #: "true" on runs of an ad-hoc reanalysis
+TAG_DIAGNOSIS = _P + "diagnosis"                 #: explained, unexplained or failed
+TAG_LIKELY_CAUSE = _P + "likely_cause"           #: the diagnosis' first entry in a line
 TAG_NIGHT = _P + "night"                         #: a fleet-level run's night (YYYY-MM-DD)
 
 

@@ -1,5 +1,7 @@
 """What a recorded fit says about itself: tags, params, metrics, ``drift.json``, description.
 
+(A candidate's ``diagnosis.json`` and its tags are written by :mod:`registry.alert_diagnosis`.)
+
 Pure functions of a :class:`registry.submission.ResolvedFit` (no MLflow call), so every
 record of a fit says the same whichever path wrote it. Each writer has its reader here:
 :func:`entry_metric` / :func:`parse_entry_metric` for the per-entry metric names (for the
@@ -21,11 +23,13 @@ from graybox.calibration import Calibration
 from graybox.drift import Drift
 from graybox.signature import TIERS, Signature
 from registry import naming
+from registry.alert_diagnosis import diagnosis_document
 from registry.submission import ResolvedFit
 
 _KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")
 #: the metrics logged per (channel, tier): ``<kind>.<channel>.<tier>``
 ENTRY_METRICS = ("zeta", "epsilon", "ratio", "healthy_zeta", "outside")
+MAX_TAG_CHARACTERS = 5000   #: a tag value's length (MLflow allows 8000)
 
 
 @functools.lru_cache(maxsize=1)
@@ -186,6 +190,10 @@ def run_tags(fit: ResolvedFit, baseline_version: int | None) -> dict[str, str]:
         tags[naming.TAG_BASELINE_VERSION] = str(baseline_version)
     if s.reanalysis:
         tags[naming.TAG_REANALYSIS] = "true"
+    if s.diagnosis is not None:
+        document = diagnosis_document(s.diagnosis)
+        tags[naming.TAG_DIAGNOSIS] = document["status"]
+        tags[naming.TAG_LIKELY_CAUSE] = document["likely_cause"][:MAX_TAG_CHARACTERS]
     return tags
 
 

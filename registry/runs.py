@@ -2,7 +2,8 @@
 
 1. ``create_run`` with every tag but the completion tags;
 2. one ``log_artifacts`` of a scratch directory holding the signature bundle
-   (``signature/``), ``drift.json``, a candidate's pyfunc model (``model/``) and the plots;
+   (``signature/``), ``drift.json``, an alarmed candidate's ``diagnosis.json``, a
+   candidate's pyfunc model (``model/``) and the plots;
    a baseline's logged model is logged after it (:func:`registry.model_files.log_logged_model`);
 3. one ``log_batch`` of params, metrics and, last, the tags ``manifest_sha256``,
    ``model_id`` and ``complete=true`` (MLflow writes a batch's tags after its params and
@@ -26,7 +27,8 @@ from mlflow.entities import Metric, Param, RunTag
 
 from graybox.decompose import decompose
 from registry import naming
-from registry.artifacts import DRIFT_FILE, write_bundle
+from registry.alert_diagnosis import diagnosis_document
+from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE, write_bundle
 from registry.backend import Backend
 from registry.history import zeta_history
 from registry.model_files import (BUNDLE_DIR, MODEL_DIR, PyfuncTemplate, log_logged_model,
@@ -68,6 +70,9 @@ def log_run(backend: Backend, experiment_id: str, fit: ResolvedFit,
             if s.drift is not None:
                 (root / DRIFT_FILE).write_text(
                     json.dumps(drift_document(s.drift, baseline_version), indent=2))
+            if s.diagnosis is not None:
+                (root / DIAGNOSIS_FILE).write_text(
+                    json.dumps(diagnosis_document(s.diagnosis), indent=2))
             in_run_model = s.role == naming.CANDIDATE and not s.reanalysis
             if in_run_model:
                 template.write(root / MODEL_DIR, bundle, run_id)

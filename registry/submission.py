@@ -16,10 +16,12 @@ import numpy as np
 import pandas as pd
 
 from graybox.calibration import Calibration
+from graybox.diagnosis import Diagnosis
 from graybox.drift import Drift
 from graybox.signature import Signature
 from graybox.timestamps import utc
 from registry import naming
+from registry.alert_diagnosis import DiagnosisFailure
 
 
 def frames(window) -> list[pd.DataFrame]:
@@ -84,6 +86,10 @@ class FitSubmission:
     reanalysis : bool, default False
         An ad-hoc reanalysis (role ``candidate``, ``baseline_version`` required): only the
         run is recorded, tagged ``fleet_health.reanalysis``.
+    diagnosis : Diagnosis or DiagnosisFailure, optional
+        Candidate fits only (an alarmed window's): ``diagnosis.json`` and the tags
+        ``fleet_health.diagnosis`` (explained, unexplained or failed) and
+        ``fleet_health.likely_cause`` (see :mod:`registry.alert_diagnosis`).
 
     Raises
     ------
@@ -106,6 +112,7 @@ class FitSubmission:
     window: Any = None
     plots: bool = True
     reanalysis: bool = False
+    diagnosis: Diagnosis | DiagnosisFailure | None = None
 
     def __post_init__(self):
         naming.model_name(self.asset_id)
@@ -114,6 +121,9 @@ class FitSubmission:
             raise ValueError(f"role must be one of {naming.ROLES}, got {self.role!r}")
         if self.role == naming.BASELINE and self.drift is not None:
             raise ValueError("a baseline fit has no drift; record drifts with role='candidate'")
+        if self.role == naming.BASELINE and self.diagnosis is not None:
+            raise ValueError("a baseline fit has no diagnosis; diagnoses belong to alarmed "
+                             "candidates (role='candidate')")
         if self.role == naming.CANDIDATE and self.calibration is not None:
             raise ValueError("a candidate fit carries no calibration; record the calibration "
                              "with the baseline fit it belongs to (role='baseline')")

@@ -105,3 +105,23 @@ def test_a_stuck_lock_holder_fails_the_append_instead_of_hanging_it(tmp_path):
         assert time.monotonic() - started < 5
     with log._locked(timeout=0.3):                           # free again
         pass
+
+
+def test_jsonl_keeps_an_alerts_diagnosis(tmp_path):
+    """The JSON-lines file writes and reads the ranked diagnosis (and its 'no single cause'
+    marker) as the alert holds it."""
+    from graybox.diagnosis import Diagnosis, Hypothesis
+    from registry.alert_diagnosis import alert_entries
+
+    friction = Hypothesis("parameter inertia", "parameter", "inertia", 50.0, 33.4,
+                          (33.1, 33.7), 412.0, 210.0)
+    explained = Diagnosis((friction,), True, 0.0, ("omega",), 2000, 640.0)
+    unexplained = Diagnosis((friction,), False, 500.0, ("omega",), 2000, 640.0)
+    log = AlertLog(tmp_path / "alerts.jsonl")
+    first = Alert(**{**alert().to_dict(), "diagnosis": alert_entries(explained)})
+    second = Alert(**{**alert(tier="level").to_dict(), "diagnosis": alert_entries(unexplained)})
+    assert log.append([first, second]) == [first, second]
+    assert log.read() == [first, second]
+    lines = [json.loads(line) for line in log.path.read_text().splitlines()]
+    assert lines[0]["diagnosis"][0]["interval"] == [33.1, 33.7]
+    assert [e["kind"] for e in lines[1]["diagnosis"]] == ["none", "parameter"]
