@@ -28,10 +28,16 @@ class GasTurbineShaft(WhiteBoxModel):
 
     The defaults put the equilibrium at ``omega = 1000`` rad/s for ``mu = 1`` kg/s with a
     damping rate ``gamma = 0.06`` 1/s there (see :meth:`damping_rate`).
+
+    Diagnosable (:mod:`graybox.diagnosis`): ``inertia``, ``turbine_gain``,
+    ``compressor_linear`` (the linear friction of compressor and bearings) and
+    ``compressor_quadratic``; not ``turbine_slope``, which enters the shaft only in the sum
+    ``b + c`` with ``compressor_linear`` and so would tie with it.
     """
 
     states = ("omega",)
     inputs = ("fuel_rate",)
+    diagnosable = ("inertia", "turbine_gain", "compressor_linear", "compressor_quadratic")
     default_parameters = {
         "inertia": 50.0,            # J, kg m^2
         "turbine_gain": 2250.0,     # a, N m per kg/s of fuel
