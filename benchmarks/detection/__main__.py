@@ -55,6 +55,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
                    metavar="N", help="gray-box candidates fitted on the night and the N - 1 before "
                    "it, as [nightly] candidate_nights (default: the product's default, %(default)s)")
+    p.add_argument("--estimate", type=lambda text: tuple(n for n in text.split(",") if n),
+                   default=(), metavar="NAME,NAME,...",
+                   help="white-box parameters each gray-box baseline tunes to its vehicle "
+                        "first, as a class's estimate = [...] (default none)")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--threads", type=int, default=1, help="torch threads per worker (default 1)")
     p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs/benchmarks.md"))
@@ -73,7 +77,8 @@ def grid_from_args(args: argparse.Namespace) -> Grid:
     return Grid(magnitudes=args.magnitudes or dict(DEFAULT_MAGNITUDES),
                 model_errors=tuple(args.model_errors), seeds=tuple(range(1, seeds + 1)),
                 vehicles=vehicles, baseline_days=args.baseline_days,
-                sample_interval=args.sample_interval, candidate_nights=args.candidate_nights)
+                sample_interval=args.sample_interval, candidate_nights=args.candidate_nights,
+                estimate=tuple(args.estimate))
 
 
 class LoadMonitor:

@@ -62,6 +62,9 @@ class Grid:
         The gray box's candidate of a night is fitted on it and the ``N - 1`` nights before it,
         never before the end of the baseline, as ``[nightly] candidate_nights = N`` does in the
         product (the classic detectors always see one night).
+    estimate : tuple of str
+        White-box parameters each gray-box baseline tunes to its vehicle first, as a class's
+        ``estimate = [...]`` does in the product (default none).
     """
 
     magnitudes: dict = field(default_factory=lambda: dict(DEFAULT_MAGNITUDES))
@@ -74,6 +77,7 @@ class Grid:
     sample_interval: float = 10.0
     false_alarm_rate: float = 0.01
     candidate_nights: int = 1
+    estimate: tuple = ()
 
     @property
     def onset_day(self) -> int:
@@ -171,4 +175,5 @@ def fault_summary(grid: Grid) -> str:
     kinds = ", ".join(f"{k} {list(v)}" for k, v in grid.magnitudes.items())
     return (f"{len(grid.seeds)} seeds x {grid.vehicles} vehicles; kinds/magnitudes: {kinds}; "
             f"model errors {list(grid.model_errors)}; {grid.days} days, onset day {grid.onset_day}; "
-            f"gray-box candidates on {grid.candidate_nights} night(s)")
+            f"gray-box candidates on {grid.candidate_nights} night(s)"
+            + (f"; white box tuned on {', '.join(grid.estimate)}" if grid.estimate else ""))

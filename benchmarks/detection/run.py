@@ -85,7 +85,8 @@ def _graybox_rows(grid: Grid, vehicles: list[VehicleData], model, settings) -> t
 
     t0 = time.perf_counter()
     requests = [FitRequest(model, v.healthy[:grid.baseline_days],
-                           asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle) for v in vehicles]
+                           asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
+                           estimate=grid.estimate) for v in vehicles]
     baselines = fit_baselines(requests, settings, grid.false_alarm_rate)
     t1 = time.perf_counter()
     jobs, candidate_requests = [], []
