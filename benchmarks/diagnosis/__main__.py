@@ -1,0 +1,118 @@
+"""``python -m benchmarks.diagnosis [--sizes middle] [--model-errors 0,0.2] [--out F.md]
+[--json F.json]``
+
+Runs :func:`graybox.diagnose` on the alarmed asset-nights of the gas-turbine detection grid
+(and on every healthy night) and scores which cause comes first. Progress goes to stderr; the
+markdown section to ``--out`` (or stdout), the rows and settings to ``--json``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+import shlex
+import subprocess
+import sys
+import time
+
+from benchmarks.detection.grid import DEFAULT_MAGNITUDES
+from benchmarks.diagnosis.grid_run import SIZES, DiagnosisGrid, run_grid
+from benchmarks.diagnosis.report import render
+
+KINDS = tuple(DEFAULT_MAGNITUDES)
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    return tuple(float(x) for x in text.split(",") if x.strip())
+
+
+def _names(known: tuple[str, ...]):
+    def parse(text: str) -> tuple[str, ...]:
+        names = tuple(x.strip() for x in text.split(",") if x.strip())
+        wrong = [n for n in names if n not in known]
+        if wrong:
+            raise argparse.ArgumentTypeError(f"unknown {wrong}; known: {', '.join(known)}")
+        return names
+    return parse
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--kinds", type=_names(KINDS), default=KINDS, metavar="K,K",
+                   help=f"fault kinds (default all: {', '.join(KINDS)})")
+    p.add_argument("--sizes", type=_names(SIZES), default=("middle",), metavar="S,S",
+                   help="the detection grid's magnitudes to run: small, middle, large "
+                        "(default middle)")
+    p.add_argument("--model-errors", type=_floats, default=(0.0, 0.2), metavar="E,E",
+                   help="white-box errors (default 0,0.2); a white box off is tuned first")
+    p.add_argument("--seeds", type=int, default=1, help="seeds 1..N (default 1)")
+    p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
+    p.add_argument("--baseline-days", type=int, default=4)
+    p.add_argument("--pre-nights", type=int, default=2,
+                   help="healthy nights between the baseline and the onset (default 2)")
+    p.add_argument("--post-nights", type=int, default=3, help="nights from the onset (default 3)")
+    p.add_argument("--out", type=pathlib.Path, help="write the markdown section here")
+    p.add_argument("--json", type=pathlib.Path, help="write the settings, rows and clock here")
+    return p.parse_args(argv)
+
+
+def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
+    magnitudes, sizes = {}, {}
+    for kind in args.kinds:
+        chosen = [(size, m) for size, m in zip(SIZES, DEFAULT_MAGNITUDES[kind])
+                  if size in args.sizes]
+        magnitudes[kind] = tuple(m for _, m in chosen)
+        sizes.update({(kind, m): size for size, m in chosen})
+    return DiagnosisGrid(magnitudes=magnitudes, sizes=sizes,
+                         model_errors=tuple(args.model_errors),
+                         seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
+                         baseline_days=args.baseline_days, pre_nights=args.pre_nights,
+                         post_nights=args.post_nights)
+
+
+def _uptime() -> str:
+    try:
+        return subprocess.run(["uptime"], capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "(uptime unavailable)"
+
+
+def _finite(value):
+    """JSON has no NaN or infinity: None instead."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    command = "python -m benchmarks.diagnosis " + " ".join(
+        shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+    load_before = _uptime()
+    began = time.perf_counter()
+    result = run_grid(grid_from_args(args),
+                      lambda line: print(f"[diagnosis] {line}", file=sys.stderr, flush=True))
+    wall = time.perf_counter() - began
+    load_after = _uptime()
+    section = render(result, command.strip(), wall, (load_before, load_after))
+    if args.out:
+        args.out.write_text(section)
+        print(f"wrote {args.out}")
+    else:
+        print(section)
+    if args.json:
+        result.update(command=command.strip(), wall_seconds=wall,
+                      load=[load_before, load_after])
+        args.json.write_text(json.dumps(_finite(result), indent=1, default=str))
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

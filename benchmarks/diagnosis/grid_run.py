@@ -1,0 +1,257 @@
+"""The diagnosis run on the gas-turbine detection grid.
+
+Protocol (:mod:`benchmarks.detection.grid`'s fleet, reduced): per seed, ``vehicles`` vehicles,
+each a healthy asset and one faulty asset per (fault kind, magnitude) on the vehicle's seed
+(their telemetry identical up to the onset). Telemetry goes through the store layout
+(``write_telemetry``) and ``graybox.read_window``, one window per UTC day. Per model error:
+
+1. the white box (:func:`graybox.simulator.white_box_parameters`); when the model error is
+   not 0, it is tuned to each vehicle on its baseline days by
+   :func:`graybox.parameter_estimation.estimate_parameters` on :data:`TUNED` (the shaft's
+   ``J``, ``a``, ``b + c``, ``d`` scale together and ``b``, ``c`` enter only as a sum, so
+   inertia, turbine gain and turbine slope stay fixed and ``compressor_linear`` takes up the
+   error of ``b + c``);
+2. the baseline on the baseline days (``gb.fit_baselines``, 1 % false alarms per
+   asset-night), a candidate per night (``gb.fit_signatures``) and its drift
+   (``gb.compute_drift``): the night alarms when a tier exceeds its epsilon;
+3. ``graybox.diagnose`` on every alarmed faulty night after the onset and on every healthy
+   night (alarmed or not: the false-cause rate), timed.
+"""
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Callable
+
+import pandas as pd
+
+import graybox as gb
+from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
+from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
+from graybox.diagnosis import diagnose
+from graybox.parameter_estimation import estimate_parameters, with_parameters
+from graybox.telemetry.writing import write_telemetry
+
+#: the parameters tuned on the baseline days when the white box is off (an identifiable set)
+TUNED = ("compressor_linear", "compressor_quadratic")
+#: the grid's middle magnitudes, and the small and large ones (benchmarks.detection.grid)
+SIZES = ("small", "middle", "large")
+#: hypotheses kept per diagnosed night in the rows
+KEEP = 5
+
+
+@dataclass(frozen=True)
+class DiagnosisGrid:
+    """What one diagnosis run covers.
+
+    Attributes
+    ----------
+    magnitudes : dict of fault kind -> tuple of float
+        The magnitudes run per kind (a subset of the detection grid's).
+    sizes : dict of (kind, magnitude) -> str
+        "small", "middle" or "large": the magnitude's place in the detection grid.
+    model_errors : tuple of float
+    seeds : tuple of int
+    vehicles : int
+    baseline_days, pre_nights, post_nights : int
+    sample_interval : float
+    false_alarm_rate : float
+    """
+
+    magnitudes: dict
+    sizes: dict
+    model_errors: tuple = (0.0, 0.2)
+    seeds: tuple = (1,)
+    vehicles: int = 8
+    baseline_days: int = 4
+    pre_nights: int = 2
+    post_nights: int = 3
+    sample_interval: float = 10.0
+    false_alarm_rate: float = 0.01
+
+    def detection_grid(self) -> Grid:
+        return Grid(magnitudes=dict(self.magnitudes), model_errors=tuple(self.model_errors),
+                    seeds=tuple(self.seeds), vehicles=self.vehicles,
+                    baseline_days=self.baseline_days, pre_nights=self.pre_nights,
+                    post_nights=self.post_nights, sample_interval=self.sample_interval,
+                    false_alarm_rate=self.false_alarm_rate, candidate_nights=1)
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["magnitudes"] = {k: list(v) for k, v in self.magnitudes.items()}
+        data["sizes"] = {f"{k}={m:g}": s for (k, m), s in self.sizes.items()}
+        return data
+
+
+def white_box(model_error: float):
+    """The gas-turbine shaft ``model_error`` off, reading ``omega`` from ``shaft_speed``."""
+    from graybox.models.gas_turbine import GasTurbineShaft
+    from graybox.simulator import white_box_parameters
+
+    return GasTurbineShaft(white_box_parameters(model_error), columns={CHANNEL: "shaft_speed"})
+
+
+def _read_days(root: str, asset: str, frames: list[pd.DataFrame], first_day: int, model,
+               into: dict) -> None:
+    """Write an asset's day frames in the store layout and read each back as its window."""
+    write_telemetry(root, asset, pd.concat(frames))
+    for offset, frame in enumerate(frames):
+        begin = frame.index[0].floor("D")
+        into[asset, first_day + offset] = gb.read_window(
+            root, asset, model.required_columns, begin, begin + pd.Timedelta(days=1),
+            inputs=model.input_columns)
+
+
+def _windows(grid: Grid, vehicles, model) -> dict:
+    """``(asset, day) -> TelemetryWindow``: every day of the healthy assets, the days from the
+    onset on of the faulty ones."""
+    windows = {}
+    with tempfile.TemporaryDirectory(prefix="diagnosis-bench-") as root:
+        for v in vehicles:
+            _read_days(root, asset_id(v.seed, v.vehicle), v.healthy, 0, model, windows)
+            for (kind, magnitude), frames in v.faulty.items():
+                _read_days(root, asset_id(v.seed, v.vehicle, kind, magnitude), frames,
+                           grid.onset_day, model, windows)
+    return windows
+
+
+def _diagnosis_fields(signature, window, model, fault: str, sensor_noise: float) -> dict:
+    """Diagnose one night; the fields of its row."""
+    began = time.perf_counter()
+    diagnosis = diagnose(signature, [window], model)
+    seconds = time.perf_counter() - began
+    ranked = diagnosis.hypotheses
+    names = [(h.kind, h.target) for h in ranked]
+    expected = expected_hypothesis(fault) if fault != "healthy" else None
+    rank = names.index(expected) + 1 if expected in names else None
+    first = ranked[0]
+    out = {"diagnosed": True, "seconds": seconds, "explained": diagnosis.explained,
+           "first": first.hypothesis, "first_kind": first.kind, "first_target": first.target,
+           "first_estimate": first.estimate, "first_baseline": first.baseline,
+           "first_score": first.score,
+           "gap": first.score - ranked[1].score if len(ranked) > 1 else math.inf,
+           "expected": None if expected is None else f"{expected[0]} {expected[1]}",
+           "expected_rank": rank, "top": [
+               {"hypothesis": h.hypothesis, "estimate": h.estimate,
+                "interval": list(h.interval), "score": h.score} for h in ranked[:KEEP]]}
+    if rank is not None:
+        hit = ranked[rank - 1]
+        residual_std = signature.channel(CHANNEL).level.residual_std
+        out.update(expected_estimate=hit.estimate, expected_interval=list(hit.interval),
+                   expected_score=hit.score,
+                   implied_magnitude=implied_magnitude(fault, hit.estimate, hit.baseline,
+                                                       residual_std=residual_std,
+                                                       sensor_noise=sensor_noise))
+    return out
+
+
+def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tuple[list[dict], dict]:
+    """Every scored asset-night of one seed, for every model error, and the clock."""
+    detection = grid.detection_grid()
+    clock = {"diagnose_seconds": 0.0, "diagnosed": 0}
+    began = time.perf_counter()
+    vehicles = simulate_seed(detection, seed)
+    windows = _windows(detection, vehicles, white_box(0.0))
+    clock["simulate_write_read_seconds"] = time.perf_counter() - began
+    say(f"seed {seed}: simulated, wrote and read {len(windows)} asset-days in "
+        f"{clock['simulate_write_read_seconds']:.0f} s")
+    from graybox.simulator import VehicleSpec
+    sensor_noise = VehicleSpec("x", seed=0).sensor_noise
+    rows = []
+    for error in grid.model_errors:
+        began = time.perf_counter()
+        models, tuning = {}, {}
+        for v in vehicles:
+            model = white_box(error)
+            base = [windows[asset_id(v.seed, v.vehicle), d] for d in range(grid.baseline_days)]
+            if error:
+                estimate = estimate_parameters(model, base, TUNED)
+                model = with_parameters(model, estimate.parameters())
+                tuning[v.vehicle] = estimate
+            models[v.vehicle] = model
+        clock[f"tune_seconds_{error:g}"] = time.perf_counter() - began
+        began = time.perf_counter()
+        requests = [gb.FitRequest(models[v.vehicle],
+                                  [windows[asset_id(v.seed, v.vehicle), d]
+                                   for d in range(grid.baseline_days)],
+                                  asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle)
+                    for v in vehicles]
+        baselines = dict(zip([v.vehicle for v in vehicles],
+                             gb.fit_baselines(requests, false_alarm_rate=grid.false_alarm_rate)))
+        clock[f"baseline_seconds_{error:g}"] = time.perf_counter() - began
+        jobs = []
+        for v in vehicles:
+            if isinstance(baselines[v.vehicle], gb.GrayBoxError):
+                say(f"seed {seed} vehicle {v.vehicle}: baseline failed: {baselines[v.vehicle]}")
+                continue
+            signature = baselines[v.vehicle][0]
+            assets = [("healthy", 0.0, range(detection.baseline_days, detection.days))] + [
+                (kind, magnitude, range(detection.onset_day, detection.days))
+                for kind, magnitude in detection.scenarios()]
+            for kind, magnitude, nights in assets:
+                asset = asset_id(v.seed, v.vehicle, kind, magnitude)
+                for night in nights:
+                    days = trailing_nights(night, 1, detection.baseline_days)
+                    window_asset = (asset if kind == "healthy" or night >= detection.onset_day
+                                    else asset_id(v.seed, v.vehicle))
+                    jobs.append((v, kind, magnitude, night, windows[window_asset, night],
+                                 gb.FitRequest(models[v.vehicle],
+                                               [windows[window_asset, d] for d in days],
+                                               baseline=signature, asset_id=asset)))
+        began = time.perf_counter()
+        candidates = gb.fit_signatures([job[-1] for job in jobs])
+        clock[f"candidate_seconds_{error:g}"] = time.perf_counter() - began
+        say(f"seed {seed}, model error {error:g}: tuned {len(tuning)} white boxes in "
+            f"{clock[f'tune_seconds_{error:g}']:.0f} s, {len(requests)} baselines in "
+            f"{clock[f'baseline_seconds_{error:g}']:.0f} s, {len(jobs)} nights in "
+            f"{clock[f'candidate_seconds_{error:g}']:.0f} s; diagnosing")
+        began = time.perf_counter()
+        for (v, kind, magnitude, night, window, _), candidate in zip(jobs, candidates):
+            signature, calibration = baselines[v.vehicle]
+            row = {"seed": seed, "model_error": error, "vehicle": v.vehicle, "fault": kind,
+                   "magnitude": magnitude, "size": grid.sizes.get((kind, magnitude), ""),
+                   "night": night, "diagnosed": False}
+            if error:
+                row["tuned"] = dict(zip(tuning[v.vehicle].names, tuning[v.vehicle].values))
+            if isinstance(candidate, gb.GrayBoxError):
+                row.update(alarm=None, candidate_error=str(candidate)[:200])
+                rows.append(row)
+                continue
+            drift = gb.compute_drift(candidate, signature, calibration)
+            exceeded = [e for e in drift.entries if e.exceeded]
+            row.update(alarm=bool(exceeded),
+                       exceeded=";".join(f"{e.channel}/{e.tier}" for e in exceeded))
+            if exceeded or kind == "healthy":
+                try:
+                    row.update(_diagnosis_fields(signature, window, models[v.vehicle], kind,
+                                                 sensor_noise))
+                    clock["diagnose_seconds"] += row["seconds"]
+                    clock["diagnosed"] += 1
+                except gb.GrayBoxError as error_:
+                    row.update(diagnosis_error=str(error_)[:200])
+            rows.append(row)
+        say(f"seed {seed}, model error {error:g}: diagnosed "
+            f"{sum(r['diagnosed'] for r in rows if r['model_error'] == error)} nights in "
+            f"{time.perf_counter() - began:.0f} s")
+    return rows, clock
+
+
+def run_grid(grid: DiagnosisGrid, progress: Callable[[str], None] | None = None) -> dict:
+    """Every seed of ``grid``, one after the other, in this process.
+
+    Returns
+    -------
+    dict
+        ``grid`` (its settings), ``tuned`` (:data:`TUNED`), ``rows`` (one per scored
+        asset-night and model error) and ``clock``.
+    """
+    say = progress or (lambda line: None)
+    rows, clocks = [], []
+    for seed in grid.seeds:
+        seed_rows, clock = run_seed(grid, seed, say)
+        rows += seed_rows
+        clocks.append(clock)
+    clock = {key: sum(c.get(key, 0.0) for c in clocks) for c in clocks for key in c}
+    return {"grid": grid.to_dict(), "tuned": list(TUNED), "rows": rows, "clock": clock}

@@ -1,0 +1,93 @@
+"""The markdown section of a diagnosis run: the accuracy table, the confusion tables, the
+false-cause rate and the cost."""
+from __future__ import annotations
+
+import math
+
+from benchmarks.diagnosis import scores
+
+TARGET = 0.8
+
+
+def _pct(hits, total) -> str:
+    if hits is None:
+        return "-"
+    return f"{hits}/{total} ({hits / total:.0%})" if total else "0/0"
+
+
+def _num(value: float, digits: int = 3) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def accuracy_table(cells: list[dict]) -> list[str]:
+    lines = ["| fault | magnitude | model error | nights | detected | expected first | top-1 | "
+             "top-3 | no single cause | most frequent first | implied magnitude (median) | "
+             "its median abs. error |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in cells:
+        lines.append(
+            f"| {c['fault']} | {c['magnitude']:g} ({c['size']}) | {c['model_error']:.0%} | "
+            f"{c['nights']} | {c['detected']} | {c['expected'] or '(none)'} | "
+            f"{_pct(c['top1'], c['detected'])} | {_pct(c['top3'], c['detected'])} | "
+            f"{c['no_cause']} | {c['most_first']} | {_num(c['implied_median'])} "
+            f"(n={c['implied_n']}) | {_num(c['implied_abs_error'])} |")
+    return lines
+
+
+def confusion_tables(confusion: dict) -> list[str]:
+    lines = []
+    for error, faults in sorted(confusion.items()):
+        answers = sorted({a for counter in faults.values() for a in counter},
+                         key=lambda a: (a == scores.NO_CAUSE, a))
+        lines += ["", f"Model error {error:.0%} (rows: fault kind, all magnitudes, detected "
+                      f"nights; healthy: every healthy night; columns: first answer)", "",
+                  "| fault | " + " | ".join(answers) + " |",
+                  "|---|" + "---|" * len(answers)]
+        for fault in sorted(faults, key=lambda f: (f == "healthy", f)):
+            lines.append(f"| {fault} | " + " | ".join(str(faults[fault].get(a, "")) for a in answers)
+                         + " |")
+    return lines
+
+
+def headline(cells: list[dict]) -> str:
+    """Top-1 at the middle magnitude with the white box 20 % off, against the target."""
+    parts = []
+    for c in cells:
+        if c["size"] == "middle" and math.isclose(c["model_error"], 0.2) and c["expected"]:
+            share = c["top1"] / c["detected"] if c["detected"] else math.nan
+            parts.append(f"{c['fault']} {_pct(c['top1'], c['detected'])}"
+                         + ("" if not c["detected"] else (" (meets)" if share >= TARGET
+                                                          else " (misses)")))
+    return (f"Target (issue 19): top-1 >= {TARGET:.0%} for detected faults at the middle "
+            f"magnitude with the white box 20 % off: " + ("; ".join(parts) or "not run") + ".")
+
+
+def render(result: dict, command: str, wall_seconds: float, load: tuple[str, str]) -> str:
+    """The section, from :func:`benchmarks.diagnosis.grid_run.run_grid`'s result."""
+    rows, grid = result["rows"], result["grid"]
+    cells = scores.accuracy(rows)
+    cost = scores.cost(rows)
+    lines = [f"Command: `{command}`; wall time {wall_seconds:.0f} s; load before: `{load[0]}`; "
+             f"after: `{load[1]}`.", "",
+             f"Grid: seeds {grid['seeds']} x {grid['vehicles']} vehicles; magnitudes "
+             f"{grid['magnitudes']}; model errors {grid['model_errors']}; baseline "
+             f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before the "
+             f"onset, {grid['post_nights']} nights from it; {grid['sample_interval']:g} s "
+             f"samples. White box tuned on the baseline days when off: {result['tuned']}.", "",
+             headline(cells), "", *accuracy_table(cells), "",
+             "**Confusion** (first answer per detected night):", *confusion_tables(
+                 scores.confusion(rows)), "",
+             "**False causes** (healthy nights, every one diagnosed):", "",
+             "| model error | healthy nights | given a cause | false alarms | false alarms given "
+             "a cause | causes |", "|---|---|---|---|---|---|"]
+    for f in scores.false_causes(rows):
+        lines.append(f"| {f['model_error']:.0%} | {f['healthy_nights']} | "
+                     f"{_pct(f['with_cause'], f['healthy_nights'])} | {f['false_alarms']} | "
+                     f"{f['false_alarms_with_cause']} | "
+                     f"{', '.join(f'{k}: {v}' for k, v in f['causes'].items()) or '-'} |")
+    if cost.get("diagnosed"):
+        lines += ["", f"**Cost**: {cost['diagnosed']} diagnosed asset-nights at "
+                      f"{grid['sample_interval']:g} s samples: median {cost['median']:.2f} s, "
+                      f"90th percentile {cost['p90']:.2f} s, largest {cost['max']:.2f} s per "
+                      "asset-night (one process)."]
+    return "\n".join(lines) + "\n"
