@@ -1,0 +1,45 @@
+"""The diagnosis benchmark on a tiny configuration: one vehicle, a sensor bias of 2 rad/s,
+the exact white box, one night from the onset. The night alarms, the diagnosis ranks the
+speed sensor's bias first with about the injected size, and the scores and the markdown
+section say so."""
+import pytest
+
+from benchmarks.diagnosis import scores
+from benchmarks.diagnosis.__main__ import grid_from_args, parse_args
+from benchmarks.diagnosis.expected import implied_magnitude
+from benchmarks.diagnosis.grid_run import run_grid
+from benchmarks.diagnosis.report import render
+
+
+@pytest.fixture(scope="module")
+def result():
+    args = parse_args(["--kinds", "bias", "--sizes", "large", "--model-errors", "0",
+                       "--vehicles", "1", "--pre-nights", "0", "--post-nights", "1"])
+    return run_grid(grid_from_args(args))
+
+
+def test_the_bias_night_alarms_and_its_first_hypothesis_is_the_speed_sensor_bias(result):
+    faulty = [r for r in result["rows"] if r["fault"] == "bias"]
+    assert len(faulty) == 1
+    night = faulty[0]
+    assert night["magnitude"] == 2.0 and night["size"] == "large"
+    assert night["alarm"] and night["explained"]
+    assert night["first"] == "omega sensor bias" and night["expected_rank"] == 1
+    assert night["implied_magnitude"] == pytest.approx(2.0, abs=0.2)
+    low, high = night["expected_interval"]
+    assert low < night["expected_estimate"] < high
+
+
+def test_the_scores_count_it_as_a_top_one_hit(result):
+    cell, = scores.accuracy(result["rows"])
+    assert (cell["fault"], cell["detected"], cell["top1"], cell["top3"]) == ("bias", 1, 1, 1)
+    confusion = scores.confusion(result["rows"])
+    assert confusion[0.0]["bias"] == {"omega sensor bias": 1}
+    section = render(result, "python -m benchmarks.diagnosis ...", 1.0, ("load", "load"))
+    assert "| bias | 2 (large) | 0% | 1 | 1 | bias omega | 1/1 (100%) |" in section
+
+
+def test_the_implied_magnitudes_invert_the_expected_hypotheses():
+    assert implied_magnitude("friction", 50 / 1.2, 50.0) == pytest.approx(0.2)
+    assert implied_magnitude("bias", 0.5, 0.0) == 0.5
+    assert implied_magnitude("nonlinear", 1.0, 1.0) != implied_magnitude("nonlinear", 1.0, 1.0)
