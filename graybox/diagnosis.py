@@ -24,7 +24,10 @@ modelled as Gaussian with mean 0 and the baseline's ``residual_std``.
 **Fitting.** A parameter, bias or gain hypothesis transforms the white box (the parameter
 changed) or the telemetry (the channel corrected, ``y - b`` or ``y / (1 + g)``), the errors
 are computed again (hidden states re-estimated) and the free value minimises the weighted
-squared ``r`` of every channel (``scipy.optimize.least_squares``). A noise hypothesis keeps
+squared ``r`` of every channel (``scipy.optimize.least_squares``). A gain's errors are taken
+back to the sensor's units (times ``1 + g``): compared in the corrected units, dividing a
+channel by ``1 + g`` shrinks its errors and any ``g > 0`` scored (a healthy crane night read
+"angle sensor gain +68 %"). A noise hypothesis keeps
 the baseline's ``r`` and fits the channel's variance (in closed form).
 
 **Score.** The errors are autocorrelated (overlapping predictions, slow model error), so the
@@ -360,12 +363,19 @@ def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healt
     row_weights = np.concatenate([np.full(int(f.sum()), np.sqrt(w) / s)
                                   for f, w, s in zip(finite, weights, sigma)])
 
+    # a gain hypothesis' errors are compared in the units the baseline measured them in:
+    # the corrected channel's error y / (1 + g) - yhat times 1 + g is y - (1 + g) yhat (in
+    # the corrected units alone, dividing by 1 + g shrinks every error and any g > 0 pays)
+    gained = model.outputs.index(target) if kind == "gain" else None
+
     def weighted(x: np.ndarray) -> np.ndarray:
         try:
             residuals, _ = remaining(*transform(float(x[0])))
-            parts = [np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
-                                   neginf=-INVALID_ERROR * s) for r, f, s in
-                     zip(residuals, finite, sigma)]
+            units = [1.0 + scale * float(x[0]) if c == gained else 1.0
+                     for c in range(len(residuals))]
+            parts = [u * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
+                                       neginf=-INVALID_ERROR * s) for r, f, s, u in
+                     zip(residuals, finite, sigma, units)]
         except (GrayBoxError, FloatingPointError):
             parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]
         return np.concatenate(parts) * row_weights

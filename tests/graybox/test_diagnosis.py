@@ -173,3 +173,14 @@ def test_a_white_box_twenty_percent_off_tuned_on_the_baseline_diagnoses_each_fau
         assert (best.kind, best.target) == (kind, target)
         if fault == "friction":   # +10 % of the tuned value
             assert best.estimate / tuned.parameters["friction"] == pytest.approx(1.1, rel=0.01)
+
+
+def test_a_gain_hypothesis_is_scored_in_the_sensors_units(levels):
+    # a noisier temperature sensor: dividing the channel by 1 + g shrank its errors, so the
+    # temperature gain scored 98 with g = +0.0017 when its errors were compared in the
+    # corrected units; in the sensor's units it explains nothing
+    diagnosis = diagnose_window(Drive(), levels, [drive_frame(Drive(), 10, noise=(1.0, 10.0))])
+    assert (diagnosis.best.kind, diagnosis.best.target) == ("noise", "temperature")
+    gain, = [h for h in diagnosis.hypotheses if (h.kind, h.target) == ("gain", "temperature")]
+    assert gain.score < 0
+    assert gain.interval[0] < 0 < gain.interval[1]
