@@ -47,6 +47,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "(default middle)")
     p.add_argument("--model-errors", type=_floats, default=(0.0, 0.2), metavar="E,E",
                    help="white-box errors (default 0,0.2); a white box off is tuned first")
+    p.add_argument("--untuned", action="store_true",
+                   help="do not tune a white box that is off (the known weakness, for comparison)")
     p.add_argument("--seeds", type=int, default=1, help="seeds 1..N (default 1)")
     p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
     p.add_argument("--baseline-days", type=int, default=4)
@@ -69,7 +71,7 @@ def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
                          model_errors=tuple(args.model_errors),
                          seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
                          baseline_days=args.baseline_days, pre_nights=args.pre_nights,
-                         post_nights=args.post_nights)
+                         post_nights=args.post_nights, tune=not args.untuned)
 
 
 def _uptime() -> str:

@@ -58,6 +58,9 @@ class DiagnosisGrid:
     baseline_days, pre_nights, post_nights : int
     sample_interval : float
     false_alarm_rate : float
+    tune : bool, default True
+        Tune a white box that is off on the baseline days (False: the known weakness, kept
+        for comparison).
     """
 
     magnitudes: dict
@@ -70,6 +73,7 @@ class DiagnosisGrid:
     post_nights: int = 3
     sample_interval: float = 10.0
     false_alarm_rate: float = 0.01
+    tune: bool = True
 
     def detection_grid(self) -> Grid:
         return Grid(magnitudes=dict(self.magnitudes), model_errors=tuple(self.model_errors),
@@ -166,7 +170,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         for v in vehicles:
             model = white_box(error)
             base = [windows[asset_id(v.seed, v.vehicle), d] for d in range(grid.baseline_days)]
-            if error:
+            if error and grid.tune:
                 estimate = estimate_parameters(model, base, TUNED)
                 model = with_parameters(model, estimate.parameters())
                 tuning[v.vehicle] = estimate
@@ -213,7 +217,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
             row = {"seed": seed, "model_error": error, "vehicle": v.vehicle, "fault": kind,
                    "magnitude": magnitude, "size": grid.sizes.get((kind, magnitude), ""),
                    "night": night, "diagnosed": False}
-            if error:
+            if v.vehicle in tuning:
                 row["tuned"] = dict(zip(tuning[v.vehicle].names, tuning[v.vehicle].values))
             if isinstance(candidate, gb.GrayBoxError):
                 row.update(alarm=None, candidate_error=str(candidate)[:200])
@@ -254,4 +258,5 @@ def run_grid(grid: DiagnosisGrid, progress: Callable[[str], None] | None = None)
         rows += seed_rows
         clocks.append(clock)
     clock = {key: sum(c.get(key, 0.0) for c in clocks) for c in clocks for key in c}
-    return {"grid": grid.to_dict(), "tuned": list(TUNED), "rows": rows, "clock": clock}
+    return {"grid": grid.to_dict(), "tuned": list(TUNED) if grid.tune else [], "rows": rows,
+            "clock": clock}

@@ -73,7 +73,8 @@ def render(result: dict, command: str, wall_seconds: float, load: tuple[str, str
              f"{grid['magnitudes']}; model errors {grid['model_errors']}; baseline "
              f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before the "
              f"onset, {grid['post_nights']} nights from it; {grid['sample_interval']:g} s "
-             f"samples. White box tuned on the baseline days when off: {result['tuned']}.", "",
+             f"samples. White box tuned on the baseline days when off: "
+             f"{result['tuned'] or 'no (untuned)'}.", "",
              headline(cells), "", *accuracy_table(cells), "",
              "**Confusion** (first answer per detected night):", *confusion_tables(
                  scores.confusion(rows)), "",
