@@ -1,8 +1,9 @@
-"""``python -m benchmarks.diagnosis [--sizes middle] [--model-errors 0,0.2] [--out F.md]
-[--json F.json]``
+"""``python -m benchmarks.diagnosis [--sizes middle] [--model-errors 0,0.2] [--zoo F,F]
+[--out F.md] [--json F.json]``
 
 Runs :func:`graybox.diagnose` on the alarmed asset-nights of the gas-turbine detection grid
-(and on every healthy night) and scores which cause comes first. Progress goes to stderr; the
+(and on every healthy night) and scores which cause comes first; with ``--zoo``, the same on
+two plant-zoo families with their coarse white boxes. Progress goes to stderr; the
 markdown section to ``--out`` (or stdout), the rows and settings to ``--json``.
 """
 from __future__ import annotations
@@ -17,6 +18,7 @@ import sys
 import time
 
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES
+from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import SIZES, DiagnosisGrid, run_grid
 from benchmarks.diagnosis.report import render
 
@@ -55,6 +57,12 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--pre-nights", type=int, default=2,
                    help="healthy nights between the baseline and the onset (default 2)")
     p.add_argument("--post-nights", type=int, default=3, help="nights from the onset (default 3)")
+    p.add_argument("--zoo", type=_names(tuple(ZOO)), default=(), metavar="F,F",
+                   help=f"also the plant-zoo families ({', '.join(ZOO)}), reduced")
+    p.add_argument("--zoo-vehicles", type=int, default=3, help="healthy vehicles per family")
+    p.add_argument("--zoo-faulty", type=int, default=2,
+                   help="faulty assets per fault kind and magnitude (default 2)")
+    p.add_argument("--no-grid", action="store_true", help="the zoo families only")
     p.add_argument("--out", type=pathlib.Path, help="write the markdown section here")
     p.add_argument("--json", type=pathlib.Path, help="write the settings, rows and clock here")
     return p.parse_args(argv)
@@ -98,20 +106,29 @@ def main(argv=None) -> int:
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
     load_before = _uptime()
     began = time.perf_counter()
-    result = run_grid(grid_from_args(args),
-                      lambda line: print(f"[diagnosis] {line}", file=sys.stderr, flush=True))
+    def say(line: str) -> None:
+        print(f"[diagnosis] {line}", file=sys.stderr, flush=True)
+
+    result = None if args.no_grid else run_grid(grid_from_args(args), say)
+    zoo = []
+    if args.zoo:
+        from benchmarks.diagnosis.zoo_run import run_family
+        from benchmarks.zoo.families import discover
+        families = discover()
+        zoo = [run_family(families[name], healthy_assets=args.zoo_vehicles,
+                          faulty_per_cell=args.zoo_faulty, progress=say) for name in args.zoo]
     wall = time.perf_counter() - began
     load_after = _uptime()
-    section = render(result, command.strip(), wall, (load_before, load_after))
+    section = render(result, command.strip(), wall, (load_before, load_after), zoo)
     if args.out:
         args.out.write_text(section)
         print(f"wrote {args.out}")
     else:
         print(section)
     if args.json:
-        result.update(command=command.strip(), wall_seconds=wall,
-                      load=[load_before, load_after])
-        args.json.write_text(json.dumps(_finite(result), indent=1, default=str))
+        record = {"grid": result, "zoo": zoo, "command": command.strip(),
+                  "wall_seconds": wall, "load": [load_before, load_after]}
+        args.json.write_text(json.dumps(_finite(record), indent=1, default=str))
         print(f"wrote {args.json}")
     return 0
 

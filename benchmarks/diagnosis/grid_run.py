@@ -121,14 +121,28 @@ def _windows(grid: Grid, vehicles, model) -> dict:
     return windows
 
 
-def _diagnosis_fields(signature, window, model, fault: str, sensor_noise: float) -> dict:
-    """Diagnose one night; the fields of its row."""
+def diagnosis_fields(signature, window, model, expected: tuple[str, str] | None,
+                     implied: Callable[[object], float]) -> dict:
+    """Diagnose one night; the fields of its row.
+
+    Parameters
+    ----------
+    signature : Signature
+        The baseline.
+    window : TelemetryWindow
+        The night.
+    model : WhiteBoxModel
+        The baseline's white box.
+    expected : (kind, target) or None
+        The hypothesis the night's fault should rank first.
+    implied : callable
+        The fault's magnitude implied by the expected hypothesis (a :class:`Hypothesis`).
+    """
     began = time.perf_counter()
     diagnosis = diagnose(signature, [window], model)
     seconds = time.perf_counter() - began
     ranked = diagnosis.hypotheses
     names = [(h.kind, h.target) for h in ranked]
-    expected = expected_hypothesis(fault) if fault != "healthy" else None
     rank = names.index(expected) + 1 if expected in names else None
     first = ranked[0]
     out = {"diagnosed": True, "seconds": seconds, "explained": diagnosis.explained,
@@ -136,18 +150,13 @@ def _diagnosis_fields(signature, window, model, fault: str, sensor_noise: float)
            "first_estimate": first.estimate, "first_baseline": first.baseline,
            "first_score": first.score,
            "gap": first.score - ranked[1].score if len(ranked) > 1 else math.inf,
-           "expected": None if expected is None else f"{expected[0]} {expected[1]}",
            "expected_rank": rank, "top": [
                {"hypothesis": h.hypothesis, "estimate": h.estimate,
                 "interval": list(h.interval), "score": h.score} for h in ranked[:KEEP]]}
     if rank is not None:
         hit = ranked[rank - 1]
-        residual_std = signature.channel(CHANNEL).level.residual_std
         out.update(expected_estimate=hit.estimate, expected_interval=list(hit.interval),
-                   expected_score=hit.score,
-                   implied_magnitude=implied_magnitude(fault, hit.estimate, hit.baseline,
-                                                       residual_std=residual_std,
-                                                       sensor_noise=sensor_noise))
+                   expected_score=hit.score, implied_magnitude=implied(hit))
     return out
 
 
@@ -214,9 +223,11 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         began = time.perf_counter()
         for (v, kind, magnitude, night, window, _), candidate in zip(jobs, candidates):
             signature, calibration = baselines[v.vehicle]
+            expected = expected_hypothesis(kind) if kind != "healthy" else None
             row = {"seed": seed, "model_error": error, "vehicle": v.vehicle, "fault": kind,
                    "magnitude": magnitude, "size": grid.sizes.get((kind, magnitude), ""),
-                   "night": night, "diagnosed": False}
+                   "night": night, "diagnosed": False,
+                   "expected": None if expected is None else " ".join(expected)}
             if v.vehicle in tuning:
                 row["tuned"] = dict(zip(tuning[v.vehicle].names, tuning[v.vehicle].values))
             if isinstance(candidate, gb.GrayBoxError):
@@ -229,8 +240,12 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
                        exceeded=";".join(f"{e.channel}/{e.tier}" for e in exceeded))
             if exceeded or kind == "healthy":
                 try:
-                    row.update(_diagnosis_fields(signature, window, models[v.vehicle], kind,
-                                                 sensor_noise))
+                    residual_std = signature.channel(CHANNEL).level.residual_std
+                    row.update(diagnosis_fields(
+                        signature, window, models[v.vehicle], expected,
+                        lambda h: implied_magnitude(kind, h.estimate, h.baseline,
+                                                    residual_std=residual_std,
+                                                    sensor_noise=sensor_noise)))
                     clock["diagnose_seconds"] += row["seconds"]
                     clock["diagnosed"] += 1
                 except gb.GrayBoxError as error_:

@@ -15,6 +15,11 @@ def _pct(hits, total) -> str:
     return f"{hits}/{total} ({hits / total:.0%})" if total else "0/0"
 
 
+def _error(value) -> str:
+    """A model error as a percentage, or its name (the zoo's "coarse" white boxes)."""
+    return f"{value:.0%}" if isinstance(value, float) else str(value)
+
+
 def _num(value: float, digits: int = 3) -> str:
     return "-" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
 
@@ -26,7 +31,7 @@ def accuracy_table(cells: list[dict]) -> list[str]:
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cells:
         lines.append(
-            f"| {c['fault']} | {c['magnitude']:g} ({c['size']}) | {c['model_error']:.0%} | "
+            f"| {c['fault']} | {c['magnitude']:g} ({c['size']}) | {_error(c['model_error'])} | "
             f"{c['nights']} | {c['detected']} | {c['expected'] or '(none)'} | "
             f"{_pct(c['top1'], c['detected'])} | {_pct(c['top3'], c['detected'])} | "
             f"{c['no_cause']} | {c['most_first']} | {_num(c['implied_median'])} "
@@ -39,7 +44,7 @@ def confusion_tables(confusion: dict) -> list[str]:
     for error, faults in sorted(confusion.items()):
         answers = sorted({a for counter in faults.values() for a in counter},
                          key=lambda a: (a == scores.NO_CAUSE, a))
-        lines += ["", f"Model error {error:.0%} (rows: fault kind, all magnitudes, detected "
+        lines += ["", f"Model error {_error(error)} (rows: fault kind, all magnitudes, detected "
                       f"nights; healthy: every healthy night; columns: first answer)", "",
                   "| fault | " + " | ".join(answers) + " |",
                   "|---|" + "---|" * len(answers)]
@@ -53,7 +58,7 @@ def headline(cells: list[dict]) -> str:
     """Top-1 at the middle magnitude with the white box 20 % off, against the target."""
     parts = []
     for c in cells:
-        if c["size"] == "middle" and math.isclose(c["model_error"], 0.2) and c["expected"]:
+        if (c["size"] == "middle" and c["model_error"] == 0.2 and c["expected"]):
             share = c["top1"] / c["detected"] if c["detected"] else math.nan
             parts.append(f"{c['fault']} {_pct(c['top1'], c['detected'])}"
                          + ("" if not c["detected"] else (" (meets)" if share >= TARGET
@@ -62,33 +67,50 @@ def headline(cells: list[dict]) -> str:
             f"magnitude with the white box 20 % off: " + ("; ".join(parts) or "not run") + ".")
 
 
-def render(result: dict, command: str, wall_seconds: float, load: tuple[str, str]) -> str:
-    """The section, from :func:`benchmarks.diagnosis.grid_run.run_grid`'s result."""
-    rows, grid = result["rows"], result["grid"]
-    cells = scores.accuracy(rows)
+def scored(rows: list[dict], sample_interval: str) -> list[str]:
+    """The accuracy table, the confusion tables, the false causes and the cost of ``rows``."""
     cost = scores.cost(rows)
-    lines = [f"Command: `{command}`; wall time {wall_seconds:.0f} s; load before: `{load[0]}`; "
-             f"after: `{load[1]}`.", "",
-             f"Grid: seeds {grid['seeds']} x {grid['vehicles']} vehicles; magnitudes "
-             f"{grid['magnitudes']}; model errors {grid['model_errors']}; baseline "
-             f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before the "
-             f"onset, {grid['post_nights']} nights from it; {grid['sample_interval']:g} s "
-             f"samples. White box tuned on the baseline days when off: "
-             f"{result['tuned'] or 'no (untuned)'}.", "",
-             headline(cells), "", *accuracy_table(cells), "",
-             "**Confusion** (first answer per detected night):", *confusion_tables(
-                 scores.confusion(rows)), "",
+    lines = [*accuracy_table(scores.accuracy(rows)), "",
+             "**Confusion** (first answer per detected night):",
+             *confusion_tables(scores.confusion(rows)), "",
              "**False causes** (healthy nights, every one diagnosed):", "",
              "| model error | healthy nights | given a cause | false alarms | false alarms given "
              "a cause | causes |", "|---|---|---|---|---|---|"]
     for f in scores.false_causes(rows):
-        lines.append(f"| {f['model_error']:.0%} | {f['healthy_nights']} | "
+        lines.append(f"| {_error(f['model_error'])} | {f['healthy_nights']} | "
                      f"{_pct(f['with_cause'], f['healthy_nights'])} | {f['false_alarms']} | "
                      f"{f['false_alarms_with_cause']} | "
                      f"{', '.join(f'{k}: {v}' for k, v in f['causes'].items()) or '-'} |")
     if cost.get("diagnosed"):
         lines += ["", f"**Cost**: {cost['diagnosed']} diagnosed asset-nights at "
-                      f"{grid['sample_interval']:g} s samples: median {cost['median']:.2f} s, "
-                      f"90th percentile {cost['p90']:.2f} s, largest {cost['max']:.2f} s per "
-                      "asset-night (one process)."]
+                      f"{sample_interval}: median {cost['median']:.2f} s, 90th percentile "
+                      f"{cost['p90']:.2f} s, largest {cost['max']:.2f} s per asset-night (one "
+                      "process)."]
+    return lines
+
+
+def render(result: dict | None, command: str, wall_seconds: float, load: tuple[str, str],
+           zoo: list[dict] = ()) -> str:
+    """The section, from :func:`benchmarks.diagnosis.grid_run.run_grid`'s result (None when
+    the grid did not run) and :func:`benchmarks.diagnosis.zoo_run.run_family`'s."""
+    lines = [f"Command: `{command}`; wall time {wall_seconds:.0f} s; load before: `{load[0]}`; "
+             f"after: `{load[1]}`."]
+    if result is not None:
+        grid = result["grid"]
+        cells = scores.accuracy(result["rows"])
+        lines += ["", f"Grid: seeds {grid['seeds']} x {grid['vehicles']} vehicles; magnitudes "
+                      f"{grid['magnitudes']}; model errors {grid['model_errors']}; baseline "
+                      f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before "
+                      f"the onset, {grid['post_nights']} nights from it; "
+                      f"{grid['sample_interval']:g} s samples. White box tuned on the baseline "
+                      f"days when off: {result['tuned'] or 'no (untuned)'}.", "",
+                  headline(cells), "",
+                  *scored(result["rows"], f"{grid['sample_interval']:g} s samples")]
+    for family in zoo:
+        lines += ["", f"**Zoo: {family['family']}** ({family['healthy_assets']} vehicles, "
+                      f"{family['baseline_days']} baseline days, {family['nights']} healthy "
+                      f"nights each, {family['faulty_per_cell']} faulty assets per kind and "
+                      f"magnitude scored on 3 nights, candidates on {family['candidate_nights']} "
+                      f"night(s); coarse white box tuned on {family['tuned']}):", "",
+                  *scored(family["rows"], "1 Hz")]
     return "\n".join(lines) + "\n"

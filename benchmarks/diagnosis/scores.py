@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 
-from benchmarks.diagnosis.expected import expected_hypothesis
 
 NO_CAUSE = "no single cause"
 
@@ -45,7 +44,7 @@ def accuracy(rows: list[dict]) -> list[dict]:
     out = []
     for (fault, magnitude, error), mine in sorted(cells.items()):
         detected = _detected(mine)
-        expected = expected_hypothesis(fault)
+        expected = mine[0].get("expected")
         top1 = sum(r["explained"] and r["expected_rank"] == 1 for r in detected)
         top3 = sum(r.get("expected_rank") is not None and r["expected_rank"] <= 3
                    and r["expected_score"] > 0 for r in detected)
@@ -55,7 +54,7 @@ def accuracy(rows: list[dict]) -> list[dict]:
         out.append({
             "fault": fault, "magnitude": magnitude, "size": mine[0]["size"],
             "model_error": error, "nights": len(mine), "detected": len(detected),
-            "expected": None if expected is None else f"{expected[0]} {expected[1]}",
+            "expected": expected,
             "top1": top1 if expected else None, "top3": top3 if expected else None,
             "no_cause": sum(not r["explained"] for r in detected),
             "most_first": firsts.most_common(1)[0][0] if firsts else "",
