@@ -63,6 +63,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--zoo-faulty", type=int, default=2,
                    help="faulty assets per fault kind and magnitude (default 2)")
     p.add_argument("--no-grid", action="store_true", help="the zoo families only")
+    p.add_argument("--rerender", type=pathlib.Path, metavar="FILE.json",
+                   help="do not run: render the section again from a --json record")
     p.add_argument("--out", type=pathlib.Path, help="write the markdown section here")
     p.add_argument("--json", type=pathlib.Path, help="write the settings, rows and clock here")
     return p.parse_args(argv)
@@ -102,6 +104,15 @@ def _finite(value):
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.rerender:
+        record = json.loads(args.rerender.read_text())
+        section = render(record["grid"], record["command"], record["wall_seconds"],
+                         tuple(record["load"]), record["zoo"])
+        if args.out:
+            args.out.write_text(section)
+        else:
+            print(section)
+        return 0
     command = "python -m benchmarks.diagnosis " + " ".join(
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
     load_before = _uptime()

@@ -26,14 +26,15 @@ def _num(value: float, digits: int = 3) -> str:
 
 def accuracy_table(cells: list[dict]) -> list[str]:
     lines = ["| fault | magnitude | model error | nights | detected | expected first | top-1 | "
-             "top-3 | no single cause | most frequent first | implied magnitude (median) | "
+             "top-3 | top-1 if noise only rises | no single cause | most frequent first | implied magnitude (median) | "
              "its median abs. error |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cells:
         lines.append(
             f"| {c['fault']} | {c['magnitude']:g} ({c['size']}) | {_error(c['model_error'])} | "
             f"{c['nights']} | {c['detected']} | {c['expected'] or '(none)'} | "
             f"{_pct(c['top1'], c['detected'])} | {_pct(c['top3'], c['detected'])} | "
+            f"{_pct(c['top1_noise_rise_only'], c['detected'])} | "
             f"{c['no_cause']} | {c['most_first']} | {_num(c['implied_median'])} "
             f"(n={c['implied_n']}) | {_num(c['implied_abs_error'])} |")
     return lines

@@ -28,8 +28,27 @@ def first_label(row: dict) -> str:
     return row["first"]
 
 
+def first_if_noise_only_rises(row: dict) -> str | None:
+    """The first hypothesis (``"kind target"``) if a noise hypothesis could only explain a
+    rise of the errors' spread (a fall scoring as healthy), read from the kept first five;
+    None when no kept hypothesis would score above 0. A re-reading of the ranking, not the
+    product's answer."""
+    for h in row.get("top", ()):
+        if h["hypothesis"].endswith("noise level") and h["estimate"] < 1:
+            continue
+        return h["hypothesis"] if h["score"] > 0 else None
+    return None
+
+
 def _detected(rows: list[dict]) -> list[dict]:
     return [r for r in rows if r["fault"] != "healthy" and r.get("alarm") and r["diagnosed"]]
+
+
+def _hypothesis_name(expected: str) -> str:
+    """``"bias omega"`` -> ``"omega sensor bias"``, as :class:`graybox.Hypothesis` names it."""
+    kind, target = expected.split(" ", 1)
+    return {"parameter": f"parameter {target}", "bias": f"{target} sensor bias",
+            "gain": f"{target} sensor gain", "noise": f"{target} noise level"}[kind]
 
 
 def accuracy(rows: list[dict]) -> list[dict]:
@@ -46,16 +65,20 @@ def accuracy(rows: list[dict]) -> list[dict]:
         detected = _detected(mine)
         expected = mine[0].get("expected")
         top1 = sum(r["explained"] and r["expected_rank"] == 1 for r in detected)
+        name = None if expected is None else _hypothesis_name(expected)
+        rise_only = sum(first_if_noise_only_rises(r) == name for r in detected)
         top3 = sum(r.get("expected_rank") is not None and r["expected_rank"] <= 3
                    and r["expected_score"] > 0 for r in detected)
         implied = [r["implied_magnitude"] for r in detected
-                   if math.isfinite(r.get("implied_magnitude", math.nan))]
+                   if r.get("implied_magnitude") is not None
+                   and math.isfinite(r["implied_magnitude"])]
         firsts = collections.Counter(first_label(r) for r in detected)
         out.append({
             "fault": fault, "magnitude": magnitude, "size": mine[0]["size"],
             "model_error": error, "nights": len(mine), "detected": len(detected),
             "expected": expected,
             "top1": top1 if expected else None, "top3": top3 if expected else None,
+            "top1_noise_rise_only": rise_only if expected else None,
             "no_cause": sum(not r["explained"] for r in detected),
             "most_first": firsts.most_common(1)[0][0] if firsts else "",
             "implied_median": float(np.median(implied)) if implied else math.nan,

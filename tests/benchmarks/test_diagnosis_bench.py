@@ -36,7 +36,8 @@ def test_the_scores_count_it_as_a_top_one_hit(result):
     confusion = scores.confusion(result["rows"])
     assert confusion[0.0]["bias"] == {"omega sensor bias": 1}
     section = render(result, "python -m benchmarks.diagnosis ...", 1.0, ("load", "load"))
-    assert "| bias | 2 (large) | 0% | 1 | 1 | bias omega | 1/1 (100%) |" in section
+    assert ("| bias | 2 (large) | 0% | 1 | 1 | bias omega | 1/1 (100%) | 1/1 (100%) | 1/1 (100%) |"
+            in section)
 
 
 def test_the_implied_magnitudes_invert_the_expected_hypotheses():
