@@ -5,7 +5,7 @@
 are diagnosed. *Top-1*: the diagnosis explains the night (its best scores above 0) and its
 first hypothesis is the expected one. *Top-3*: the expected hypothesis is among the first
 three and scores above 0 (a hypothesis the diagnosis itself calls no better than healthy is
-not an answer).
+not an answer). A noise fault counts only when its noise level rose.
 """
 from __future__ import annotations
 
@@ -44,6 +44,11 @@ def _detected(rows: list[dict]) -> list[dict]:
     return [r for r in rows if r["fault"] != "healthy" and r.get("alarm") and r["diagnosed"]]
 
 
+def _right_way(row: dict, field: str) -> bool:
+    """A noise fault is found by a noise level that rose: a fall is not its answer."""
+    return not (row["expected"] or "").startswith("noise ") or row[field] > 1
+
+
 def _hypothesis_name(expected: str) -> str:
     """``"bias omega"`` -> ``"omega sensor bias"``, as :class:`graybox.Hypothesis` names it."""
     kind, target = expected.split(" ", 1)
@@ -64,11 +69,13 @@ def accuracy(rows: list[dict]) -> list[dict]:
     for (fault, magnitude, error), mine in sorted(cells.items()):
         detected = _detected(mine)
         expected = mine[0].get("expected")
-        top1 = sum(r["explained"] and r["expected_rank"] == 1 for r in detected)
+        top1 = sum(r["explained"] and r["expected_rank"] == 1 and _right_way(r, "first_estimate")
+                   for r in detected)
         name = None if expected is None else _hypothesis_name(expected)
         rise_only = sum(first_if_noise_only_rises(r) == name for r in detected)
         top3 = sum(r.get("expected_rank") is not None and r["expected_rank"] <= 3
-                   and r["expected_score"] > 0 for r in detected)
+                   and r["expected_score"] > 0 and _right_way(r, "expected_estimate")
+                   for r in detected)
         implied = [r["implied_magnitude"] for r in detected
                    if r.get("implied_magnitude") is not None
                    and math.isfinite(r["implied_magnitude"])]

@@ -44,3 +44,23 @@ def test_the_implied_magnitudes_invert_the_expected_hypotheses():
     assert implied_magnitude("friction", 50 / 1.2, 50.0) == pytest.approx(0.2)
     assert implied_magnitude("bias", 0.5, 0.0) == 0.5
     assert implied_magnitude("nonlinear", 1.0, 1.0) != implied_magnitude("nonlinear", 1.0, 1.0)
+
+
+def test_a_noise_fault_counts_only_when_its_noise_level_rose():
+    def night(estimate, explained=True):
+        top = [{"hypothesis": "omega noise level", "estimate": estimate, "score": 50.0},
+               {"hypothesis": "parameter inertia", "estimate": 40.0, "score": 10.0}]
+        return {"fault": "noise", "magnitude": 0.3, "size": "large", "model_error": 0.2,
+                "alarm": True, "diagnosed": True, "explained": explained,
+                "expected": "noise omega", "expected_rank": 1, "expected_score": 50.0,
+                "expected_estimate": estimate, "first": "omega noise level",
+                "first_kind": "noise", "first_estimate": estimate, "top": top}
+    rows = [night(1.3), night(0.8), night(1.2, explained=False)]
+    cell, = scores.accuracy(rows)
+    assert (cell["detected"], cell["top1"], cell["top3"], cell["no_cause"]) == (3, 1, 2, 1)
+    # with a fall not a cause, the 0.8 night's first answer is inertia
+    assert cell["top1_noise_rise_only"] == 2
+    assert scores.first_if_noise_only_rises(rows[1]) == "parameter inertia"
+    assert scores.confusion(rows)[0.2]["noise"] == {"omega noise level up": 1,
+                                                    "omega noise level down": 1,
+                                                    "no single cause": 1}
