@@ -26,8 +26,8 @@ def _num(value: float, digits: int = 3) -> str:
 
 def accuracy_table(cells: list[dict]) -> list[str]:
     lines = ["| fault | magnitude | model error | nights | detected | expected first | top-1 | "
-             "top-3 | top-1 if noise only rises | no single cause | most frequent first | implied magnitude (median) | "
-             "its median abs. error |",
+             "top-3 | top-1 if noise only rises | no single cause | most frequent first | "
+             "implied magnitude (median) | its median abs. error |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cells:
         lines.append(
@@ -50,8 +50,8 @@ def confusion_tables(confusion: dict) -> list[str]:
                   "| fault | " + " | ".join(answers) + " |",
                   "|---|" + "---|" * len(answers)]
         for fault in sorted(faults, key=lambda f: (f == "healthy", f)):
-            lines.append(f"| {fault} | " + " | ".join(str(faults[fault].get(a, "")) for a in answers)
-                         + " |")
+            counts = (str(faults[fault].get(a, "")) for a in answers)
+            lines.append(f"| {fault} | " + " | ".join(counts) + " |")
     return lines
 
 
