@@ -1,9 +1,12 @@
 """``python -m benchmarks.diagnosis``: which physical cause :func:`graybox.diagnose` ranks first
 for the alarmed asset-nights of the gas-turbine detection grid (issue 19, item 4).
 
-One concept per module: :mod:`~benchmarks.diagnosis.expected` (the hypothesis each fault kind
-should produce and its true size, declared here and not in the product),
-:mod:`~benchmarks.diagnosis.grid_run` (simulate, tune, baseline, score nights, diagnose),
-:mod:`~benchmarks.diagnosis.scores` (accuracy, confusion, estimate errors, cost) and
-:mod:`~benchmarks.diagnosis.report` (the markdown section).
+One concept per module: :mod:`~benchmarks.diagnosis.expected` (the hypothesis each grid fault
+kind should produce and its true size, declared here and not in the product),
+:mod:`~benchmarks.diagnosis.expected_zoo` (the same for two zoo families, and their tuned
+parameters), :mod:`~benchmarks.diagnosis.grid_run` (simulate, tune, baseline, score nights,
+diagnose), :mod:`~benchmarks.diagnosis.zoo_run` (the same on a zoo family),
+:mod:`~benchmarks.diagnosis.scores` (accuracy, confusion, estimate errors, false causes, cost)
+and :mod:`~benchmarks.diagnosis.report` (the markdown section). Results: docs/benchmarks.md,
+"Diagnosis: which cause comes first".
 """

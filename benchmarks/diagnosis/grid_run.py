@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Callable
 
 import pandas as pd
@@ -85,6 +85,7 @@ class DiagnosisGrid:
     def to_dict(self) -> dict:
         data = asdict(self)
         data["magnitudes"] = {k: list(v) for k, v in self.magnitudes.items()}
+        data["model_errors"], data["seeds"] = list(self.model_errors), list(self.seeds)
         data["sizes"] = {f"{k}={m:g}": s for (k, m), s in self.sizes.items()}
         return data
 
@@ -206,12 +207,11 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
             for kind, magnitude, nights in assets:
                 asset = asset_id(v.seed, v.vehicle, kind, magnitude)
                 for night in nights:
+                    # the grid's candidates are one night (candidate_nights = 1)
                     days = trailing_nights(night, 1, detection.baseline_days)
-                    window_asset = (asset if kind == "healthy" or night >= detection.onset_day
-                                    else asset_id(v.seed, v.vehicle))
-                    jobs.append((v, kind, magnitude, night, windows[window_asset, night],
+                    jobs.append((v, kind, magnitude, night, windows[asset, night],
                                  gb.FitRequest(models[v.vehicle],
-                                               [windows[window_asset, d] for d in days],
+                                               [windows[asset, d] for d in days],
                                                baseline=signature, asset_id=asset)))
         began = time.perf_counter()
         candidates = gb.fit_signatures([job[-1] for job in jobs])

@@ -64,3 +64,20 @@ def test_a_noise_fault_counts_only_when_its_noise_level_rose():
     assert scores.confusion(rows)[0.2]["noise"] == {"omega noise level up": 1,
                                                     "omega noise level down": 1,
                                                     "no single cause": 1}
+
+
+def test_the_command_writes_the_section_and_a_record_it_renders_again(tmp_path):
+    import json
+
+    from benchmarks.diagnosis.__main__ import main
+    out, record = tmp_path / "diagnosis.md", tmp_path / "diagnosis.json"
+    assert main(["--kinds", "bias", "--sizes", "large", "--model-errors", "0", "--vehicles", "1",
+                 "--pre-nights", "0", "--post-nights", "1", "--out", str(out),
+                 "--json", str(record)]) == 0
+    section = out.read_text()
+    assert "| bias | 2 (large) | 0% | 1 | 1 | bias omega | 1/1 (100%) |" in section
+    data = json.loads(record.read_text())
+    assert [r["first"] for r in data["grid"]["rows"] if r["fault"] == "bias"] == ["omega sensor bias"]
+    again = tmp_path / "again.md"
+    assert main(["--rerender", str(record), "--out", str(again)]) == 0
+    assert again.read_text() == section
