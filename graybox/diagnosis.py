@@ -63,12 +63,14 @@ ranking is.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy import stats
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
@@ -84,6 +86,10 @@ from graybox.state_estimation import window_arrays
 KINDS = ("parameter", "bias", "gain", "noise")
 #: the least-squares evaluations of one hypothesis
 MAX_EVALUATIONS = 50
+#: seconds a window's diagnosis may take by default: each hypothesis re-runs the white box
+#: over the window, which for a costly model (a ProgPy pump, hidden states at 1 Hz) takes
+#: minutes; past the budget the diagnosis fails with that reason, and the alert still stands
+TIME_BUDGET = 20.0
 
 
 @dataclass(frozen=True)
@@ -213,7 +219,7 @@ class _Fit:
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
              hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
-             min_score: float = 0.0) -> Diagnosis:
+             min_score: float = 0.0, time_budget: float | None = TIME_BUDGET) -> Diagnosis:
     """Fit, score and rank the fault hypotheses of a window against its healthy baseline.
 
     Parameters
@@ -234,6 +240,8 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
         Of the intervals.
     min_score : float, default 0
         The best hypothesis must score above it to explain the window.
+    time_budget : float or None, default :data:`TIME_BUDGET`
+        Seconds the diagnosis may take; None: no limit.
 
     Returns
     -------
@@ -243,6 +251,9 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
     ------
     InsufficientDataError
         If the baseline has no level tier, or no segment is longer than its horizon.
+    GrayBoxError
+        If the hypotheses are not all fitted within ``time_budget`` (the message says how
+        many were).
     """
     model = model or baseline.model.load()
     if baseline.tuning is not None:
@@ -256,16 +267,49 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
                        next(iter(levels.values())).horizon, start_stride(analysis),
                        baseline.integration_used)
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
-                           min_score=min_score)
+                           min_score=min_score, time_budget=time_budget)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
                     setup: ErrorSetup | None = None, *,
                     hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
-                    min_score: float = 0.0) -> Diagnosis:
+                    min_score: float = 0.0, time_budget: float | None = TIME_BUDGET
+                    ) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
     RK4, the horizon the level tiers'), without a signature."""
+    clock = _Deadline(time_budget)
+    hypotheses = tuple(hypotheses or candidate_hypotheses(model))
+    # many small vector products: BLAS threads spin-waiting cost more than they give (as in
+    # graybox.fleet_fit.fit_signatures)
+    with threadpool_limits(limits=1):
+        try:
+            return _diagnose_window(model, levels, windows, setup, hypotheses, level,
+                                    min_score, clock)
+        except _OutOfTime:
+            raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
+                               f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
+                               f"costly white box: each hypothesis re-runs it over the "
+                               f"window)") from None
+
+
+class _OutOfTime(Exception):
+    """Raised inside a fit when the diagnosis' time budget is spent; not a GrayBoxError, which
+    a hypothesis' fit reads as an invalid trial."""
+
+
+class _Deadline:
+    def __init__(self, budget: float | None):
+        self.end = None if budget is None else time.monotonic() + budget
+        self.fitted = 0
+
+    def check(self) -> None:
+        if self.end is not None and time.monotonic() > self.end:
+            raise _OutOfTime
+
+
+def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
+                     clock: _Deadline) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
@@ -282,6 +326,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     positions = data[channels[0]][2]
 
     def remaining(trial: WhiteBoxModel, trial_segments) -> tuple[list[np.ndarray], np.ndarray]:
+        clock.check()
         data = prediction_errors(trial, trial_segments, setup)
         return [data[c][0] - known for c, known in zip(channels, explanation)], positions
 
@@ -298,8 +343,11 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
                          for r, p in zip(residuals, pieces)])
 
     weights = n_eff(healthy) / counts
-    fits = [_fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy)
-            for kind, target in (hypotheses or candidate_hypotheses(model))]
+    fits = []
+    for kind, target in hypotheses:
+        fits.append(_fit(kind, target, model, segments, remaining, finite, sigma, weights,
+                         healthy))
+        clock.fitted += 1
     # the second weights: the autocorrelation of what the best explanation leaves
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
     best = fits[int(np.argmax(first_gains))] if fits else None

@@ -384,6 +384,7 @@ def load_results(assets_dir: pathlib.Path) -> Results:
     grid_data["magnitudes"] = {k: tuple(v) for k, v in grid_data["magnitudes"].items()}
     grid_data["model_errors"] = tuple(grid_data["model_errors"])
     grid_data["seeds"] = tuple(grid_data["seeds"])
+    grid_data["estimate"] = tuple(grid_data.get("estimate", ()))
     table = pd.read_csv(assets_dir / "detection_nights.csv")
     for column in ("model_error", "magnitude", "onset"):
         table[column] = table[column].astype(float)

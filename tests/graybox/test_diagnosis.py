@@ -9,7 +9,7 @@ import pytest
 
 from graybox import records
 from graybox.diagnosis import Diagnosis, candidate_hypotheses, diagnose, diagnose_window
-from graybox.exceptions import ModelSpecError
+from graybox.exceptions import GrayBoxError, ModelSpecError
 from graybox.integration import Integration, advance
 from graybox.level_tier import fit_level, level_data
 from graybox.models.base import WhiteBoxModel
@@ -184,3 +184,12 @@ def test_a_gain_hypothesis_is_scored_in_the_sensors_units(levels):
     gain, = [h for h in diagnosis.hypotheses if (h.kind, h.target) == ("gain", "temperature")]
     assert gain.score < 0
     assert gain.interval[0] < 0 < gain.interval[1]
+
+
+def test_a_diagnosis_over_its_time_budget_fails_saying_how_far_it_got(levels):
+    window = [drive_frame(Drive(), 13, gain=(0.03, 0.0))]
+    count = len(candidate_hypotheses(Drive()))
+    with pytest.raises(GrayBoxError, match=rf"the diagnosis stopped at its time budget of 0 s "
+                                           rf"after 0 of {count} hypotheses"):
+        diagnose_window(Drive(), levels, window, time_budget=0.0)
+    assert diagnose_window(Drive(), levels, window, time_budget=None).best.kind == "gain"
