@@ -10,7 +10,11 @@ A **hypothesis** changes one thing against the healthy baseline and has one free
 ``gain``
     a channel's sensor reads ``1 + g`` times the truth: ``g`` (0.06 is +6 %).
 ``noise``
-    a channel's errors spread ``s`` times the baseline's: ``s`` (1 is healthy).
+    a channel's errors spread ``s`` times the baseline's: ``s`` (1 is healthy). One-sided: a
+    sensor that got noisier is a fault, one that got quieter is not, and a smaller spread is
+    what faster-decaying dynamics give (more damping shrinks the fluctuation the k-step
+    errors see), so a fall scores no gain (its estimate still shows it) and leaves the
+    ranking to the parameters.
 
 **The evidence** is the level tier's (:mod:`graybox.level_tier`): each channel's k-step
 prediction errors ``e(t) = y(t) - yhat(t | x(t - k), u)`` over the window, which carry a
@@ -447,7 +451,8 @@ def _gain(fit: _Fit, healthy, sigma, weights) -> float:
     if fit.kind == "noise":
         q = fit.value ** 2
         n = weights[fit.channel] * len(healthy[fit.channel])
-        return float(n / 2 * (q - 1 - np.log(q))) if q > 0 else 0.0
+        # the likelihood's maximum over s >= 1: a fall of the spread is s = 1, no gain
+        return float(n / 2 * (q - 1 - np.log(q))) if q > 1 else 0.0
     return float(sum(w * (np.sum(h ** 2) - np.sum(r ** 2)) / (2 * s ** 2)
                      for h, r, s, w in zip(healthy, fit.residuals, sigma, weights)))
 

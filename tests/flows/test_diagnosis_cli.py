@@ -119,12 +119,6 @@ def test_a_friction_fault_is_recovered_as_the_inertia(diagnosed):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "known limitation of graybox.diagnosis: over the level tier's 120-s horizon (7 time "
-    "constants) the k-step error of the shaft is its stationary fluctuation, whose spread a "
-    "doubled damping shrinks by sqrt(2); the noise-level hypothesis (x0.70, score ~550-660) "
-    "explains that better than the inertia (score ~80-110), whose likelihood keeps the "
-    "baseline's error spread. Fixing it needs each hypothesis' own error spread (item 2)."))
 def test_a_friction_fault_is_ranked_first(diagnosed):
     for alert in (a for a in _alerts(diagnosed[0]) if a["asset_id"] == "T-002"):
         assert alert["diagnosis"][0]["target"] == "inertia"

@@ -193,3 +193,12 @@ def test_a_diagnosis_over_its_time_budget_fails_saying_how_far_it_got(levels):
                                            rf"after 0 of {count} hypotheses"):
         diagnose_window(Drive(), levels, window, time_budget=0.0)
     assert diagnose_window(Drive(), levels, window, time_budget=None).best.kind == "gain"
+
+
+def test_a_quieter_channel_is_not_a_sensor_fault(levels):
+    # the temperature sensor's noise halved: the errors' spread falls, which no fault
+    # hypothesis of the catalogue explains by a quieter sensor
+    diagnosis = diagnose_window(Drive(), levels, [drive_frame(Drive(), 17, noise=(1.0, 0.5))])
+    quieter = next(h for h in diagnosis.hypotheses if h.hypothesis == "temperature noise level")
+    assert quieter.estimate < 0.95 and quieter.interval[1] < 1.0
+    assert quieter.log_likelihood_gain == 0.0 and quieter.score < 0
