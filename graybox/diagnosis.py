@@ -93,7 +93,7 @@ MAX_EVALUATIONS = 50
 #: seconds a window's diagnosis may take by default: each hypothesis re-runs the white box
 #: over the window, which for a costly model (a ProgPy pump, hidden states at 1 Hz) takes
 #: minutes; past the budget the diagnosis fails with that reason, and the alert still stands
-TIME_BUDGET = 20.0
+TIME_BUDGET = 10.0
 
 
 @dataclass(frozen=True)
