@@ -23,7 +23,7 @@ from benchmarks.detection.grid import trailing_nights
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import diagnosis_fields
 from benchmarks.zoo.family import Family
-from benchmarks.zoo.run import HORIZON, START, plan_fleet
+from benchmarks.zoo.run import HORIZON, START, plan_fleet, vehicles_of
 from flows.config.settings import NightlySettings
 from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.telemetry.writing import write_telemetry
@@ -96,9 +96,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
     say(f"{family.name}: tuned {expectation.tuned} in {clock['tune_seconds']:.0f} s; "
         f"{len(baselines)} of {len(vehicles)} baselines in {clock['baseline_seconds']:.0f} s")
 
-    vehicle_of = {v.asset_id: v.asset_id for v in vehicles}
-    vehicle_of.update({f.asset_id: next(v.asset_id for v in vehicles if v.seed == f.seed)
-                       for f in faulty})
+    vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
     for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
         base = vehicle_of[plan.asset_id]

@@ -53,6 +53,15 @@ def plan_fleet(family: Family, healthy_assets: int, faulty_per_cell: int, seed: 
     return vehicles, faulty
 
 
+def vehicles_of(vehicles: list[AssetPlan], faulty: list[AssetPlan]) -> dict[str, str]:
+    """Each asset's vehicle, whose baseline it is compared with: a healthy vehicle its own, a
+    faulty asset the vehicle whose seed it shares."""
+    out = {v.asset_id: v.asset_id for v in vehicles}
+    out.update({f.asset_id: next(v.asset_id for v in vehicles if v.seed == f.seed)
+                for f in faulty})
+    return out
+
+
 def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                nights: int = 10, faulty_per_cell: int = 3, seed: int = 1,
                false_alarm_rate: float = 0.01, candidate_nights: int | None = None,
@@ -129,9 +138,7 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines in "
         f"{clock['baselines']:.0f} s" + (f"; failed: {failed_baselines}" if failed_baselines else ""))
 
-    vehicle_of = {v.asset_id: v.asset_id for v in vehicles}
-    vehicle_of.update({f.asset_id: next(v.asset_id for v in vehicles if v.seed == f.seed)
-                       for f in faulty})
+    vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
     for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
         base = vehicle_of[plan.asset_id]
