@@ -10,10 +10,10 @@ A **hypothesis** changes one thing against the healthy baseline and has one free
 ``gain``
     a channel's sensor reads ``1 + g`` times the truth: ``g`` (0.06 is +6 %).
 ``noise``
-    a channel's errors spread ``s`` times the baseline's: ``s`` (1 is healthy). One-sided: a
-    sensor that got noisier is a fault, one that got quieter is not, and a smaller spread is
-    what faster-decaying dynamics give (more damping shrinks the fluctuation the k-step
-    errors see), so a fall scores no gain (its estimate still shows it) and leaves the
+    a channel's one-step innovations spread ``s`` times the baseline's: ``s`` (1 is healthy).
+    One-sided: a sensor that got noisier is a fault, one that got quieter is not, and a
+    smaller spread is what faster-decaying dynamics give (more damping shrinks the
+    fluctuation), so a fall scores no gain (its estimate still shows it) and leaves the
     ranking to the parameters.
 
 **The evidence** is the level tier's (:mod:`graybox.level_tier`): each channel's k-step
@@ -32,7 +32,13 @@ squared ``r`` of every channel (``scipy.optimize.least_squares``). A gain's erro
 back to the sensor's units (times ``1 + g``): compared in the corrected units, dividing a
 channel by ``1 + g`` shrinks its errors and any ``g > 0`` scored (a healthy crane night read
 "angle sensor gain +68 %"). A noise hypothesis keeps
-the baseline's ``r`` and fits the channel's variance (in closed form).
+the white box and the telemetry as they are and fits a variance in closed form, on its own
+evidence: the window's one-step innovations under the baseline's linear tier
+(:mod:`graybox.innovation_spread`, what the detection's linear and noise tiers read). The
+k-step errors integrate the process noise over ``k`` samples and barely see a sensor's (the
+gas turbine's speed sensor x1.3 moved their spread by 2-4 %, as much as a healthy day does;
+the innovations' by 12-14 %, healthy days within 1.5 %). Without a signature
+(:func:`diagnose_window` given no ``spreads``) it is read on the k-step errors' spread.
 
 **Score.** The errors are autocorrelated (overlapping predictions, slow model error), so the
 log-likelihood is the Gaussian one of each channel scaled by ``N_eff / N`` (a composite
@@ -55,12 +61,13 @@ window, and held fixed under every hypothesis: a hypothesis changes the predicti
 operating condition, and re-reading the slopes at a changed prediction carried the slopes'
 own estimation noise into the estimate (measured: a friction change's estimate 3.5 sd off).
 A noise factor from the chi-square law of the variance
-with ``N_eff`` degrees of freedom (conservative: the variance's own effective sample size is
-larger than the mean's).
+with ``N_eff`` degrees of freedom of its evidence (conservative: the variance's own effective
+sample size is larger than the mean's); its score pays ``log N_eff`` of its evidence.
 
-What a noise hypothesis sees is the k-step error's spread: a sensor noise change shows in
-full where the sensor noise dominates the errors and only in part where the process noise
-accumulated over ``k`` samples does. Two hypotheses that change the prediction alike (a
+What a noise hypothesis measures is the innovations' spread, of which the sensor's noise is a
+share: a sensor noise ``s`` times the baseline's gives ``1 + c (s^2 - 1)`` for the variance,
+``c`` the sensor's share of the healthy innovations (1 where the sensor noise is all of the
+one-step residual, less where process noise or another sensor's noise enters it). Two hypotheses that change the prediction alike (a
 parameter and a gain through the same equilibrium; two parameters that only enter as a sum)
 score alike: the list shows both, and the gap between the first two scores says how sure the
 ranking is.
@@ -78,6 +85,7 @@ from threadpoolctl import threadpool_limits
 
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
+from graybox.innovation_spread import InnovationSpread, innovation_spreads
 from graybox.integration import Integration
 from graybox.level_tier import LevelTier, start_stride
 from graybox.models.base import WhiteBoxModel
@@ -112,7 +120,7 @@ class Hypothesis:
         The healthy value: the baseline's parameter; 0 for a bias or a gain; 1 for noise.
     estimate : float
         The value fitted on the window (a bias in the channel's units; a gain as a fraction,
-        0.06 for +6 %; noise as the factor on the errors' spread).
+        0.06 for +6 %; noise as the factor on the one-step innovations' spread).
     interval : tuple of (float, float)
         Its confidence interval (95 % unless asked otherwise).
     score : float
@@ -219,6 +227,7 @@ class _Fit:
     residuals: list[np.ndarray]
     sensitivity: np.ndarray       # per channel, sum of (dr/dvalue)^2 / sigma^2
     channel: int | None = None    # the channel a noise hypothesis scales
+    evidence_samples: float | None = None   # a noise hypothesis read on the innovations: theirs
 
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
@@ -270,18 +279,24 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
     setup = ErrorSetup(baseline.sample_interval, max(1, round(analysis / baseline.sample_interval)),
                        next(iter(levels.values())).horizon, start_stride(analysis),
                        baseline.integration_used)
+    frames, interval = operating_segments(windows)
+    spreads = innovation_spreads(baseline, model, frames, interval)
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
-                           min_score=min_score, time_budget=time_budget)
+                           min_score=min_score, time_budget=time_budget, spreads=spreads)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
                     setup: ErrorSetup | None = None, *,
                     hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
-                    min_score: float = 0.0, time_budget: float | None = TIME_BUDGET
-                    ) -> Diagnosis:
+                    min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
+                    spreads: Mapping[str, InnovationSpread] | None = None) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
-    RK4, the horizon the level tiers'), without a signature."""
+    RK4, the horizon the level tiers'), without a signature.
+
+    ``spreads``: each channel's one-step innovation spread
+    (:func:`graybox.innovation_spread.innovation_spreads`), what its noise hypothesis is read
+    on; a channel without one reads it on its k-step errors' spread."""
     clock = _Deadline(time_budget)
     hypotheses = tuple(hypotheses or candidate_hypotheses(model))
     # many small vector products: BLAS threads spin-waiting cost more than they give (as in
@@ -289,7 +304,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     with threadpool_limits(limits=1):
         try:
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,
-                                    min_score, clock)
+                                    min_score, clock, spreads or {})
         except _OutOfTime:
             raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
                                f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
@@ -313,7 +328,7 @@ class _Deadline:
 
 
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
-                     clock: _Deadline) -> Diagnosis:
+                     clock: _Deadline, spreads: Mapping[str, InnovationSpread]) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
@@ -350,7 +365,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     fits = []
     for kind, target in hypotheses:
         fits.append(_fit(kind, target, model, segments, remaining, finite, sigma, weights,
-                         healthy))
+                         healthy, spreads.get(target) if kind == "noise" else None))
         clock.fitted += 1
     # the second weights: the autocorrelation of what the best explanation leaves
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
@@ -365,10 +380,14 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     results = []
     for fit in fits:
         gain = _gain(fit, healthy, sigma, weights)
+        # BIC on the hypothesis' own evidence: a noise hypothesis read on the innovations
+        # pays for its free value in their effective samples
+        own_penalty = (penalty if fit.evidence_samples is None
+                       else float(np.log(max(fit.evidence_samples, 1.0))))
         results.append(Hypothesis(_name(fit.kind, fit.target), fit.kind, fit.target,
                                   fit.baseline, _value(fit), _interval(fit, compared, effective,
                                                                        z, level),
-                                  float(2 * gain - penalty), float(gain)))
+                                  float(2 * gain - own_penalty), float(gain)))
     results.sort(key=lambda h: -h.score)
     explained = bool(results and results[0].score > min_score)
     return Diagnosis(tuple(results), explained, float(min_score), tuple(channels),
@@ -398,11 +417,15 @@ def _transform(kind: str, target: str, model: WhiteBoxModel, segments, baseline:
     return corrected
 
 
-def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy) -> _Fit:
+def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy,
+         innovations: InnovationSpread | None) -> _Fit:
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "noise":
         channel = model.outputs.index(target)
+        if innovations is not None:
+            return _Fit(kind, target, 1.0, 1.0, float(np.sqrt(innovations.ratio)), healthy,
+                        np.zeros(0), channel, innovations.effective_samples)
         spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
         return _Fit(kind, target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
     if kind == "parameter":
@@ -450,7 +473,8 @@ def _gain(fit: _Fit, healthy, sigma, weights) -> float:
     weight ``N_eff / N``."""
     if fit.kind == "noise":
         q = fit.value ** 2
-        n = weights[fit.channel] * len(healthy[fit.channel])
+        n = (weights[fit.channel] * len(healthy[fit.channel]) if fit.evidence_samples is None
+             else fit.evidence_samples)
         # the likelihood's maximum over s >= 1: a fall of the spread is s = 1, no gain
         return float(n / 2 * (q - 1 - np.log(q))) if q > 1 else 0.0
     return float(sum(w * (np.sum(h ** 2) - np.sum(r ** 2)) / (2 * s ** 2)
@@ -464,7 +488,8 @@ def _value(fit: _Fit) -> float:
 def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[float, float]:
     if fit.kind == "noise":
         # the spread's square times N_eff / s^2 is chi-square with N_eff degrees of freedom
-        dof = max(float(effective[fit.channel]), 1.0)
+        dof = max(float(effective[fit.channel] if fit.evidence_samples is None
+                        else fit.evidence_samples), 1.0)
         tail = (1 - level) / 2
         q = fit.value ** 2
         return (float(np.sqrt(q * dof / stats.chi2.ppf(1 - tail, dof))),

@@ -14,10 +14,10 @@ knows what it injected.
     The speed sensor reads ``m`` rad/s high. Expected: ``omega sensor bias``, estimate ``m``.
 ``noise``
     The speed sensor's noise std times ``1 + m``. Expected: ``omega noise level``; the
-    hypothesis measures the k-step errors' spread ``s``, of which the sensor noise is a part:
-    ``s^2 = 1 + ((1 + m)^2 - 1) sensor^2 / residual_std^2``, so the implied magnitude is
-    ``sqrt(1 + (s^2 - 1) residual_std^2 / sensor^2) - 1`` (the start's sensor noise, decayed
-    over the horizon, neglected).
+    hypothesis measures the one-step innovations' spread ``s``, of which the sensor's noise is
+    a share ``c``: ``s^2 = 1 + c ((1 + m)^2 - 1)``. ``c`` depends on the plant's process noise
+    and is not known to the product, so the implied magnitude is ``s - 1``, a lower bound of
+    ``m`` (equal where the sensor's noise is all of the innovations).
 ``nonlinear``, ``heavy_tails``
     No single physical hypothesis of the white box: what comes first is reported.
 """
@@ -37,8 +37,7 @@ def expected_hypothesis(fault: str) -> tuple[str, str] | None:
     return EXPECTED.get(fault)
 
 
-def implied_magnitude(fault: str, estimate: float, baseline: float, *,
-                      residual_std: float = math.nan, sensor_noise: float = math.nan) -> float:
+def implied_magnitude(fault: str, estimate: float, baseline: float) -> float:
     """The fault's magnitude, in the grid's units, that the expected hypothesis' estimate
     implies (NaN for a fault kind without one).
 
@@ -46,15 +45,13 @@ def implied_magnitude(fault: str, estimate: float, baseline: float, *,
     0.25
     >>> implied_magnitude("bias", 0.48, 0.0)
     0.48
-    >>> round(implied_magnitude("noise", math.sqrt(1 + 0.21 * 0.09 / 4.0), 1.0,
-    ...                         residual_std=2.0, sensor_noise=0.3), 6)
-    0.1
+    >>> round(implied_magnitude("noise", 1.13, 1.0), 6)
+    0.13
     """
     if fault == "friction":
         return baseline / estimate - 1.0 if estimate > 0 else math.nan
     if fault == "bias":
         return estimate
     if fault == "noise":
-        inner = 1.0 + (estimate ** 2 - 1.0) * residual_std ** 2 / sensor_noise ** 2
-        return math.sqrt(inner) - 1.0 if inner >= 0 else math.nan
+        return estimate - 1.0
     return math.nan

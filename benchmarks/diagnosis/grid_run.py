@@ -171,8 +171,6 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
     clock["simulate_write_read_seconds"] = time.perf_counter() - began
     say(f"seed {seed}: simulated, wrote and read {len(windows)} asset-days in "
         f"{clock['simulate_write_read_seconds']:.0f} s")
-    from graybox.simulator import VehicleSpec
-    sensor_noise = VehicleSpec("x", seed=0).sensor_noise
     rows = []
     for error in grid.model_errors:
         began = time.perf_counter()
@@ -240,12 +238,9 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
                        exceeded=";".join(f"{e.channel}/{e.tier}" for e in exceeded))
             if exceeded or kind == "healthy":
                 try:
-                    residual_std = signature.channel(CHANNEL).level.residual_std
                     row.update(diagnosis_fields(
                         signature, window, models[v.vehicle], expected,
-                        lambda h: implied_magnitude(kind, h.estimate, h.baseline,
-                                                    residual_std=residual_std,
-                                                    sensor_noise=sensor_noise)))
+                        lambda h: implied_magnitude(kind, h.estimate, h.baseline)))
                     clock["diagnose_seconds"] += row["seconds"]
                     clock["diagnosed"] += 1
                 except gb.GrayBoxError as error_:

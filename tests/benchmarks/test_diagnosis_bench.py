@@ -43,6 +43,8 @@ def test_the_scores_count_it_as_a_top_one_hit(result):
 def test_the_implied_magnitudes_invert_the_expected_hypotheses():
     assert implied_magnitude("friction", 50 / 1.2, 50.0) == pytest.approx(0.2)
     assert implied_magnitude("bias", 0.5, 0.0) == 0.5
+    # the innovations' spread, of which the sensor's noise is a share: a lower bound
+    assert implied_magnitude("noise", 1.13, 1.0) == pytest.approx(0.13)
     assert implied_magnitude("nonlinear", 1.0, 1.0) != implied_magnitude("nonlinear", 1.0, 1.0)
 
 

@@ -10,6 +10,7 @@ import pytest
 from graybox import records
 from graybox.diagnosis import Diagnosis, candidate_hypotheses, diagnose, diagnose_window
 from graybox.exceptions import GrayBoxError, ModelSpecError
+from graybox.innovation_spread import innovation_spreads
 from graybox.integration import Integration, advance
 from graybox.level_tier import fit_level, level_data
 from graybox.models.base import WhiteBoxModel
@@ -44,9 +45,10 @@ class Drive(WhiteBoxModel):
         return np.stack([accelerate, heat], axis=-1)
 
 
-def drive_frame(model, seed, n=2160, bias=(0.0, 0.0), gain=(0.0, 0.0), noise=(1.0, 1.0)):
+def drive_frame(model, seed, n=2160, bias=(0.0, 0.0), gain=(0.0, 0.0), noise=(1.0, 1.0),
+                process=PROCESS):
     """Six hours at 10 s of the model's own dynamics: torque steps every 10 minutes, random
-    pushes, sensor noise, and the given sensor faults."""
+    pushes (``process``), sensor noise, and the given sensor faults."""
     rng = np.random.default_rng(seed)
     t = np.arange(n)
     torque = np.repeat(rng.uniform(6, 14, n // 60 + 1), 60)[:n] + 0.3 * np.sin(2 * np.pi * t / 97)
@@ -58,7 +60,7 @@ def drive_frame(model, seed, n=2160, bias=(0.0, 0.0), gain=(0.0, 0.0), noise=(1.
     x[0] = state[0]
     for i in range(1, n):
         state = advance(model.derivatives, state, u[i - 1:i], u[i:i + 1], DT, Integration())
-        state = state + PROCESS * rng.standard_normal((1, 2))
+        state = state + process * rng.standard_normal((1, 2))
         x[i] = state[0]
     y = x * (1 + np.array(gain)) + np.array(bias) + SENSOR * np.array(noise) * rng.standard_normal(x.shape)
     index = pd.date_range("2026-01-01", periods=n, freq="10s", tz="UTC")
@@ -130,7 +132,11 @@ def test_diagnose_reads_the_baselines_signature(levels):
                                analysis_interval=DT)
     window = [drive_frame(Drive(), 13, gain=(0.03, 0.0))]
     diagnosis = diagnose(signature, window, Drive())
-    assert diagnosis == diagnose_window(Drive(), levels, window)
+    # the signature's linear tiers give the noise hypotheses their evidence
+    spreads = innovation_spreads(signature, Drive(), window, DT)
+    assert set(spreads) == {"speed", "temperature"}
+    assert diagnosis == diagnose_window(Drive(), levels, window, spreads=spreads)
+    assert diagnosis != diagnose_window(Drive(), levels, window)
     assert (diagnosis.best.kind, diagnosis.best.target) == ("gain", "speed")
     # a tuned baseline's estimates replace the class's values in the model it is given
     tuning = ParameterEstimate(("friction",), (1.0,), (0.01,), ((1e-4,),), (1.3,), ("speed",),
@@ -202,3 +208,47 @@ def test_a_quieter_channel_is_not_a_sensor_fault(levels):
     quieter = next(h for h in diagnosis.hypotheses if h.hypothesis == "temperature noise level")
     assert quieter.estimate < 0.95 and quieter.interval[1] < 1.0
     assert quieter.log_likelihood_gain == 0.0 and quieter.score < 0
+
+
+@pytest.fixture(scope="module")
+def quiet_baseline():
+    """A baseline fitted on two windows without random pushes: every one-step residual is
+    sensor noise (the speed's own; the temperature's carries the speed sensor's too, through
+    the friction loss)."""
+    import graybox as gb
+    frames = [drive_frame(Drive(), seed, process=np.zeros(2)) for seed in (0, 1)]
+    return gb.fit_signatures([gb.FitRequest(Drive(), frames)])[0]
+
+
+def test_a_noisier_sensor_is_read_on_the_one_step_innovations(quiet_baseline):
+    # the speed's one-step residual is its sensor noise alone: its innovations spread exactly
+    # as much more as the sensor's noise
+    window = [drive_frame(Drive(), 10, noise=(1.5, 1.0), process=np.zeros(2))]
+    diagnosis = diagnose(quiet_baseline, window, Drive())
+    best = diagnosis.best
+    assert (best.kind, best.target) == ("noise", "speed")
+    assert best.interval[0] < 1.5 < best.interval[1]
+    assert best.estimate == pytest.approx(1.5, rel=0.03)
+    assert best.score > diagnosis.hypotheses[1].score + 100
+    healthy = diagnose(quiet_baseline, [drive_frame(Drive(), 11, process=np.zeros(2))], Drive())
+    assert not healthy.explained
+    for h in healthy.hypotheses:
+        if h.kind == "noise":
+            assert h.interval[0] < 1.0 < h.interval[1]
+
+
+def test_a_noise_change_the_k_step_errors_barely_see_is_ranked_first():
+    # with random pushes the temperature's k-step errors are mostly accumulated pushes; its
+    # innovations' variance rises by a share c of the sensor's: 1 + c (s^2 - 1), the same c
+    # for x1.5 and x2
+    import graybox as gb
+    baseline = gb.fit_signatures([gb.FitRequest(Drive(), [drive_frame(Drive(), seed)
+                                                          for seed in (0, 1)])])[0]
+    shares = []
+    for factor in (1.5, 2.0):
+        diagnosis = diagnose(baseline, [drive_frame(Drive(), 10, noise=(1.0, factor))], Drive())
+        best = diagnosis.best
+        assert (best.kind, best.target) == ("noise", "temperature")
+        shares.append((best.estimate ** 2 - 1) / (factor ** 2 - 1))
+    assert 0.3 < shares[0] < 1.0
+    assert shares[1] == pytest.approx(shares[0], rel=0.1)
