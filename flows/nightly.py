@@ -41,7 +41,9 @@ idempotent, so a rerun finds them recorded and adds nothing; a window arriving l
 the look-back is left alone (``fleet-health reanalyze`` covers any range). This costs one
 registry query per asset and run (the asset's newest recorded windows). With
 ``candidate_nights`` > 1 the candidates of later nights already recorded are not refitted
-with the late night (``fleet-health reanalyze --candidate-nights N`` does that).
+with the late night (``fleet-health reanalyze --candidate-nights N`` does that). Days that
+``fleet-health import`` added rows to are re-analysed whatever the look-back
+(:mod:`flows.changed_days`).
 
 Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
 stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
