@@ -168,3 +168,22 @@ def test_help_has_examples(capsys):
     for text in ("--dry-run", "--timezone", "--map COLUMN=CHANNEL", "examples:",
                  "Europe/Berlin"):
         assert text in out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--timezone", "Mars/Olympus"], "unknown time zone 'Mars/Olympus'"),
+    (["--map", "Druck"], "expected COLUMN=CHANNEL"),
+    (["--map", "a=speed", "--map", "b=speed"], "several export columns map to"),
+    (["--delimiter", ",", "--decimal", ","], "are both ','"),
+])
+def test_bad_options_exit_2(tmp_path, capsys, berlin_csv, argv, message):
+    status, _, err = run(capsys, berlin_csv, "--root", tmp_path / "telemetry", *argv)
+    assert status == 2 and message in err
+    assert not (tmp_path / "telemetry").exists()
+
+
+def test_a_missing_column_names_the_file_and_its_columns(tmp_path, capsys, berlin_csv):
+    status, _, err = run(capsys, berlin_csv, "--root", tmp_path / "telemetry", "--delimiter",
+                         ";", "--timestamp-column", "Time")
+    assert status == 1
+    assert f"{berlin_csv}: no column(s) 'Time'; the file has 'Zeit'" in err
