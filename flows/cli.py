@@ -29,6 +29,7 @@ from flows.commands.alerts import add_alerts_command
 from flows.commands.baseline import add_baseline_group
 from flows.commands.check import add_check_command
 from flows.commands.demo import add_demo_command
+from flows.commands.importing import add_import_command
 from flows.commands.plumbing import EPHEMERAL_STARTUP_TIMEOUT, prefect_environment
 from flows.commands.reanalyze import add_reanalyze_command
 from flows.commands.report import add_report_command
@@ -52,6 +53,7 @@ _prefect_environment = prefect_environment
 COMMANDS: dict[str, Callable[[argparse._SubParsersAction], argparse.ArgumentParser]] = {
     "demo": add_demo_command,
     "simulate": add_simulate_command,
+    "import": add_import_command,
     "baseline": add_baseline_group,
     "run": add_run_command,
     "reanalyze": add_reanalyze_command,

@@ -41,7 +41,9 @@ idempotent, so a rerun finds them recorded and adds nothing; a window arriving l
 the look-back is left alone (``fleet-health reanalyze`` covers any range). This costs one
 registry query per asset and run (the asset's newest recorded windows). With
 ``candidate_nights`` > 1 the candidates of later nights already recorded are not refitted
-with the late night (``fleet-health reanalyze --candidate-nights N`` does that).
+with the late night (``fleet-health reanalyze --candidate-nights N`` does that). Days that
+``fleet-health import`` added rows to are re-analysed whatever the look-back
+(:mod:`flows.changed_days`).
 
 Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
 stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
@@ -80,10 +82,12 @@ from prefect import flow
 
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates, newest_timestamp
+from graybox.telemetry.changes import changed_days, clear_changed
 from registry.alert import STALE as STALE_KIND
 from registry.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
+from flows.changed_days import changed_windows, days_done_by
 from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
@@ -118,6 +122,9 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
         stale = staleness(config, ref, as_of)
         late = [] if watermark is None else late_windows(config, registry, asset, dates,
                                                          watermark, as_of, clock)
+        marked = changed_days(config.telemetry_root, asset)
+        changed = [] if watermark is None else changed_windows(marked, dates, watermark, window)
+        late = sorted(set(late) | set(changed))
         if watermark is not None and not late and not pending_windows(dates, watermark, as_of,
                                                                       window):
             # nothing new: no need to load the baseline
@@ -144,15 +151,27 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
     _stale(result, stale)
     baseline_end = utc(loaded.info.window_end)
     late = [(s, e) for s, e in late if s >= baseline_end]
-    if late:
-        result.note = (f"{len(late)} late window(s) before the watermark analysed: "
-                       f"{', '.join(f'{s:%Y-%m-%d %H:%M}' for s, _ in late)}")
+    changed = [(s, e) for s, e in changed if s >= baseline_end]
+    notes = []
+    if set(late) - set(changed):
+        notes.append(f"{len(set(late) - set(changed))} late window(s) before the watermark "
+                     f"analysed: {_starts(sorted(set(late) - set(changed)))}")
+    if changed:
+        notes.append(f"{len(changed)} window(s) changed by an import re-analysed: "
+                     f"{_starts(changed)}")
+    in_baseline = days_done_by(marked, baseline_end)
+    if in_baseline:
+        clear_changed(config.telemetry_root, asset, in_baseline)
+        notes.append(f"changed day(s) inside the baseline's window not re-analysed (refit the "
+                     f"baseline to use them): {', '.join(map(str, in_baseline))}")
+    result.note = "; ".join([*notes, *([result.note] if result.note else [])]) or None
     start_after = watermark if watermark is not None else baseline_end
     bounds = late + pending_windows(dates, start_after, as_of, window)
     pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock,
                            nights=config.nightly.candidate_nights)
     if pending is None:
         return result, None
+    pending.changed_days = days_done_by(set(marked) - set(in_baseline), as_of)
     if not pending.windows:
         if pending.stop is not None:
             pending.fail(pending.stop, pending.stop_start)
@@ -245,6 +264,8 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
                               clock=clock)
         for pending in group:
             _commit_watermark(registry, pending, clock)
+            if pending.changed_days and pending.result.status != FAILED:
+                clear_changed(config.telemetry_root, pending.asset_id, pending.changed_days)
             yield pending
 
     return process_in_groups(config, refs, lambda ref: select(config, registry, ref, as_of, clock),
@@ -265,6 +286,10 @@ def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None)
         result.status = UP_TO_DATE
     if result.status in (OK, UP_TO_DATE) and any(a.kind == STALE_KIND for a in result.alerts):
         result.status = STALE
+
+
+def _starts(bounds) -> str:
+    return ", ".join(f"{s:%Y-%m-%d %H:%M}" for s, _ in bounds)
 
 
 def _progress_text(result: AssetResult) -> str:

@@ -106,6 +106,9 @@ class PendingAsset:
         The telemetry error that stopped the reading, and the window it is in.
     committed_end : timestamp, optional
         End of the last window recorded.
+    changed_days : list of datetime.date
+        Days marked changed by an import whose windows this run selected: their marks are
+        cleared once everything is committed (:mod:`flows.changed_days`).
     """
 
     ref: AssetRef
@@ -117,6 +120,7 @@ class PendingAsset:
     stop: BaseException | None = None
     stop_start: pd.Timestamp | None = None
     committed_end: pd.Timestamp | None = None
+    changed_days: list = field(default_factory=list)
 
     @property
     def asset_id(self) -> str:

@@ -24,7 +24,9 @@ periods, each on its own grid (docs/design.md section 4.11).
 
 Modules: :mod:`~graybox.telemetry.layout` (asset ids, partitions), ``reading``,
 ``policy`` (:class:`GridPolicy`), ``validation``, ``gridding``, ``window``
-(:class:`TelemetryWindow`), ``writing`` and ``rows`` (the arrays passed between them).
+(:class:`TelemetryWindow`), ``writing`` and ``rows`` (the arrays passed between them);
+importing a user's exports: ``exports`` (reading CSV/Parquet into UTC rows), ``merging``
+(into the day partitions, idempotently) and ``changes`` (the days an import changed).
 """
 from __future__ import annotations
 

@@ -23,11 +23,12 @@ def run(capsys, *argv):
 def test_help_lists_every_command(capsys):
     status, out, _ = run(capsys, "--help")
     assert status == 0
-    for command in ("demo", "simulate", "baseline", "run", "reanalyze", "alerts", "serve"):
+    for command in ("demo", "simulate", "import", "baseline", "run", "reanalyze", "alerts",
+                    "serve"):
         assert command in out and command in COMMANDS
     for argv in (["run", "--help"], ["baseline", "fit", "--help"], ["reanalyze", "--help"],
                  ["alerts", "--help"], ["simulate", "--help"], ["serve", "--help"],
-                 ["demo", "--help"], ["baseline", "list", "--help"]):
+                 ["demo", "--help"], ["baseline", "list", "--help"], ["import", "--help"]):
         assert run(capsys, *argv)[0] == 0
 
 
