@@ -95,6 +95,17 @@ def test_the_candidate_run_of_a_diagnosed_alarm_holds_the_plot(rec, registry, tm
         assert handle.read(8) == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_fresh_diagnosis_of_a_biased_night_is_drawn_on_its_candidate_run(rec, registry,
+                                                                           fits):
+    from graybox.diagnosis import diagnose
+
+    night = fits.night.assign(omega=fits.night["omega"] + 0.5)
+    found = diagnose(fits.baseline, [night], fits.model)
+    assert found.best.hypothesis == "omega sensor bias" and len(found.evidence.fits) == 3
+    record = rec.candidate(night=5, alarmed=True, plots=True, diagnosis=found)
+    assert "plots/diagnosis.png" in _plots(registry, record)
+
+
 @pytest.mark.parametrize("diagnosis", [DiagnosisFailure("GrayBoxError: out of time"),
                                        _diagnosis(BIAS, evidence=False)],
                          ids=["failed", "without its fits"])
