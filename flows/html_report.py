@@ -1,7 +1,8 @@
 """The fleet report as one static, self-contained HTML page.
 
 The heat map (an inline ``data:`` PNG), the coverage counts of the latest night and the
-alert table of the nights shown; no script, no stylesheet or image to fetch, so the file
+alert table of the nights shown (with the run table's likely cause of each alert,
+:func:`flows.report.alert_rows`); no script, no stylesheet or image to fetch, so the file
 can be mailed or archived as it is.
 """
 from __future__ import annotations
@@ -15,7 +16,11 @@ from flows.report import alert_rows
 from registry.alert import Alert
 
 NUMBER_CELL = '<td class="n">'
-ALERT_COLUMNS = ("asset", "night", "tier", "channel", "zeta/epsilon", "severity", "moved most")
+ALERT_COLUMNS = ("asset", "night", "tier", "channel", "zeta/epsilon", "severity", "moved most",
+                 "likely cause")
+#: the likely cause of an alert that was not diagnosed (a stale-telemetry alert, a run
+#: recorded before diagnoses existed): said, not left blank
+NOT_DIAGNOSED = "not diagnosed"
 _STYLE = """
 body { font-family: sans-serif; margin: 1.5em; color: #212121; }
 table { border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }
@@ -61,10 +66,16 @@ def render_page(view: FleetView, png: bytes, alerts: Sequence[Alert],
                                                           for c in ALERT_COLUMNS) + "</tr>")
         for row in rows:
             cells = "".join((NUMBER_CELL if c == "zeta/epsilon" else "<td>")
-                            + e(str(row[c])) + "</td>" for c in ALERT_COLUMNS)
+                            + e(_text(row, c)) + "</td>" for c in ALERT_COLUMNS)
             parts.append(f"<tr class=\"{e(row['severity'])}\">{cells}</tr>")
         parts.append("</table>")
     else:
         parts.append("<p>No alerts in these nights.</p>")
     parts.append("</body></html>\n")
     return "\n".join(parts)
+
+
+def _text(row: dict, column: str) -> str:
+    if column == "likely cause" and not row[column]:
+        return NOT_DIAGNOSED
+    return str(row[column])

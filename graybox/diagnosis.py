@@ -71,18 +71,25 @@ one-step residual, less where process noise or another sensor's noise enters it)
 parameter and a gain through the same equilibrium; two parameters that only enter as a sum)
 score alike: the list shows both, and the gap between the first two scores says how sure the
 ranking is.
+
+**Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
+channel and what the best three hypotheses leave of it
+(:class:`graybox.diagnosis_evidence.DiagnosisEvidence`, for a plot; not part of its JSON).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
+import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
+from graybox.diagnosis_evidence import (EVIDENCE_HYPOTHESES, ChannelResidual,
+                                       DiagnosisEvidence, HypothesisFit)
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
 from graybox.innovation_spread import InnovationSpread, innovation_spreads
@@ -94,6 +101,7 @@ from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
                                           prediction_errors, with_parameters)
 from graybox.signature import Signature
 from graybox.state_estimation import window_arrays
+from graybox.timestamps import utc
 
 KINDS = ("parameter", "bias", "gain", "noise")
 #: the least-squares evaluations of one hypothesis
@@ -174,7 +182,13 @@ class Diagnosis:
         k-step errors of the window, all channels together.
     effective_samples : float
         Their effective number (the score's penalty is its log).
+    evidence : DiagnosisEvidence or None
+        The window's residual and the best hypotheses' fits, for a plot (None when the
+        diagnosis was read back or built by hand). In memory only: not written with the
+        record, not compared.
     """
+
+    transient_fields: ClassVar[frozenset[str]] = frozenset({"evidence"})
 
     hypotheses: tuple[Hypothesis, ...]
     explained: bool
@@ -182,6 +196,7 @@ class Diagnosis:
     channels: tuple[str, ...]
     n_obs: int
     effective_samples: float
+    evidence: DiagnosisEvidence | None = field(default=None, compare=False, repr=False)
 
     @property
     def best(self) -> Hypothesis | None:
@@ -388,10 +403,30 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                   fit.baseline, _value(fit), _interval(fit, compared, effective,
                                                                        z, level),
                                   float(2 * gain - own_penalty), float(gain)))
-    results.sort(key=lambda h: -h.score)
+    ranked = sorted(zip(results, fits), key=lambda pair: -pair[0].score)
+    results = [hypothesis for hypothesis, _ in ranked]
     explained = bool(results and results[0].score > min_score)
+    times = _prediction_times(frames, setup, positions)
+    evidence = DiagnosisEvidence(
+        tuple(ChannelResidual(c, times[f], r, float(s))
+              for c, f, r, s in zip(channels, finite, healthy, sigma)),
+        tuple(HypothesisFit(hypothesis, tuple(fit.residuals))
+              for hypothesis, fit in ranked[:EVIDENCE_HYPOTHESES]))
     return Diagnosis(tuple(results), explained, float(min_score), tuple(channels),
-                     int(counts.sum()), float(effective.sum()))
+                     int(counts.sum()), float(effective.sum()), evidence)
+
+
+def _prediction_times(frames, setup: ErrorSetup, positions: np.ndarray) -> np.ndarray:
+    """When each k-step error's predicted sample was measured, as
+    :func:`graybox.level_tier.level_data` takes them: every ``factor``-th sample of each
+    segment long enough, from the ``horizon``-th, one every ``stride``."""
+    pieces = []
+    for position in np.unique(positions):
+        index = frames[position].index[::setup.factor][setup.horizon::setup.stride]
+        if isinstance(index, pd.DatetimeIndex):
+            index = utc(index).tz_localize(None)
+        pieces.append(np.asarray(index))
+    return np.concatenate(pieces)
 
 
 def _name(kind: str, target: str) -> str:

@@ -22,6 +22,10 @@ in its class attribute ``non_finite_fields`` (diagnostics such as a test statist
 Fields a record names in its class attribute ``omitted_when_none`` are left out of the dict
 while None (a field added later: records without it are written as older code wrote them).
 
+Fields a record names in its class attribute ``transient_fields`` are never written and take
+their default when read (what a computation hands its caller in memory, e.g. arrays for a
+plot, beside the record proper); they are unknown fields in a dict read.
+
 A record that reads dicts stored by older code defines a classmethod ``migrate(data) ->
 dict`` that turns such a dict into today's fields; :func:`from_dict` applies it first,
 wherever the record is nested. (The pattern follows the ``to_dict`` / ``from_dict`` of
@@ -52,8 +56,10 @@ def to_dict(record: Any) -> dict:
     if not (dataclasses.is_dataclass(record) and not isinstance(record, type)):
         raise TypeError(f"to_dict needs a dataclass record, got {type(record).__name__}")
     omitted = getattr(record, "omitted_when_none", frozenset())
+    transient = getattr(record, "transient_fields", frozenset())
     return {f.name: _encode(getattr(record, f.name)) for f in dataclasses.fields(record)
-            if not (f.name in omitted and getattr(record, f.name) is None)}
+            if f.name not in transient
+            and not (f.name in omitted and getattr(record, f.name) is None)}
 
 
 def from_dict(cls: type, data: Any):
@@ -83,7 +89,8 @@ def from_dict(cls: type, data: Any):
     migrate = getattr(cls, "migrate", None)
     if migrate is not None:
         data = migrate(data)
-    fields = dataclasses.fields(cls)
+    transient = getattr(cls, "transient_fields", frozenset())
+    fields = [f for f in dataclasses.fields(cls) if f.name not in transient]
     names = {f.name for f in fields}
     required = {f.name for f in fields
                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING}

@@ -7,7 +7,9 @@
   forecast, the AR residual against the network forecast, and the noise histogram against
   the Gaussian with the noise tier's mean and variance;
 * :func:`zeta_trend_figure`: the asset's zeta per tier and channel over the nights, with
-  epsilon drawn in and alarms marked.
+  epsilon drawn in and alarms marked;
+* :func:`diagnosis_figure`: an alarmed window's residual against the baseline and what its
+  best fault hypotheses explain of it and leave.
 
 Figures are plain :class:`matplotlib.figure.Figure` objects on the Agg canvas: no pyplot,
 no global backend state, safe in threads.
@@ -24,11 +26,17 @@ from matplotlib.figure import Figure
 
 from graybox.autocovariance import autocorrelation as series_autocorrelation
 from graybox.decompose import ChannelDecomposition
+from graybox.diagnosis import Diagnosis
 from graybox.signature import TIERS, Signature
+from registry.alert_diagnosis import NO_SINGLE_CAUSE, cause_text, hypothesis_entry
 
 ZOOM_SAMPLES = 400
 ACF_LAGS = 60
+#: points drawn of a line at most (a 1-Hz night has thousands of k-step errors)
+PLOT_POINTS = 2000
 _BLUE, _ORANGE, _RED, _GREY = "#1f77b4", "#ff7f0e", "#d62728", "#7f7f7f"
+_GREEN, _PURPLE = "#2ca02c", "#9467bd"
+_HYPOTHESIS_COLOURS = (_RED, _GREEN, _PURPLE)
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -165,4 +173,71 @@ def zeta_trend_figure(history: pd.DataFrame, title: str = "") -> Figure:
             axis.legend(fontsize=7, loc="upper left")
     if title:
         figure.suptitle(title)
+    return figure
+
+
+def _thinned(values: np.ndarray) -> np.ndarray:
+    """Every n-th value, at most :data:`PLOT_POINTS` of them."""
+    return values[::max(1, -(-len(values) // PLOT_POINTS))]
+
+
+def diagnosis_figure(diagnosis: Diagnosis, title: str = "") -> Figure:
+    """An alarmed window's residual and its best hypotheses' fits, per channel concerned.
+
+    Left: the residual ``r(t)`` (the k-step errors with the baseline's explanation taken
+    out) and the part each hypothesis explains (a noise hypothesis, read on the one-step
+    innovations, explains no part of it: listed only). Right: what each leaves, against the baseline's +-2 sd: the cause that fits
+    leaves errors that look healthy.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        With its :attr:`~graybox.diagnosis.Diagnosis.evidence`.
+    title : str, optional
+
+    Raises
+    ------
+    ValueError
+        If the diagnosis carries no evidence (read back, or built by hand).
+    """
+    evidence = diagnosis.evidence
+    if evidence is None or not evidence.fits:
+        raise ValueError("the diagnosis carries no evidence to draw (only a fresh diagnosis "
+                         "of a window does)")
+    rows = evidence.concerned()
+    figure = _figure(14, 3.2 * len(rows))
+    axes = figure.subplots(len(rows), 2, squeeze=False, sharex=True)
+    for (left, right), channel in zip(axes, rows):
+        part = evidence.channels[channel]
+        times, band = _thinned(part.times), 2 * part.residual_std
+        left.plot(times, _thinned(part.residual), lw=0.6, color=_GREY, label="residual r(t)")
+        right.axhspan(-band, band, color=_GREY, alpha=0.2, lw=0, label="baseline +-2 sd")
+        for rank, (fit, colour) in enumerate(zip(evidence.fits, _HYPOTHESIS_COLOURS)):
+            hypothesis = fit.hypothesis
+            label = f"{rank + 1}. {cause_text(hypothesis_entry(hypothesis))}"
+            remaining = fit.remaining[channel]
+            spread = np.sqrt(np.mean(remaining ** 2)) / max(part.residual_std, 1e-300)
+            above = 2 + len(evidence.fits) - rank      # the best drawn on top
+            if hypothesis.kind == "noise":
+                # read on the one-step innovations, not on r(t): a legend entry only
+                left.plot([], [], color=colour, lw=1.0,
+                          label=f"{label} (one-step innovations' spread)")
+            else:
+                left.plot(times, _thinned(evidence.explained(rank, channel)), lw=1.0,
+                          color=colour, label=label, zorder=above)
+            right.plot(times, _thinned(remaining), lw=0.5, color=colour, alpha=0.7,
+                       label=f"{rank + 1}. leaves rms {spread:.2f} sd", zorder=above)
+        left.axhline(0.0, color="black", lw=0.6)
+        right.axhline(0.0, color="black", lw=0.6)
+        left.set_title(f"{part.channel}: residual and what each hypothesis explains")
+        right.set_title(f"{part.channel}: what each hypothesis leaves")
+        left.set_ylabel("k-step error - baseline")
+        left.legend(fontsize=7, loc="upper left")
+        right.legend(fontsize=7, loc="upper left")
+    for axis in axes.ravel():
+        for label in axis.get_xticklabels():
+            label.set_rotation(20)
+    heading = diagnosis.summary() if diagnosis.explained else \
+        f"{NO_SINGLE_CAUSE} (the best hypotheses drawn)"
+    figure.suptitle(f"{title}: {heading}" if title else heading)
     return figure

@@ -3,7 +3,8 @@
 1. ``create_run`` with every tag but the completion tags;
 2. one ``log_artifacts`` of a scratch directory holding the signature bundle
    (``signature/``), ``drift.json``, an alarmed candidate's ``diagnosis.json``, a
-   candidate's pyfunc model (``model/``) and the plots;
+   candidate's pyfunc model (``model/``) and the plots (with a fresh diagnosis,
+   ``plots/diagnosis.png``);
    a baseline's logged model is logged after it (:func:`registry.model_files.log_logged_model`);
 3. one ``log_batch`` of params, metrics and, last, the tags ``manifest_sha256``,
    ``model_id`` and ``complete=true`` (MLflow writes a batch's tags after its params and
@@ -26,6 +27,7 @@ import pandas as pd
 from mlflow.entities import Metric, Param, RunTag
 
 from graybox.decompose import decompose
+from graybox.diagnosis import Diagnosis
 from registry import naming
 from registry.alert_diagnosis import diagnosis_document
 from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE, write_bundle
@@ -39,6 +41,7 @@ from registry.submission import ResolvedFit, frames
 logger = logging.getLogger(__name__)
 
 TREND_NIGHTS = 90                 # nights shown in the zeta trend plot
+DIAGNOSIS_PLOT = "diagnosis.png"  # under plots/: the residual and the best hypotheses' fits
 MAX_PARAMS_AND_TAGS = 100         # MLflow's log_batch limits
 MAX_ENTITIES = 1000
 
@@ -118,7 +121,8 @@ def _log_batched(backend: Backend, run_id: str, params: dict[str, str],
 
 
 def _draw_plots(backend: Backend, fit: ResolvedFit, directory: pathlib.Path) -> None:
-    """Residual/ACF and tier fits of the last window, and a drift's zeta trend, as PNGs."""
+    """Residual/ACF and tier fits of the last window, a drift's zeta trend and a fresh
+    diagnosis' fits, as PNGs."""
     from registry import plots as figures
 
     s = fit.submission
@@ -152,5 +156,13 @@ def _draw_plots(backend: Backend, fit: ResolvedFit, directory: pathlib.Path) -> 
     except Exception:
         # a plot is never worth losing the record of a fit
         logger.exception("asset %s: could not draw the plots of this fit", s.asset_id)
+    # only a diagnosis made in this process holds its fits (one read back or failed does not)
+    if isinstance(s.diagnosis, Diagnosis) and s.diagnosis.evidence is not None:
+        try:
+            figures.diagnosis_figure(s.diagnosis, f"{s.asset_id} {fit.start[:16]} .. "
+                                                  f"{fit.end[:16]}").savefig(
+                directory / DIAGNOSIS_PLOT)
+        except Exception:
+            logger.exception("asset %s: could not draw the diagnosis of this fit", s.asset_id)
     if not any(directory.iterdir()):
         directory.rmdir()

@@ -152,3 +152,16 @@ def test_the_diagnosis_is_wherever_the_alerts_are_read(diagnosed):
     assert "interval 0.9" in causes["T-003"]
     table = outputs["table"][1]
     assert "likely" in table and "cause" in table and "sensor bias" in table
+
+
+@pytest.mark.slow
+def test_no_diagnosis_plot_when_the_fleet_draws_no_plots(diagnosed):
+    """This fleet's ``nightly.plots`` is "none": the alarmed runs hold their diagnosis and no
+    PNG (tests/registry/test_diagnosis_plot.py draws it)."""
+    outputs, registry = diagnosed
+    client = registry.backend.client
+    alarmed = {a["run_id"] for a in _alerts(outputs)}
+    assert len(alarmed) == 4                          # T-002 and T-003, two nights each
+    for run_id in alarmed:
+        assert {a.path for a in client.list_artifacts(run_id)} >= {"diagnosis.json"}
+        assert not client.list_artifacts(run_id, "plots")

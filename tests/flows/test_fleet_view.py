@@ -148,7 +148,8 @@ def test_html_page_holds_the_image_the_alerts_and_the_coverage():
     assert page.startswith("<!DOCTYPE html>")
     assert f"data:image/png;base64,{base64.b64encode(png).decode()}" in page
     assert ("<tr class=\"minor\"><td>A</td><td>2026-02-02</td><td>linear</td><td>omega</td>"
-            "<td class=\"n\">1.50</td><td>minor</td><td>a1 0.9→1.2</td></tr>") in page
+            "<td class=\"n\">1.50</td><td>minor</td><td>a1 0.9→1.2</td>"
+            "<td>not diagnosed</td></tr>") in page
     assert "<th>failed</th>" in page and "<td class=\"n\">5</td>" in page
     assert "http" not in page                       # self-contained: nothing to fetch
 

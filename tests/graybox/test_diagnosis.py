@@ -252,3 +252,30 @@ def test_a_noise_change_the_k_step_errors_barely_see_is_ranked_first():
         shares.append((best.estimate ** 2 - 1) / (factor ** 2 - 1))
     assert 0.3 < shares[0] < 1.0
     assert shares[1] == pytest.approx(shares[0], rel=0.1)
+
+
+def test_the_evidence_holds_the_residual_and_what_the_best_three_leave(levels):
+    # the temperature sensor reads 1 K high: its residual sits 1 K up, the bias hypothesis
+    # explains it all (what it leaves is centred) and the evidence is not in the JSON
+    frame = drive_frame(Drive(), 12, bias=(0.0, 1.0))
+    diagnosis = diagnose_window(Drive(), levels, [frame])
+    evidence = diagnosis.evidence
+    assert [f.hypothesis for f in evidence.fits] == list(diagnosis.hypotheses[:3])
+    assert [c.channel for c in evidence.channels] == ["speed", "temperature"]
+    temperature = evidence.channels[1]
+    # one k-step error per sample from the horizon on (10 s analysis step, start every 10 s)
+    assert len(temperature.times) == len(frame) - 12
+    assert temperature.times[0] == np.datetime64(frame.index[12].tz_localize(None))
+    assert temperature.residual_std == levels["temperature"].residual_std
+    assert np.mean(temperature.residual) == pytest.approx(1.0, abs=0.1)
+    best = evidence.fits[0]
+    assert (best.hypothesis.kind, best.hypothesis.target) == ("bias", "temperature")
+    assert all(len(r) == len(c.residual) for r, c in zip(best.remaining, evidence.channels))
+    assert np.mean(best.remaining[1]) == pytest.approx(0.0, abs=0.05)
+    assert np.mean(evidence.explained(0, 1)) == pytest.approx(best.hypothesis.estimate,
+                                                              rel=0.05)
+    # the runners-up: the temperature's gain and the cooling, a parameter (both channels)
+    assert [f.hypothesis.target for f in evidence.fits[1:]] == ["temperature", "cooling"]
+    assert evidence.concerned() == (0, 1)
+    assert "evidence" not in records.to_dict(diagnosis)
+    assert records.from_dict(Diagnosis, records.to_dict(diagnosis)).evidence is None

@@ -154,3 +154,21 @@ def test_json_text_round_trip_and_text_that_is_not_json():
         records.parse_json("{'name': 'a'}", "tree")
     with pytest.raises(ArtifactError, match=r"^tree is not valid JSON: 'utf-8' codec"):
         records.parse_json(b"\x80", "tree")
+
+
+@dataclass(frozen=True)
+class Measured:
+    transient_fields = frozenset({"samples"})
+
+    value: float
+    samples: object = None
+
+
+def test_transient_fields_are_never_written_and_read_as_their_default():
+    import numpy as np
+
+    measured = Measured(2.0, np.arange(3))
+    assert records.to_dict(measured) == {"value": 2.0}
+    assert round_trip(measured) == Measured(2.0)
+    with pytest.raises(ArtifactError, match=r"unknown field\(s\) \['samples'\]"):
+        records.from_dict(Measured, {"value": 2.0, "samples": [0, 1, 2]})
