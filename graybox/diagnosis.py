@@ -104,8 +104,18 @@ from graybox.state_estimation import window_arrays
 from graybox.timestamps import utc
 
 KINDS = ("parameter", "bias", "gain", "noise")
-#: the least-squares evaluations of one hypothesis
+#: the least-squares evaluations of one refined hypothesis
 MAX_EVALUATIONS = 50
+#: hypotheses fitted in full after every one is screened by a Gauss-Newton step (the best
+#: by the screened likelihood gain: as many as an alert lists); the others keep their
+#: screened value, which far from the baseline can be a linear extrapolation
+REFINED = 5
+#: the refinement's tolerances: the value to 1e-4 of itself, far inside any interval the
+#: window's errors give (scipy's default 1e-8 cost a stiff white box 10-20 runs a hypothesis)
+REFINE_XTOL, REFINE_FTOL = 1e-4, 1e-6
+#: a screened value further than this from the baseline, in units of its scale (the
+#: parameter's value, the channel's spread, 1 % of gain), is not a start for the refinement
+SCREEN_REACH = 10.0
 #: seconds a window's diagnosis may take by default: each hypothesis re-runs the white box
 #: over the window, which for a costly model (a ProgPy pump, hidden states at 1 Hz) takes
 #: minutes; past the budget the diagnosis fails with that reason, and the alert still stands
@@ -377,13 +387,25 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                          for r, p in zip(residuals, pieces)])
 
     weights = n_eff(healthy) / counts
-    fits = []
+    # every hypothesis screened (one white-box run each), the best REFINED fitted in full
+    objectives, fits = {}, []
     for kind, target in hypotheses:
-        fits.append(_fit(kind, target, model, segments, remaining, finite, sigma, weights,
-                         healthy, spreads.get(target) if kind == "noise" else None))
+        if kind == "noise":
+            fits.append(_noise_fit(target, model, sigma, healthy, spreads.get(target)))
+        else:
+            objective = _objective(kind, target, model, segments, remaining, finite, sigma,
+                                   weights)
+            objectives[len(fits)] = objective
+            fits.append(_screen(objective, np.concatenate(healthy) * objective.row_weights))
         clock.fitted += 1
-    # the second weights: the autocorrelation of what the best explanation leaves
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
+    for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
+        try:
+            fits[index] = _refine(objectives[index], fits[index].value)
+        except _OutOfTime:
+            break           # the screened values stand: the ranking is complete
+        first_gains[index] = _gain(fits[index], healthy, sigma, weights)
+    # the second weights: the autocorrelation of what the best explanation leaves
     best = fits[int(np.argmax(first_gains))] if fits else None
     effective = n_eff(best.residuals if best is not None else healthy)
     weights = effective / counts
@@ -452,17 +474,47 @@ def _transform(kind: str, target: str, model: WhiteBoxModel, segments, baseline:
     return corrected
 
 
-def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healthy,
-         innovations: InnovationSpread | None) -> _Fit:
+def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | None) -> _Fit:
+    """A noise hypothesis in closed form: on the innovations when given, else on the k-step
+    errors' spread."""
+    channel = model.outputs.index(target)
+    if innovations is not None:
+        return _Fit("noise", target, 1.0, 1.0, float(np.sqrt(innovations.ratio)), healthy,
+                    np.zeros(0), channel, innovations.effective_samples)
+    spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
+    return _Fit("noise", target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
+
+
+@dataclass
+class _Objective:
+    """A parameter, bias or gain hypothesis' weighted errors as a function of its free value
+    ``x`` (in units of ``scale``: the baseline value, the channel's spread or 1 %)."""
+
+    kind: str
+    target: str
+    baseline: float
+    scale: float
+    weighted: Callable[[np.ndarray], np.ndarray]
+    row_weights: np.ndarray
+    bounds: tuple[float, float]
+    edges: np.ndarray            # where each channel's rows start and end
+    sigma: np.ndarray
+
+    def record(self, x: float, fun: np.ndarray, slope: np.ndarray) -> _Fit:
+        """The fit at ``x`` from its weighted errors and their weighted slope in ``x``."""
+        raw = fun / self.row_weights
+        slope = slope / self.row_weights
+        spans = list(zip(self.edges[:-1], self.edges[1:]))
+        # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
+        sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
+                                for (a, b), s in zip(spans, self.sigma)])
+        return _Fit(self.kind, self.target, self.baseline, self.scale, float(x),
+                    [raw[a:b] for a, b in spans], sensitivity)
+
+
+def _objective(kind, target, model, segments, remaining, finite, sigma, weights) -> _Objective:
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
-    if kind == "noise":
-        channel = model.outputs.index(target)
-        if innovations is not None:
-            return _Fit(kind, target, 1.0, 1.0, float(np.sqrt(innovations.ratio)), healthy,
-                        np.zeros(0), channel, innovations.effective_samples)
-        spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
-        return _Fit(kind, target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
     if kind == "parameter":
         baseline = float(model.parameters[target])
         scale = abs(baseline) if baseline else 1.0
@@ -491,16 +543,32 @@ def _fit(kind, target, model, segments, remaining, finite, sigma, weights, healt
         return np.concatenate(parts) * row_weights
 
     bounds = (-1.0 / scale + 1e-6, np.inf) if kind == "gain" else (-np.inf, np.inf)
-    fit = least_squares(weighted, [0.0], bounds=bounds, diff_step=DIFF_STEP,
-                        max_nfev=MAX_EVALUATIONS)
-    raw = fit.fun / row_weights
-    slope = fit.jac[:, 0] / row_weights
     edges = np.cumsum([0] + [int(f.sum()) for f in finite])
-    residuals = [raw[a:b] for a, b in zip(edges[:-1], edges[1:])]
-    # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
-    sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
-                            for a, b, s in zip(edges[:-1], edges[1:], sigma)])
-    return _Fit(kind, target, baseline, scale, float(fit.x[0]), residuals, sensitivity)
+    return _Objective(kind, target, baseline, scale, weighted, row_weights, bounds, edges, sigma)
+
+
+def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:
+    """One Gauss-Newton step from the baseline: the errors' slope from one finite difference
+    (the errors at the baseline are the healthy ones, shared by every hypothesis), the free
+    value that minimises the linearised errors, and those errors."""
+    step = DIFF_STEP
+    slope = (objective.weighted(np.array([step])) - healthy_weighted) / step
+    information = float(slope @ slope)
+    x = -float(slope @ healthy_weighted) / information if information > 0 else 0.0
+    x = float(np.clip(x, *objective.bounds))
+    return objective.record(x, healthy_weighted + slope * x, slope)
+
+
+def _refine(objective: _Objective, screened: float) -> _Fit:
+    """The least-squares fit (a trust region: the errors need not be linear in the value far
+    from the baseline), from the screened value when it is within :data:`SCREEN_REACH` of the
+    baseline, else from the baseline (a step far out lands in another valley: a shaft's
+    damping screened at -250 times its value was refined to a worse minimum)."""
+    start = screened if abs(screened) <= SCREEN_REACH else 0.0
+    fit = least_squares(objective.weighted, [start], bounds=objective.bounds,
+                        diff_step=DIFF_STEP, max_nfev=MAX_EVALUATIONS, xtol=REFINE_XTOL,
+                        ftol=REFINE_FTOL)
+    return objective.record(fit.x[0], fit.fun, fit.jac[:, 0])
 
 
 def _gain(fit: _Fit, healthy, sigma, weights) -> float:

@@ -104,7 +104,13 @@ def test_a_fresh_diagnosis_of_a_biased_night_is_drawn_on_its_candidate_run(rec, 
 
     night = fits.night.assign(omega=fits.night["omega"] + 0.5)
     found = diagnose(fits.baseline, [night], fits.model)
-    assert found.best.hypothesis == "omega sensor bias" and len(found.evidence.fits) == 3
+    # in the Langevin shaft a speed bias, the reference speed and the reference fuel shift the
+    # equilibrium alike: the three tie first (their order is the fits' rounding)
+    first = found.hypotheses[:3]
+    assert {h.hypothesis for h in first} == {"omega sensor bias", "parameter omega_ref",
+                                             "parameter fuel_ref"}
+    assert first[2].score == pytest.approx(first[0].score, abs=0.01)
+    assert found.hypotheses[3].score < first[0].score and len(found.evidence.fits) == 3
     record = rec.candidate(night=5, alarmed=True, plots=True, diagnosis=found)
     assert "plots/diagnosis.png" in _plots(registry, record)
 
