@@ -110,6 +110,9 @@ MAX_EVALUATIONS = 50
 #: by the screened likelihood gain: as many as an alert lists); the others keep their
 #: screened value, which far from the baseline can be a linear extrapolation
 REFINED = 5
+#: a screened hypothesis is refined only when its log-likelihood gain reaches this: one that
+#: explains nothing along its slope at the baseline is not worth a full fit (a healthy window)
+REFINE_GAIN = 1.0
 #: the refinement's tolerances: the value to 1e-4 of itself, far inside any interval the
 #: window's errors give (scipy's default 1e-8 cost a stiff white box 10-20 runs a hypothesis)
 REFINE_XTOL, REFINE_FTOL = 1e-4, 1e-6
@@ -400,6 +403,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         clock.fitted += 1
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
+        if first_gains[index] < REFINE_GAIN:
+            break           # explains nothing at the baseline's slope: a healthy-like window
         try:
             fits[index] = _refine(objectives[index], fits[index].value)
         except _OutOfTime:

@@ -331,6 +331,35 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         #: whether ProgPy takes a batch whose inputs vary (None: no such batch seen yet)
         self._inputs_batch: bool | None = None
 
+    @functools.cached_property
+    def diagnosable(self) -> tuple[str, ...]:
+        """The fault hypotheses' parameters (:func:`graybox.diagnosis.candidate_hypotheses`):
+        the values of the held states that change the white box's dynamics. ProgPy models
+        damage as states (a pump's impeller area and bearing friction coefficients), which the
+        white box holds; a held wear rate moves nothing while the area it wears is held too,
+        and ProgPy's physical constants are not faults. Found by probing the derivatives at
+        :data:`PROBES` perturbed states and inputs with each held value changed by 10 %; empty
+        (every number parameter is then a hypothesis) when no held value matters."""
+        held = [s for s in self.progpy_states if s not in self.states]
+        if not held:
+            return ()
+        rng = np.random.default_rng(0)
+        typical = np.array([self.parameters[HOLD_PREFIX + s] for s in self.states])
+        x = typical * (1 + 0.05 * rng.standard_normal((PROBES, len(self.states))))
+        u = 1.0 + rng.standard_normal((PROBES, len(self.inputs)))
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            base = self.derivatives(x, u)
+            names = []
+            for state in held:
+                name = HOLD_PREFIX + state
+                value = self.parameters[name]
+                changed = type(self)({**self.parameters, name: 1.1 * value + 0.1},
+                                     self.columns).derivatives(x, u)
+                if np.any(np.isfinite(changed) & np.isfinite(base) & (changed != base)):
+                    names.append(name)
+        return tuple(names)
+
     def make_progpy(self, **options):
         """A new instance of the ProgPy model with this white box's parameter overrides.
 

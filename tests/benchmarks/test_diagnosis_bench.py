@@ -83,3 +83,11 @@ def test_the_command_writes_the_section_and_a_record_it_renders_again(tmp_path):
     again = tmp_path / "again.md"
     assert main(["--rerender", str(record), "--out", str(again)]) == 0
     assert again.read_text() == section
+
+
+def test_the_cost_benchmark_times_one_night_of_a_small_family():
+    from benchmarks.diagnosis.cost import measure
+
+    row = measure("thermal_room")
+    assert (row["states"], row["hidden"], row["hypotheses"], row["samples"]) == (2, 0, 11, 1440)
+    assert 0 < row["seconds"] < 60 and row["summary"]

@@ -393,3 +393,20 @@ def test_battery_hidden_charge_runs_by_progpys_dynamics_and_the_residual_is_the_
     noise = (noisy["v"] - clean["v"]).diff().iloc[1:]
     assert noise.std() == pytest.approx(0.002 * np.sqrt(2), rel=0.1)
     assert (residual - noise).std() < 0.01 * noise.std()
+
+
+def test_the_damage_states_held_values_are_the_diagnosis_parameters():
+    from graybox.diagnosis import candidate_hypotheses
+    from graybox.parameter_estimation import float_parameters
+
+    # the pump's impeller area and bearing friction coefficients change its dynamics; its
+    # wear rates (held, as the areas they wear are) and its leak flow (set afresh) do not
+    pump = load_model("graybox.models.progpy:CentrifugalPump", columns={"Q": "Qout"})
+    assert pump.diagnosable == ("x0_A", "x0_rRadial", "x0_rThrust")
+    parameters = [t for k, t in candidate_hypotheses(pump) if k == "parameter"]
+    assert parameters == list(pump.diagnosable)
+    # a battery holds no state: every number parameter stays a hypothesis
+    battery = load_model("graybox.models.progpy:BatteryCircuit")
+    assert battery.diagnosable == ()
+    assert ([t for k, t in candidate_hypotheses(battery) if k == "parameter"]
+            == list(float_parameters(battery)))

@@ -1,0 +1,68 @@
+"""``python -m benchmarks.diagnosis.cost [--families F,F] [--repeat N]``
+
+What one alarmed night's diagnosis costs per plant-zoo family: one healthy vehicle, a 3-day
+baseline of the family's coarse white box (untuned), then ``graybox.diagnose`` on the fourth
+day without a time budget, timed; the median of ``--repeat`` runs. Prints one line per
+family: states, hypotheses, samples per night, seconds.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+
+import pandas as pd
+
+import graybox as gb
+from benchmarks.zoo.families import discover
+from benchmarks.zoo.run import START, plan_fleet
+from graybox.diagnosis import candidate_hypotheses, diagnose
+from graybox.telemetry.writing import write_telemetry
+
+DEFAULT_FAMILIES = ("hydraulic_level", "pendulum_crane", "traction_drive")
+
+
+def measure(name: str, repeat: int = 1) -> dict:
+    """The diagnosis cost of family ``name`` on one night (see the module docstring)."""
+    family = discover()[name]
+    model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 3)
+    asset = vehicles[0].asset_id
+    frames = family.simulate(vehicles, START, 4)
+    windows = []
+    with tempfile.TemporaryDirectory(prefix="diagnosis-cost-") as root:
+        write_telemetry(root, asset, frames[asset])
+        for day in range(4):
+            begin = START + pd.Timedelta(days=day)
+            windows.append(gb.read_window(root, asset, model.required_columns, begin,
+                                          begin + pd.Timedelta(days=1),
+                                          policy=gb.GridPolicy(**dict(family.grid)),
+                                          inputs=model.input_columns))
+    baseline = gb.fit_signatures([gb.FitRequest(model, windows[:3])])[0]
+    seconds = []
+    for _ in range(repeat):
+        began = time.perf_counter()
+        diagnosis = diagnose(baseline, [windows[3]], model, time_budget=None)
+        seconds.append(time.perf_counter() - began)
+    return {"family": name, "states": len(model.states), "hidden": len(model.hidden_states),
+            "hypotheses": len(candidate_hypotheses(model)), "samples": family.samples_per_day,
+            "seconds": statistics.median(seconds), "summary": diagnosis.summary()}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis.cost",
+                                     description=__doc__.split("\n\n")[1])
+    parser.add_argument("--families", default=",".join(DEFAULT_FAMILIES),
+                        help=f"plant-zoo families (default {','.join(DEFAULT_FAMILIES)})")
+    parser.add_argument("--repeat", type=int, default=1, help="runs per family (median)")
+    args = parser.parse_args(argv)
+    for name in args.families.split(","):
+        row = measure(name, args.repeat)
+        print(f"{row['family']}: {row['states']} states ({row['hidden']} hidden), "
+              f"{row['hypotheses']} hypotheses, {row['samples']} samples: "
+              f"{row['seconds']:.2f} s a night ({row['summary']})", flush=True)
+
+
+if __name__ == "__main__":
+    main()
