@@ -9,7 +9,8 @@ family's coarse white box expects nothing and its first answer is reported.
 by ``m`` -> ``parameter damping`` (``estimate / baseline - 1``); rope longer by ``m`` ->
 ``parameter length`` (same); the angle sensor ``m`` rad high -> ``theta sensor bias``
 (the estimate); the rate sensor's noise times ``1 + m`` -> ``omega noise level`` (no size:
-the noise hypothesis sees the k-step errors' spread, of which the sensor noise is a part).
+the noise hypothesis sees the one-step innovations' spread, of which the sensor noise is a
+share).
 Tuned: ``damping`` and ``length`` (the white box's damping is 10-20 % off and its length
 nominal; ``g`` is fixed, so both are identifiable).
 
