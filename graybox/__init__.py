@@ -9,7 +9,11 @@ as drift (zeta) of those parameters from the asset's healthy baseline.
 >>> days = gb.read_window("telemetry", "T-001", model.required_columns).split("1D")
 >>> baseline = gb.GrayBox(model).fit(days[:4])                 # signature_ + calibration_
 >>> drift = baseline.drift(days[5])                            # refit with frozen structure
->>> [(a.channel, a.tier, a.zeta, a.epsilon) for a in drift.alarms]
+>>> print(drift.summary())                                    # zeta, epsilon, alarms
+
+The tiers can also be run by hand on any residual: ``choose_differencing``, ``fit_ar``
+(Yule-Walker), ``choose_delay`` and ``choose_dimension`` (Takens embedding), ``lagged`` and
+``fit_networks`` (the tanh network), ``describe_noise`` (moments, Ljung-Box) and ``fit_level``.
 
 This package imports numpy, scipy, pandas, pyarrow, threadpoolctl and torch only: never mlflow
 or prefect.
@@ -18,14 +22,20 @@ from graybox.calibration import Calibration
 from graybox.decompose import decompose
 from graybox.diagnosis import Diagnosis, Hypothesis, diagnose
 from graybox.drift import Drift, compute_drift
+from graybox.embedding import choose_delay, choose_dimension
 from graybox.estimator import FitRequest, GrayBox, GrayBoxSettings, fit_baselines, fit_signatures
 from graybox.exceptions import (ArtifactError, GrayBoxError, InsufficientDataError,
                                 InvalidAssetIdError, ModelSpecError, StructureMismatchError,
                                 TelemetryError)
+from graybox.level_tier import LevelTier, fit_level
+from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models import WhiteBoxModel, load_model
+from graybox.noise_tier import NoiseTier, describe_noise
+from graybox.nonlinear_tier import NonlinearTier, fit_networks, lagged
 from graybox.parameter_estimation import ParameterEstimate, estimate_parameters
 from graybox.residual import residual_frame
 from graybox.signature import TIERS, Signature
+from graybox.stationarize import Differencing, DifferencingChoice, choose_differencing
 from graybox.telemetry import GridPolicy, TelemetryWindow, read_window
 
 __all__ = [
@@ -34,6 +44,10 @@ __all__ = [
     "WhiteBoxModel", "load_model", "residual_frame",
     "estimate_parameters", "ParameterEstimate", "diagnose", "Diagnosis", "Hypothesis",
     "read_window", "GridPolicy", "TelemetryWindow",
+    # the tiers by hand, on a residual (README "Using the tiers by hand")
+    "choose_differencing", "Differencing", "DifferencingChoice", "fit_ar", "LinearTier",
+    "choose_delay", "choose_dimension", "lagged", "fit_networks", "NonlinearTier",
+    "describe_noise", "NoiseTier", "fit_level", "LevelTier",
     "GrayBoxError", "ModelSpecError", "TelemetryError", "InsufficientDataError",
     "StructureMismatchError", "ArtifactError", "InvalidAssetIdError",
 ]

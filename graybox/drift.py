@@ -7,6 +7,7 @@ import numpy as np
 
 from graybox.exceptions import StructureMismatchError
 from graybox.signature import ChannelSignature, Signature
+from graybox.summary import drift_summary
 from graybox.tiers import TIER_KINDS, tier_kind
 
 
@@ -123,6 +124,21 @@ class Drift:
     @property
     def alarmed(self) -> bool:
         return bool(self.alarms)
+
+    def summary(self) -> str:
+        """A readable plain-text table of the drift, as statsmodels' ``summary()``.
+
+        Returns
+        -------
+        str
+            Per channel and tier zeta, epsilon, their ratio and whether zeta exceeds epsilon
+            (``YES``), notes where a tier's measure needs one, and the top parameter changes.
+
+        Examples
+        --------
+        >>> print(gb.compute_drift(candidate, baseline, calibration).summary())  # doctest: +SKIP
+        """
+        return drift_summary(self)
 
     def to_dict(self) -> dict:
         return asdict(self)

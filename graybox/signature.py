@@ -20,6 +20,7 @@ from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import Differencing
+from graybox.summary import signature_summary
 from graybox.tiers import TIER_KINDS, TIERS, tier_kind  # noqa: F401 - TIERS re-exported
 
 FORMAT_VERSION = 1
@@ -209,6 +210,24 @@ class Signature:
     @property
     def channel_names(self) -> tuple[str, ...]:
         return tuple(c.channel for c in self.channels)
+
+    def summary(self) -> str:
+        """A readable plain-text table of the signature, as statsmodels' ``summary()``.
+
+        Returns
+        -------
+        str
+            A header (asset, window, model, sample and analysis intervals, samples, tuning
+            with its standard errors), then per channel its structure (differencing, AR
+            order, embedding, whether the network is needed), the linear tier's coefficients
+            with standard errors, the network's fit, the noise tier's moments and Ljung-Box
+            test, and the level tier (level, residual std, horizon).
+
+        Examples
+        --------
+        >>> print(baseline.signature_.summary())                          # doctest: +SKIP
+        """
+        return signature_summary(self)
 
     def frozen_structure(self) -> dict:
         """Everything a candidate must share with this signature to be compared with it."""

@@ -33,3 +33,20 @@ def test_readme_hidden_state_model_is_a_valid_white_box():
     x, u = np.array([[0.5, 0.0, 0.0, 25.0]]), np.array([[100.0, 20.0]])
     assert pack.output(x, u)[0, 0] == 371.0 - 0.06 * 100.0
     assert pack.derivatives(x, u).shape == (1, 4)
+
+
+def test_readme_tiers_by_hand_example_recovers_the_simulated_residual(capsys):
+    import numpy as np
+
+    section = README.read_text().split("### Using the tiers by hand", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    # an integrated AR(2) with a1 = 0.6, a2 = -0.3: one difference, order 2, white noise left
+    assert namespace["choice"].differencing.order == 1
+    linear = namespace["linear"]
+    assert linear.order == 2
+    assert np.all(np.abs(np.subtract(linear.coefficients, (0.6, -0.3)))
+                  < 3 * np.asarray(linear.standard_errors))
+    assert namespace["noise"].is_white
+    assert "Ljung-Box p=" in capsys.readouterr().out
