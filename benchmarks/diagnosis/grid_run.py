@@ -6,8 +6,9 @@ each a healthy asset and one faulty asset per (fault kind, magnitude) on the veh
 (``write_telemetry``) and ``graybox.read_window``, one window per UTC day. Per model error:
 
 1. the white box (:func:`graybox.simulator.white_box_parameters`); when the model error is
-   not 0, it is tuned to each vehicle on its baseline days by
-   :func:`graybox.parameter_estimation.estimate_parameters` on :data:`TUNED` (the shaft's
+   not 0, it is tuned to each vehicle on its baseline days as the product tunes it
+   (``FitRequest.estimate`` = :data:`TUNED`: the baseline's fit estimates them and records
+   ``Signature.tuning``, its candidates and ``diagnose`` use the tuned values; the shaft's
    ``J``, ``a``, ``b + c``, ``d`` scale together and ``b``, ``c`` enter only as a sum, so
    inertia, turbine gain and turbine slope stay fixed and ``compressor_linear`` takes up the
    error of ``b + c``);
@@ -31,7 +32,6 @@ import graybox as gb
 from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
 from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
 from graybox.diagnosis import diagnose
-from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.telemetry.writing import write_telemetry
 
 #: the parameters tuned on the baseline days when the white box is off (an identifiable set)
@@ -173,25 +173,21 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         f"{clock['simulate_write_read_seconds']:.0f} s")
     rows = []
     for error in grid.model_errors:
-        began = time.perf_counter()
-        models, tuning = {}, {}
-        for v in vehicles:
-            model = white_box(error)
-            base = [windows[asset_id(v.seed, v.vehicle), d] for d in range(grid.baseline_days)]
-            if error and grid.tune:
-                estimate = estimate_parameters(model, base, TUNED)
-                model = with_parameters(model, estimate.parameters())
-                tuning[v.vehicle] = estimate
-            models[v.vehicle] = model
-        clock[f"tune_seconds_{error:g}"] = time.perf_counter() - began
+        # a white box that is off is tuned as the product tunes it: the baseline's fit
+        # estimates TUNED on its days (FitRequest.estimate) and its candidates use the values
+        tuned = TUNED if error and grid.tune else ()
+        models = {v.vehicle: white_box(error) for v in vehicles}
         began = time.perf_counter()
         requests = [gb.FitRequest(models[v.vehicle],
                                   [windows[asset_id(v.seed, v.vehicle), d]
                                    for d in range(grid.baseline_days)],
-                                  asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle)
+                                  asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
+                                  estimate=tuned)
                     for v in vehicles]
         baselines = dict(zip([v.vehicle for v in vehicles],
                              gb.fit_baselines(requests, false_alarm_rate=grid.false_alarm_rate)))
+        tuning = {vehicle: result[0].tuning for vehicle, result in baselines.items()
+                  if not isinstance(result, gb.GrayBoxError) and result[0].tuning is not None}
         clock[f"baseline_seconds_{error:g}"] = time.perf_counter() - began
         jobs = []
         for v in vehicles:
@@ -214,9 +210,9 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         began = time.perf_counter()
         candidates = gb.fit_signatures([job[-1] for job in jobs])
         clock[f"candidate_seconds_{error:g}"] = time.perf_counter() - began
-        say(f"seed {seed}, model error {error:g}: tuned {len(tuning)} white boxes in "
-            f"{clock[f'tune_seconds_{error:g}']:.0f} s, {len(requests)} baselines in "
-            f"{clock[f'baseline_seconds_{error:g}']:.0f} s, {len(jobs)} nights in "
+        say(f"seed {seed}, model error {error:g}: {len(requests)} baselines ({len(tuning)} "
+            f"white boxes tuned) in {clock[f'baseline_seconds_{error:g}']:.0f} s, "
+            f"{len(jobs)} nights in "
             f"{clock[f'candidate_seconds_{error:g}']:.0f} s; diagnosing")
         began = time.perf_counter()
         for (v, kind, magnitude, night, window, _), candidate in zip(jobs, candidates):

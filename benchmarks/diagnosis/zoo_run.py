@@ -6,8 +6,9 @@ nights; per fault kind and magnitude (small, large), ``faulty_per_cell`` faulty 
 vehicle's seed with an onset inside the first night, scored on the first three nights (the
 candidate as the nightly flow fits it, on the night and the ``candidate_nights - 1`` before
 it). Telemetry through the store layout and ``graybox.read_window`` with the family's grid
-policy. The family's coarse white box is tuned to each vehicle on its baseline days
-(:data:`benchmarks.diagnosis.expected_zoo.ZOO`'s ``tuned``), then ``graybox.diagnose`` runs on
+policy. The family's coarse white box is tuned to each vehicle on its baseline days by the
+baseline's fit (``FitRequest.estimate`` = :data:`benchmarks.diagnosis.expected_zoo.ZOO`'s
+``tuned``, as the product tunes it), then ``graybox.diagnose`` runs on
 every alarmed night after the onset and on every healthy night.
 """
 from __future__ import annotations
@@ -25,7 +26,6 @@ from benchmarks.diagnosis.grid_run import diagnosis_fields
 from benchmarks.zoo.family import Family
 from benchmarks.zoo.run import HORIZON, START, plan_fleet, vehicles_of
 from flows.config.settings import NightlySettings
-from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.telemetry.writing import write_telemetry
 
 
@@ -77,24 +77,21 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
                     policy=policy, inputs=coarse.input_columns)
     del frames
 
+    # the coarse white box tuned as the product tunes it: each baseline's fit estimates the
+    # family's parameters on its days (FitRequest.estimate), its candidates use the values
     began = time.perf_counter()
-    models, tuning = {}, {}
-    for v in vehicles:
-        base = [windows[v.asset_id, d] for d in range(baseline_days)]
-        estimate = estimate_parameters(coarse, base, expectation.tuned)
-        tuning[v.asset_id] = dict(zip(estimate.names, estimate.values))
-        models[v.asset_id] = with_parameters(coarse, estimate.parameters())
-    clock["tune_seconds"] = time.perf_counter() - began
-    began = time.perf_counter()
-    fitted = gb.fit_baselines([gb.FitRequest(models[v.asset_id],
+    fitted = gb.fit_baselines([gb.FitRequest(coarse,
                                              [windows[v.asset_id, d] for d in range(baseline_days)],
-                                             asset_id=v.asset_id, seed=i)
+                                             asset_id=v.asset_id, seed=i,
+                                             estimate=tuple(expectation.tuned))
                                for i, v in enumerate(vehicles)], false_alarm_rate=false_alarm_rate)
     baselines = {v.asset_id: result for v, result in zip(vehicles, fitted)
                  if not isinstance(result, gb.GrayBoxError)}
+    tuning = {asset: dict(zip(result[0].tuning.names, result[0].tuning.values))
+              for asset, result in baselines.items()}
     clock["baseline_seconds"] = time.perf_counter() - began
-    say(f"{family.name}: tuned {expectation.tuned} in {clock['tune_seconds']:.0f} s; "
-        f"{len(baselines)} of {len(vehicles)} baselines in {clock['baseline_seconds']:.0f} s")
+    say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines (tuned on "
+        f"{expectation.tuned}) in {clock['baseline_seconds']:.0f} s")
 
     vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
@@ -107,7 +104,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
             days = [d for d in trailing_nights(day, span, baseline_days)
                     if (plan.asset_id, d) in windows]
             jobs.append((plan, night, windows[plan.asset_id, day],
-                         gb.FitRequest(models[base], [windows[plan.asset_id, d] for d in days],
+                         gb.FitRequest(coarse, [windows[plan.asset_id, d] for d in days],
                                        baseline=baselines[base][0], asset_id=plan.asset_id)))
     began = time.perf_counter()
     candidates = gb.fit_signatures([job[-1] for job in jobs])
@@ -139,7 +136,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
         if (exceeded and row["after_onset"]) or fault == "healthy":
             implied = expectation.magnitude(fault)
             try:
-                row.update(diagnosis_fields(signature, window, models[base], expected,
+                row.update(diagnosis_fields(signature, window, coarse, expected,
                                             lambda h: implied(h.estimate, h.baseline)))
             except gb.GrayBoxError as error:
                 row.update(diagnosis_error=str(error)[:200])
