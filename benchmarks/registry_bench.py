@@ -12,7 +12,8 @@ model version tagged with its idempotence key), then real fits are recorded and 
 * ``record``: :meth:`Registry.record_fit` of a new nightly candidate (run, artifacts, pyfunc
   model, version, alias), without and with the PNG plots;
 * ``re-record``: the same fit again (idempotent: one key look-up, nothing written);
-* ``watermark``: :meth:`Registry.watermark` (one ``get_registered_model``);
+* ``watermark``: :meth:`Registry.watermark` (one read of the registered model's tags,
+  without its versions: :mod:`registry.model_headers`);
 * ``baseline``: :meth:`Registry.baseline` (alias look-up, download, verification);
 * ``zeta history``: :meth:`Registry.zeta_history` of one asset.
 
@@ -23,14 +24,17 @@ The nightly path, per asset-night (``--nightly``)::
 
     python -m benchmarks.registry_bench --nightly --assets 30 --nights 3
     python -m benchmarks.registry_bench --nightly --assets 30 --nights 3 --batch 10
-    python -m benchmarks.registry_bench --nightly --assets 10 --nights 3 --history 365
+    python -m benchmarks.registry_bench --nightly --assets 10 --nights 3 --history 365 --warmup 1
 
 gives ``--assets`` assets a promoted baseline, then times, for every asset and night, the
 calls :func:`flows.nightly.process_batch` makes: ``watermark``, ``baseline`` (load and
 verify), ``record`` (the candidate with its drift, no plots), ``commit_watermark``; it prints
 mean, median and 90th percentile in ms per asset-night, and their total. ``--batch N``
 records each group of N assets with one ``record_fits``; ``--history N`` first gives every
-asset N filler runs and versions (what a year of nights leaves is ``--history 365``).
+asset N filler runs and versions (what a year of nights leaves is ``--history 365``);
+``--warmup N`` first records N nights untimed: a process's first night also pays one-time
+costs (imports, SQLAlchemy's compiled statements, SQLite's page cache) that filling a history
+has already paid, so compare histories with a warm-up.
 """
 from __future__ import annotations
 
@@ -140,7 +144,7 @@ NIGHTLY_CALLS = ("watermark", "baseline", "record", "commit_watermark")
 
 
 def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
-            history: int = 0) -> dict[str, list[tuple[float, float]]]:
+            history: int = 0, warmup: int = 0) -> dict[str, list[tuple[float, float]]]:
     """Time every registry call of the nightly path, per asset-night.
 
     ``assets`` assets get a calibrated, promoted baseline and a watermark (and ``history``
@@ -149,6 +153,7 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
     ``watermark``, ``baseline`` (load and verify), ``record`` (the candidate with its drift,
     no plots) and ``commit_watermark``. With ``batch``, each group of ``batch`` assets records
     its candidates with one :meth:`Registry.record_fits` (its time shared equally).
+    ``warmup`` nights are recorded first the same way, untimed.
 
     Returns (wall, CPU) seconds per call, one per asset-night: the CPU time of this thread
     shows what other load on the machine does not.
@@ -176,11 +181,12 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
         wall, cpu = time.perf_counter(), time.thread_time()
         value = call()
         spent = ((time.perf_counter() - wall) / share, (time.thread_time() - cpu) / share)
-        times[name].extend([spent] * share)
+        if night >= warmup:       # the night being recorded (the loop below)
+            times[name].extend([spent] * share)
         return value
 
     group = batch or 1
-    for night in range(nights):
+    for night in range(warmup + nights):
         start = day0 + pd.Timedelta(days=night)
         end = start + pd.Timedelta(days=1)
         for first in range(0, assets, group):
@@ -207,7 +213,8 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
     print()
     how = f"record_fits of {args.batch} assets" if args.batch else "record_fit per asset"
     print(f"nightly path, embedded SQLite store (WAL): {args.assets} assets x {args.nights} "
-          f"nights = {n} asset-nights, {how}, {args.history} nights of history; ms per "
+          f"nights = {n} asset-nights, {how}, {args.history} nights of history, "
+          f"{args.warmup} untimed night(s) first; ms per "
           f"asset-night (wall, and CPU of the calling thread)")
     print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} |")
     print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|")
@@ -237,6 +244,8 @@ def main(argv: list[str] | None = None) -> int:
                              "record_fits (default: record_fit per asset, as the flow does)")
     parser.add_argument("--history", type=int, default=0,
                         help="--nightly: filler runs and versions per asset before timing")
+    parser.add_argument("--warmup", type=int, default=0,
+                        help="--nightly: nights recorded untimed before the timed ones")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -253,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.nightly:
         fits.update(baseline=fitted.baseline, calibration=fitted.calibration)
         print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,
-                              args.history), args)
+                              args.history, args.warmup), args)
         if args.workdir is None:
             shutil.rmtree(workdir, ignore_errors=True)
         return 0

@@ -5,6 +5,7 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``naming``      experiment, registered-model and tag names (asset ids validated first)
 ``store``       tracking URIs, SQLite WAL set-up, "database is locked" retries, asset locks
 ``backend``     the MLflow client bound to one store, shared look-ups
+``model_headers`` registered models' tags and aliases, read without their versions
 ``artifacts``   the signature bundle: JSON + safetensors + manifest, verified on read
 ``submission``  what is submitted for recording (FitSubmission), its key and data hash
 ``run_content`` a recorded fit's tags, params, metrics, drift.json and description

@@ -19,6 +19,7 @@ from mlflow.protos.databricks_pb2 import (RESOURCE_ALREADY_EXISTS, RESOURCE_DOES
 
 from registry import naming
 from registry.exceptions import NotFoundError, RegistryError
+from registry.model_headers import ModelHeader, read_headers
 from registry.retry import RetryingClient, RetryPolicy, call_with_retry
 from registry.store import Store, prepare_store, relax_commit_sync, resolve_store
 
@@ -180,17 +181,15 @@ class Backend:
         return ids
 
     # -- registered models -------------------------------------------------------------------
-    def registered_model(self, asset_id: str):
-        """The asset's registered model, or None."""
-        try:
-            model = self.client.get_registered_model(naming.model_name(asset_id))
-        except MlflowException as error:
-            if is_not_found(error):
-                self._models.pop(asset_id, None)
-                return None
-            raise
-        self._remember(asset_id, model)
-        return model
+    def _read_headers(self, names) -> dict[str, ModelHeader]:
+        inner = getattr(self.client.wrapped, "_get_registry_client", None)
+        registry_client = self.client.wrapped if inner is None else inner()
+        return read_headers(registry_client, names, self.retry)
+
+    def registered_model(self, asset_id: str) -> ModelHeader | None:
+        """The asset's registered model (its name, tags and aliases, read without its
+        versions: see :mod:`registry.model_headers`), or None."""
+        return self.registered_models([asset_id]).get(asset_id)
 
     def _remember(self, asset_id: str, model) -> None:
         tags = model.tags or {}
@@ -199,19 +198,16 @@ class Backend:
         if vehicle_class and experiment_id:
             self._models[asset_id] = (vehicle_class, experiment_id)
 
-    def registered_models(self, asset_ids: list[str]) -> dict[str, Any]:
-        """The registered models of several assets in one search (absent ones left out)."""
+    def registered_models(self, asset_ids: list[str]) -> dict[str, ModelHeader]:
+        """The registered models of several assets (as :meth:`registered_model`), read
+        together (absent ones left out)."""
         names = {naming.model_name(a): a for a in asset_ids}
-        if len(names) == 1:
-            (asset,) = names.values()
-            model = self.registered_model(asset)
-            return {} if model is None else {asset: model}
-        clause = "name IN (" + ", ".join(naming.quote(n) for n in sorted(names)) + ")"
         found = {}
-        for model in self.paged(self.client.search_registered_models, clause, max_results=200):
-            if model.name in names:
-                found[names[model.name]] = model
-                self._remember(names[model.name], model)
+        for name, header in self._read_headers(names).items():
+            found[names[name]] = header
+            self._remember(names[name], header)
+        for asset in set(names.values()) - set(found):
+            self._models.pop(asset, None)
         return found
 
     def require_registered_model(self, asset_id: str):
@@ -261,7 +257,7 @@ class Backend:
             except MlflowException as error:
                 if not is_already_exists(error):
                     raise
-            model = self.client.get_registered_model(name)
+            model = self.require_registered_model(asset_id)
         recorded = (model.tags or {}).get(naming.TAG_VEHICLE_CLASS)
         if recorded is not None and recorded != vehicle_class:
             raise RegistryError(f"asset {asset_id!r} is recorded as vehicle class {recorded!r}, "

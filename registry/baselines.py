@@ -8,7 +8,8 @@ that :func:`rollback` can restore it).
 
 Promotion and rollback load the version first (:func:`registry.loading.load`, which
 verifies it and never unpickles) and refuse it if that fails. The runs load the version they
-compare with through :func:`reference`, which also refuses a version without calibration
+compare with through :func:`reference` (by the ``baseline`` alias: one version read,
+whatever the asset's history), which also refuses a version without calibration
 (the ``baseline`` alias can be moved by hand, e.g. in the MLflow UI): its zeta would have no
 epsilon and nothing could alarm.
 """

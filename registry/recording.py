@@ -94,7 +94,7 @@ class _Alias:
     def repair(self, version: int) -> None:
         """A recording interrupted after its version was created but before the alias moved."""
         self.flush()
-        model = self.backend.client.get_registered_model(self.name)
+        model = self.backend.require_registered_model(self.asset_id)
         current = (model.aliases or {}).get(naming.CANDIDATE)
         if current is None or int(current) < version:
             mv = self.backend.client.get_model_version(self.name, str(version))

@@ -1,7 +1,9 @@
 """Watermarks: per asset, the end of the last committed telemetry window.
 
 The watermark is a tag (``fleet_health.watermark``, ISO UTC) on the asset's registered
-model, so reading it is one ``get_registered_model`` call whatever the number of runs.
+model, so reading it is one read of the registered model's tags and aliases, whatever the
+number of runs and versions (not MLflow's ``get_registered_model``, which loads every
+version of the model: see :mod:`registry.model_headers`).
 It only moves forward, and only when the flow says its results are committed
 (:func:`commit_watermark`, under the asset's lock).
 """

@@ -1,0 +1,14 @@
+"""The registry benchmark's nightly path on a tiny configuration: a short history, one
+untimed night, one timed night; only the timed night is counted (no times are checked)."""
+from benchmarks.registry_bench import main
+
+
+def test_nightly_path_with_history_and_an_untimed_night(tmp_path, capsys):
+    assert main(["--nightly", "--assets", "2", "--nights", "1", "--warmup", "1",
+                 "--history", "2", "--workdir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "filled 2 runs and versions per asset" in out
+    assert ("2 assets x 1 nights = 2 asset-nights, record_fit per asset, 2 nights of history, "
+            "1 untimed night(s) first") in out
+    for call in ("watermark", "baseline", "record", "commit_watermark", "total"):
+        assert f"| {call:<16} |" in out
