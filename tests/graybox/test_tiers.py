@@ -6,8 +6,27 @@ from graybox.tiers import TIER_KINDS, NoiseTierKind, Tier, tier_kind
 
 def test_tier_kinds_are_registered_in_table_order():
     assert TIERS == ("linear", "nonlinear", "noise", "level")
-    assert tuple(kind.name for kind in TIER_KINDS) == TIERS
     assert all(isinstance(kind, Tier) for kind in TIER_KINDS)
+
+
+def test_each_tier_kind_reads_the_channel_record_it_is_named_after():
+    # a kind registered under a name that is not the ChannelSignature field of its record, or
+    # reading another tier's record, fails here
+    import dataclasses
+
+    from graybox.level_tier import LevelTier
+    from tests.graybox.conftest import make_channel
+
+    channel = dataclasses.replace(make_channel("x"), level=LevelTier(
+        0.25, (0.0,), (0.0,), 1.0, 12, 100))
+    fields = {f.name for f in dataclasses.fields(channel)}
+    for kind in TIER_KINDS:
+        assert kind.name in fields and kind.present(channel), kind.name
+        names, values = kind.parameters(channel)
+        assert len(names) == len(values) > 0, kind.name
+    level_names, level_values = tier_kind("level").parameters(channel)
+    assert list(level_values) == [0.25]
+    assert not tier_kind("level").present(make_channel("x"))
 
 
 def test_tier_kind_by_name():
