@@ -2,7 +2,7 @@
 
     python -m benchmarks.graybox_core [--assets N] [--nights N]
 
-Simulates gas-turbine vehicles (graybox.simulator), fits baselines with calibration on 4
+Simulates gas-turbine vehicles (graybox.simulation), fits baselines with calibration on 4
 healthy days, then one candidate per asset-night, for the exact white box and for one whose
 parameters are 20 % off. Prints zeta/epsilon per tier for a healthy vehicle and for each fault
 kind (onset at the first night), and the wall time per asset of each stage.
@@ -14,7 +14,7 @@ import time
 
 
 from graybox import FitRequest, compute_drift, fit_baselines, fit_signatures, load_model
-from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
+from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
 
 BASELINE_DAYS = 4
 KINDS = {"healthy": None, "(a) friction 0.5": Fault("friction", BASELINE_DAYS, 0.5),

@@ -12,7 +12,7 @@ from graybox.analysis_rate import choose_analysis_interval
 from graybox.level_tier import fit_level, horizon_samples, level_data, start_stride
 from graybox.models.gas_turbine import GasTurbineShaft
 from graybox.residual import residual_frame
-from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
+from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
 
 
 def main() -> None:

@@ -5,7 +5,7 @@
 
 For each N, in a fresh work directory:
 
-1. simulate N healthy gas-turbine vehicles (graybox.simulator, in-process, a few vehicles
+1. simulate N healthy gas-turbine vehicles (graybox.simulation, in-process, a few vehicles
    at a time) over ``--baseline-days`` + 1 days and write their telemetry and a fleet.toml;
 2. ``fleet-health baseline fit --all --promote`` in a child process: wall, CPU, peak RSS
    and the summary's stages, per asset-day;
@@ -92,7 +92,7 @@ def generate(root: pathlib.Path, n: int, days: int, seed: int, sample_interval: 
     """Simulate ``n`` healthy vehicles over ``days`` days into ``root``; returns seconds."""
     from flows.config import render_config
     from flows.demo import simulated_fleet
-    from graybox.simulator import simulate_fleet
+    from graybox.simulation import simulate_fleet
     from graybox.telemetry import write_telemetry
 
     began = time.perf_counter()

@@ -1,6 +1,6 @@
 """``fleet-health demo`` (and ``simulate``): the whole product on a simulated fleet.
 
-1. simulate :func:`graybox.simulator.demo_fleet` (8 gas-turbine vehicles over 10 days, 10 s
+1. simulate :func:`graybox.simulation.demo_fleet` (8 gas-turbine vehicles over 10 days, 10 s
    samples; faults friction 0.5, nonlinear 0.3 and noise 1.0 on three of them, with onsets
    in days 7-8) and write it in the telemetry layout with ``fleet_truth.json``;
 2. write a ``fleet.toml`` in the work directory (MLflow store ``mlflow.db`` beside it,
@@ -31,7 +31,7 @@ from flows.config import load_config, render_config
 from flows.fleet import UsageError
 from flows.report import alert_table, fleet_table
 from flows.results import RunSummary
-from graybox.simulator import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
+from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
 from graybox.telemetry import write_telemetry
 from registry.alert import Alert
 

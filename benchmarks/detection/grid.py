@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pandas as pd
 
-from graybox.simulator import SECONDS_PER_DAY, Fault, FleetSpec, VehicleSpec, simulate_fleet
+from graybox.simulation import SECONDS_PER_DAY, Fault, FleetSpec, VehicleSpec, simulate_fleet
 
 #: fault kinds of the issue, with the labels used in the report
 KINDS = {"friction": "(a) gamma drift (friction)", "nonlinear": "(b) nonlinear onset (flutter)",
@@ -43,7 +43,7 @@ class Grid:
     ----------
     magnitudes : dict of kind -> tuple of float
     model_errors : tuple of float
-        Relative error of the white box (``graybox.simulator.white_box_parameters``).
+        Relative error of the white box (``graybox.simulation.white_box_parameters``).
     seeds : tuple of int
         Master seeds; vehicle ``i`` of seed ``s`` has the vehicle seed ``1000 s + i``.
     vehicles : int

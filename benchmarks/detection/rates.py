@@ -95,7 +95,7 @@ def noise_share(intervals, seed: int = 1, vehicles: int = 4, days: int = 2) -> p
         decimation_factor,
     )
     from graybox.residual import one_step_residual
-    from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet_with_truth
+    from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet_with_truth
 
     model = white_box(0.0)
     rows = []

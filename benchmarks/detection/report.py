@@ -553,7 +553,7 @@ def protocol_text(results: Results) -> str:
     mags = "; ".join(f"{KINDS[k]}: {', '.join(f'{m:g}' for m in sorted(v))} ({UNITS[k]})"
                      for k, v in g.magnitudes.items())
     return f"""\
-- **Fleet** (`graybox.simulator`, true plant `GasTurbineShaft` with default parameters, AR(2)
+- **Fleet** (`graybox.simulation`, true plant `GasTurbineShaft` with default parameters, AR(2)
   random moment, sensor noise 0.3 rad/s, daily load cycle): seeds {list(g.seeds)}; per seed
   {g.vehicles} vehicles, vehicle `i` of seed `s` has vehicle seed `1000 s + i`. Every vehicle
   appears as one healthy asset and as one faulty asset per (kind, magnitude): {len(g.scenarios())}

@@ -23,7 +23,7 @@ CHANNEL = "omega"
 
 def white_box(model_error: float):
     from graybox.models.gas_turbine import GasTurbineShaft
-    from graybox.simulator import white_box_parameters
+    from graybox.simulation import white_box_parameters
 
     return GasTurbineShaft(white_box_parameters(model_error), columns={"omega": "shaft_speed"})
 

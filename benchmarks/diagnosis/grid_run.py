@@ -5,7 +5,7 @@ each a healthy asset and one faulty asset per (fault kind, magnitude) on the veh
 (their telemetry identical up to the onset). Telemetry goes through the store layout
 (``write_telemetry``) and ``graybox.read_window``, one window per UTC day. Per model error:
 
-1. the white box (:func:`graybox.simulator.white_box_parameters`); when the model error is
+1. the white box (:func:`graybox.simulation.white_box_parameters`); when the model error is
    not 0, it is tuned to each vehicle on its baseline days as the product tunes it
    (``FitRequest.estimate`` = :data:`TUNED`: the baseline's fit estimates them and records
    ``Signature.tuning``, its candidates and ``diagnose`` use the tuned values; the shaft's
@@ -93,7 +93,7 @@ class DiagnosisGrid:
 def white_box(model_error: float):
     """The gas-turbine shaft ``model_error`` off, reading ``omega`` from ``shaft_speed``."""
     from graybox.models.gas_turbine import GasTurbineShaft
-    from graybox.simulator import white_box_parameters
+    from graybox.simulation import white_box_parameters
 
     return GasTurbineShaft(white_box_parameters(model_error), columns={CHANNEL: "shaft_speed"})
 

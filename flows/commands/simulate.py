@@ -15,7 +15,7 @@ def add_simulate_command(subparsers) -> argparse.ArgumentParser:
     """Add ``simulate`` to the top-level subparsers."""
     parser = subparsers.add_parser(
         "simulate", help="write a simulated fleet in the telemetry layout, with chosen faults",
-        description="Simulate gas-turbine vehicles (graybox.simulator) and write their "
+        description="Simulate gas-turbine vehicles (graybox.simulation) and write their "
                     "telemetry and fleet_truth.json. Without --fault or --healthy, "
                     "demo_fleet's faults are injected (friction, nonlinear, noise on up to "
                     "3 vehicles).")

@@ -54,8 +54,8 @@ Modules: :mod:`~graybox.simulation.faults` (what can go wrong),
 (time grids), :mod:`~graybox.simulation.draws` (random inputs),
 :mod:`~graybox.simulation.plant` (integration), :mod:`~graybox.simulation.fleet` (the
 simulate and write functions), :mod:`~graybox.simulation.scenarios` (demo fleet, wrong white
-boxes) and :mod:`~graybox.simulation.langevin` (Eq. 8). :mod:`graybox.simulator` re-exports
-the public names.
+boxes) and :mod:`~graybox.simulation.langevin` (Eq. 8); this package exports their public
+names. ``python -m graybox.simulation`` prints a summary of the demo fleet.
 """
 from graybox.simulation.clock import MOMENT_STEP, SECONDS_PER_DAY, moment_steps_ratio
 from graybox.simulation.draws import moment_ar_coefficients

@@ -41,7 +41,7 @@ def harness():
 def fleet(tmp_path_factory):
     """The simulated fleet's telemetry (read-only: copy it before corrupting it)."""
     from flows.demo import simulated_fleet, write_simulation
-    from graybox.simulator import Fault
+    from graybox.simulation import Fault
 
     root = tmp_path_factory.mktemp("fleet") / "telemetry"
     faults = [(asset, Fault(kind, onset, magnitude))

@@ -30,7 +30,7 @@ def small(tmp_path_factory, harness):
     """The fleet's telemetry and a store with promoted baselines of T-001 .. T-003."""
     from flows.baseline import baseline
     from flows.demo import simulated_fleet, write_simulation
-    from graybox.simulator import Fault
+    from graybox.simulation import Fault
 
     directory = tmp_path_factory.mktemp("candidate-nights")
     root = directory / "telemetry"

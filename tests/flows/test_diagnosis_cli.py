@@ -33,7 +33,7 @@ def diagnosed(harness, tmp_path_factory):
     from flows.cli import main
     from flows.demo import write_simulation
     from flowtest_config import write_config
-    from graybox.simulator import Fault, FleetSpec, VehicleSpec
+    from graybox.simulation import Fault, FleetSpec, VehicleSpec
 
     directory = tmp_path_factory.mktemp("diagnosis-cli")
     faults = {"T-002": (Fault("friction", BASELINE_DAYS, FRICTION),),

@@ -4,7 +4,7 @@ with the true white box and with its parameters 20 % off."""
 import pytest
 
 from graybox import FitRequest, compute_drift, fit_baselines, fit_signatures, load_model
-from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
+from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
 
 ONSET = 4
 FAULTS = {"healthy": None,

@@ -4,7 +4,7 @@ import pytest
 from graybox import (FitRequest, GrayBox, GrayBoxError, GrayBoxSettings, InsufficientDataError,
                      Signature, TelemetryError, compute_drift, decompose, fit_signatures,
                      fit_baselines, load_model)
-from graybox.simulator import FleetSpec, VehicleSpec, simulate_fleet
+from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet
 
 
 def day_frames(frame):

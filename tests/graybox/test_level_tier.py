@@ -18,7 +18,7 @@ from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
 from graybox.rk4 import rk4_step
 from graybox.signature import check_consistent
-from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
+from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
 from graybox.tiers import tier_kind
 from registry.alert import alerts_from_drift
 from tests.graybox.conftest import make_channel, make_signature

@@ -14,7 +14,7 @@ OPTIONAL_MODULES = ("graybox.models.progpy",)
 
 
 def test_import_graybox_loads_neither_mlflow_nor_prefect():
-    code = ("import sys, graybox, graybox.simulator, graybox.telemetry; "
+    code = ("import sys, graybox, graybox.simulation, graybox.telemetry; "
             "bad = [m for m in ('mlflow', 'prefect') if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -3,7 +3,7 @@ gives the same decisions with the default settings (see graybox.analysis_rate)."
 import pytest
 
 from graybox import GrayBox, load_model
-from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet
+from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet
 
 BASELINE_DAYS, DAYS, ONSET = 4, 6, 4
 

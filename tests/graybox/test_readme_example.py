@@ -2,7 +2,7 @@
 import pathlib
 import re
 
-from graybox.simulator import demo_fleet, write_fleet
+from graybox.simulation import demo_fleet, write_fleet
 
 README = pathlib.Path(__file__).resolve().parents[2] / "README.md"
 

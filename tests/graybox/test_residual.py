@@ -39,7 +39,7 @@ def test_one_step_residual_is_multichannel():
 
 def test_inverse_residual_equals_a_smooth_injected_force():
     """Eq. 13 on Langevin data with the true gamma returns the injected force."""
-    from graybox.simulator import simulate_langevin
+    from graybox.simulation import simulate_langevin
 
     gamma, dt, n = 0.05, 1.0, 3000
     t = np.arange(n) * dt

@@ -1,4 +1,4 @@
-"""Known-answer tests of the fleet simulator (graybox/simulation/, graybox/simulator.py)."""
+"""Known-answer tests of the fleet simulator (graybox/simulation/)."""
 import json
 import math
 
@@ -11,7 +11,7 @@ from graybox.models import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
 from graybox.simulation.draws import draw
 from graybox.simulation.plant import Plant, integrate
-from graybox.simulator import (FAULT_KINDS, Fault, FleetSpec, VehicleSpec, demo_fleet,
+from graybox.simulation import (FAULT_KINDS, Fault, FleetSpec, VehicleSpec, demo_fleet,
                                moment_ar_coefficients, simulate_fleet, simulate_fleet_with_truth,
                                simulate_langevin, white_box_parameters, write_fleet)
 from graybox.telemetry import list_assets, list_dates, read_raw

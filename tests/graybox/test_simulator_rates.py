@@ -4,7 +4,7 @@ import pytest
 
 from graybox.simulation.draws import draw
 from graybox.simulation.plant import Plant, chunk_layout, integrate
-from graybox.simulator import (MOMENT_STEP, Fault, FleetSpec, VehicleSpec, moment_steps_ratio,
+from graybox.simulation import (MOMENT_STEP, Fault, FleetSpec, VehicleSpec, moment_steps_ratio,
                                simulate_fleet_with_truth)
 
 VEHICLES = (

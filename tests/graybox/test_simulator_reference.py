@@ -2,7 +2,7 @@
 rate-invariant (commit 2a9ddb0), so every test and the published 10-s benchmark stay valid.
 
 The numbers in ``data/simulator_reference.json`` were printed by that commit's
-``graybox/simulator.py`` for the fleet :data:`VEHICLES` over one day at 10 s, without and
+``graybox/simulation/`` for the fleet :data:`VEHICLES` over one day at 10 s, without and
 with jitter and drops.
 """
 import json
@@ -11,7 +11,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from graybox.simulator import Fault, FleetSpec, VehicleSpec, simulate_fleet_with_truth
+from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet_with_truth
 
 VEHICLES = (
     VehicleSpec("H", seed=11),
