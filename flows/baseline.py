@@ -29,10 +29,10 @@ from graybox.stage_clock import StageClock, timed
 from flows.batching import (batch_task, batch_task_body, guard_asset_error, no_telemetry,
                             run_over_fleet)
 from flows.config import FleetConfig, load_config
-from flows.fleet import AssetRef, UsageError, range_windows, utc
+from flows.discovery import AssetRef, UsageError, range_windows, utc
 from flows.hooks import notify_hook
 from flows.pipeline import PendingAsset, fit_baselines, process_in_groups, read
-from flows.report import flow_result
+from flows.run_tables import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)

@@ -25,7 +25,7 @@ from graybox.stage_clock import StageClock
 
 from flows import progress
 from flows.config import FleetConfig, NightlySettings, load_config
-from flows.fleet import AssetRef, batches, discover
+from flows.discovery import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, TransientError,
                            describe_error, is_transient, now_iso)
 from flows.task_runner import batch_runner

@@ -18,7 +18,7 @@ from typing import Iterable
 
 import pandas as pd
 
-from flows.fleet import utc, windows_in_dates
+from flows.discovery import utc, windows_in_dates
 
 DAY = pd.Timedelta(days=1)
 

@@ -2,7 +2,7 @@
 
 The heat map (an inline ``data:`` PNG), the coverage counts of the latest night and the
 alert table of the nights shown (with the run table's likely cause of each alert,
-:func:`flows.report.alert_rows`); no script, no stylesheet or image to fetch, so the file
+:func:`flows.run_tables.alert_rows`); no script, no stylesheet or image to fetch, so the file
 can be mailed or archived as it is.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import html
 from typing import Sequence
 
 from flows.fleet_view import FleetView
-from flows.report import alert_rows
+from flows.run_tables import alert_rows
 from registry.alert import Alert
 
 NUMBER_CELL = '<td class="n">'

@@ -1,6 +1,6 @@
 """The nightly fleet run: every asset's new telemetry against its baseline.
 
-For every asset with whole windows past its watermark (see :mod:`flows.fleet`): read and
+For every asset with whole windows past its watermark (see :mod:`flows.discovery`): read and
 validate each window, refit the tiers with the baseline's frozen structure (all of a batch's
 networks in one batched computation), record the candidate in the registry with its drift
 and alerts, then advance the watermark. Per group of assets the order is
@@ -90,12 +90,12 @@ from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
 from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
-from flows.fleet import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
+from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
                             read_against, record_candidates)
-from flows.report import flow_result
+from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
 from registry.exceptions import UnusableBaselineError

@@ -39,7 +39,7 @@ from graybox.telemetry.layout import outside_links
 from flows import progress
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig, VehicleClass
-from flows.fleet import AssetRef, trailing_nights, utc
+from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
@@ -167,7 +167,7 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
     before it are kept: ``stop``); otherwise it fails the asset and the other windows go on.
 
     With ``nights`` > 1 each window's candidate also holds the ``nights - 1`` windows before
-    it that have rows, not before ``earliest`` (:func:`flows.fleet.trailing_nights`); its
+    it that have rows, not before ``earliest`` (:func:`flows.discovery.trailing_nights`); its
     window is the whole span. Each night is read once; a bad earlier night is an error of
     the window, as above.
     """

@@ -27,11 +27,11 @@ from graybox.stage_clock import StageClock, timed
 
 from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
-from flows.fleet import AssetRef, range_windows, utc
+from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
                             read_against, record_candidates)
-from flows.report import flow_result
+from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
 from registry.exceptions import NotFoundError, UnusableBaselineError

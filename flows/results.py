@@ -178,7 +178,7 @@ class RunSummary:
     tracking_uri: str | None = None
     flow_run_id: str | None = None
     extra: dict = field(default_factory=dict)
-    #: entries of the telemetry root not read: {"path", "reason"} (see flows.fleet)
+    #: entries of the telemetry root not read: {"path", "reason"} (see flows.discovery)
     skipped: list[dict] = field(default_factory=list)
 
     @property

@@ -7,8 +7,8 @@ import json
 
 from flows.alerts import AlertLog, export_alerts
 from flows.commands.plumbing import asset_option, config_options, guarded, load
-from flows.fleet import parse_time
-from flows.report import alert_table
+from flows.discovery import parse_time
+from flows.run_tables import alert_table
 from graybox.exceptions import ArtifactError
 from registry.cli import EXIT_FAILED, EXIT_OK, _console, _error
 from registry.exceptions import RegistryError

@@ -6,7 +6,7 @@ import argparse
 
 from flows.commands.plumbing import (FlowFailed, class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
-from flows.fleet import UsageError, parse_time
+from flows.discovery import UsageError, parse_time
 from registry.cli import EXIT_FAILED, _error, add_baseline_commands
 
 

@@ -95,7 +95,7 @@ def check(args: argparse.Namespace) -> int:
 
 def check_telemetry(config: FleetConfig):
     """The assets with telemetry, and the findings of the telemetry layout."""
-    from flows.fleet import discover
+    from flows.discovery import discover
     from graybox.telemetry.layout import ASSET_PREFIX
 
     fleet = discover(config)

@@ -10,8 +10,8 @@ from typing import Callable
 
 from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
-from flows.fleet import UsageError
-from flows.report import alert_table, fleet_table
+from flows.discovery import UsageError
+from flows.run_tables import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary
 from flows.store_probe import StoreUnavailable, bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError

@@ -8,8 +8,8 @@ from rich.table import Table
 from flows.commands.plumbing import (FlowFailed, asset_option, class_option,
                                      flow_command_options, load, prefect_environment,
                                      report_summary, run_flow)
-from flows.fleet import UsageError, not_in_future, parse_time, range_windows
-from flows.report import window_label
+from flows.discovery import UsageError, not_in_future, parse_time, range_windows
+from flows.run_tables import window_label
 from flows.results import RunSummary
 from registry.cli import EXIT_FAILED, _console, _error
 

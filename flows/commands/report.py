@@ -9,7 +9,7 @@ import textwrap
 import pandas as pd
 
 from flows.commands.plumbing import config_options, guarded, load, positive_int
-from flows.fleet import parse_time
+from flows.discovery import parse_time
 from flows.fleet_view import DEFAULT_NIGHTS, DEFAULT_TOP, collect_view
 from graybox.exceptions import ArtifactError
 from registry.cli import EXIT_FAILED, EXIT_OK, _error

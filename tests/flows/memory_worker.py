@@ -18,7 +18,7 @@ import threading
 import flows.pipeline
 from flows.baseline import process_baseline_batch
 from flows.config import load_config
-from flows.fleet import AssetRef
+from flows.discovery import AssetRef
 from flows.memory import resident_bytes
 
 

@@ -20,7 +20,7 @@ from flows.nightly import process_batch
 
 def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> int:
     from flows.config import load_config
-    from flows.fleet import discover
+    from flows.discovery import discover
 
     refs = [{"asset_id": r.asset_id, "vehicle_class": r.vehicle_class}
             for r in discover(load_config(config_path), assets).assets]

@@ -189,7 +189,7 @@ def test_bad_candidate_nights_are_refused_naming_the_key_or_option(tmp_path, cap
 
 
 def test_trailing_nights_known_answers():
-    from flows.fleet import trailing_nights
+    from flows.discovery import trailing_nights
 
     night = pd.Timedelta(days=1)
     assert trailing_nights(day(4), day(5), 1, night) == [(day(4), day(5))]

@@ -144,7 +144,7 @@ def test_the_diagnosis_is_wherever_the_alerts_are_read(diagnosed):
         document = json.load(handle)
     assert document["likely_cause"] == tags["fleet_health.likely_cause"]
     # the run table: a "likely cause" column, the best hypothesis with its estimate and interval
-    from flows.report import alert_rows
+    from flows.run_tables import alert_rows
 
     rows = alert_rows(registry.alerts())
     causes = {row["asset"]: row["likely cause"] for row in rows}

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from flows.config import ConfigError, load_config
-from flows.fleet import (UsageError, discover, parse_time, pending_windows, range_windows,
+from flows.discovery import (UsageError, discover, parse_time, pending_windows, range_windows,
                          windows_in_dates)
 
 DAY = pd.Timedelta(days=1)

@@ -1,5 +1,5 @@
 """The HTML page's alert table: the likely cause of each alert, the very text of the run
-table (flows.report.likely_cause), and "not diagnosed" said rather than left blank."""
+table (flows.run_tables.likely_cause), and "not diagnosed" said rather than left blank."""
 from __future__ import annotations
 
 import html
@@ -37,7 +37,7 @@ def _cause_cells(page: str) -> dict[str, str]:
 
 
 def test_the_alert_table_says_each_alerts_likely_cause():
-    from flows.report import likely_cause
+    from flows.run_tables import likely_cause
 
     explained = _alert("A", 3.0, Diagnosis((INERTIA, NOISE), True, 0.0, ("omega",), 900, 300.0))
     unexplained = _alert("B", 2.0, Diagnosis((NOISE,), False, 0.0, ("omega",), 900, 300.0))
