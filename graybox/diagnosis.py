@@ -390,16 +390,19 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                          for r, p in zip(residuals, pieces)])
 
     weights = n_eff(healthy) / counts
+    rows = _Rows(np.concatenate([np.full(n, np.sqrt(w) / s)
+                                 for n, w, s in zip(counts, weights, sigma)]),
+                 np.cumsum([0, *counts]), sigma)
+    healthy_weighted = np.concatenate(healthy) * rows.weights
     # every hypothesis screened (one white-box run each), the best REFINED fitted in full
     objectives, fits = {}, []
     for kind, target in hypotheses:
         if kind == "noise":
             fits.append(_noise_fit(target, model, sigma, healthy, spreads.get(target)))
         else:
-            objective = _objective(kind, target, model, segments, remaining, finite, sigma,
-                                   weights)
+            objective = _objective(kind, target, model, segments, remaining, finite, rows)
             objectives[len(fits)] = objective
-            fits.append(_screen(objective, np.concatenate(healthy) * objective.row_weights))
+            fits.append(_screen(objective, healthy_weighted))
         clock.fitted += 1
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
@@ -490,6 +493,17 @@ def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | No
     return _Fit("noise", target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
 
 
+@dataclass(frozen=True)
+class _Rows:
+    """The window's k-step errors as one weighted vector, shared by every hypothesis: each
+    row's weight ``sqrt(N_eff / N) / sigma`` of its channel, and where each channel's rows
+    start and end."""
+
+    weights: np.ndarray
+    edges: np.ndarray
+    sigma: np.ndarray
+
+
 @dataclass
 class _Objective:
     """A parameter, bias or gain hypothesis' weighted errors as a function of its free value
@@ -500,24 +514,22 @@ class _Objective:
     baseline: float
     scale: float
     weighted: Callable[[np.ndarray], np.ndarray]
-    row_weights: np.ndarray
     bounds: tuple[float, float]
-    edges: np.ndarray            # where each channel's rows start and end
-    sigma: np.ndarray
+    rows: _Rows
 
     def record(self, x: float, fun: np.ndarray, slope: np.ndarray) -> _Fit:
         """The fit at ``x`` from its weighted errors and their weighted slope in ``x``."""
-        raw = fun / self.row_weights
-        slope = slope / self.row_weights
-        spans = list(zip(self.edges[:-1], self.edges[1:]))
+        raw = fun / self.rows.weights
+        slope = slope / self.rows.weights
+        spans = list(zip(self.rows.edges[:-1], self.rows.edges[1:]))
         # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
         sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
-                                for (a, b), s in zip(spans, self.sigma)])
+                                for (a, b), s in zip(spans, self.rows.sigma)])
         return _Fit(self.kind, self.target, self.baseline, self.scale, float(x),
                     [raw[a:b] for a, b in spans], sensitivity)
 
 
-def _objective(kind, target, model, segments, remaining, finite, sigma, weights) -> _Objective:
+def _objective(kind, target, model, segments, remaining, finite, rows: _Rows) -> _Objective:
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
@@ -525,10 +537,9 @@ def _objective(kind, target, model, segments, remaining, finite, sigma, weights)
         scale = abs(baseline) if baseline else 1.0
     else:
         baseline = 0.0
-        scale = float(sigma[model.outputs.index(target)]) if kind == "bias" else 0.01
+        scale = float(rows.sigma[model.outputs.index(target)]) if kind == "bias" else 0.01
     transform = _transform(kind, target, model, segments, baseline, scale)
-    row_weights = np.concatenate([np.full(int(f.sum()), np.sqrt(w) / s)
-                                  for f, w, s in zip(finite, weights, sigma)])
+    sigma = rows.sigma
 
     # a gain hypothesis' errors are compared in the units the baseline measured them in:
     # the corrected channel's error y / (1 + g) - yhat times 1 + g is y - (1 + g) yhat (in
@@ -545,11 +556,10 @@ def _objective(kind, target, model, segments, remaining, finite, sigma, weights)
                      zip(residuals, finite, sigma, units)]
         except (GrayBoxError, FloatingPointError):
             parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]
-        return np.concatenate(parts) * row_weights
+        return np.concatenate(parts) * rows.weights
 
     bounds = (-1.0 / scale + 1e-6, np.inf) if kind == "gain" else (-np.inf, np.inf)
-    edges = np.cumsum([0] + [int(f.sum()) for f in finite])
-    return _Objective(kind, target, baseline, scale, weighted, row_weights, bounds, edges, sigma)
+    return _Objective(kind, target, baseline, scale, weighted, bounds, rows)
 
 
 def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:

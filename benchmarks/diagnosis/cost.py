@@ -9,16 +9,13 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import tempfile
 import time
-
-import pandas as pd
 
 import graybox as gb
 from benchmarks.zoo.families import discover
-from benchmarks.zoo.run import START, plan_fleet
+from benchmarks.zoo.cost import day_windows
+from benchmarks.zoo.run import plan_fleet
 from graybox.diagnosis import candidate_hypotheses, diagnose
-from graybox.telemetry.writing import write_telemetry
 
 DEFAULT_FAMILIES = ("hydraulic_level", "pendulum_crane", "traction_drive")
 
@@ -28,17 +25,7 @@ def measure(name: str, repeat: int = 1) -> dict:
     family = discover()[name]
     model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
     vehicles, _ = plan_fleet(family, 1, 0, 1, 3)
-    asset = vehicles[0].asset_id
-    frames = family.simulate(vehicles, START, 4)
-    windows = []
-    with tempfile.TemporaryDirectory(prefix="diagnosis-cost-") as root:
-        write_telemetry(root, asset, frames[asset])
-        for day in range(4):
-            begin = START + pd.Timedelta(days=day)
-            windows.append(gb.read_window(root, asset, model.required_columns, begin,
-                                          begin + pd.Timedelta(days=1),
-                                          policy=gb.GridPolicy(**dict(family.grid)),
-                                          inputs=model.input_columns))
+    windows = day_windows(family, model, vehicles, 4)[vehicles[0].asset_id]
     baseline = gb.fit_signatures([gb.FitRequest(model, windows[:3])])[0]
     seconds = []
     for _ in range(repeat):

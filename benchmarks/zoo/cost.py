@@ -30,21 +30,27 @@ from benchmarks.zoo.run import START, plan_fleet
 from flows.config.settings import NightlySettings
 
 
-def measure(family, assets: int, baseline_days: int, nights: int, seed: int = 1) -> dict:
-    """Seconds per asset-day of baseline and per asset-night, with the stages'."""
-    model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
+def day_windows(family, model, vehicles, days: int) -> dict[str, list]:
+    """Each vehicle's ``days`` days from :data:`START`, simulated, written in the store layout
+    and read back as one window a day (the family's grid policy)."""
     policy = gb.GridPolicy(**dict(family.grid))
-    vehicles, _ = plan_fleet(family, assets, 0, seed, baseline_days)
-    days = baseline_days + nights
     frames = family.simulate(vehicles, START, days)
     windows = {}
-    with tempfile.TemporaryDirectory(prefix="zoo-cost-") as root:
+    with tempfile.TemporaryDirectory(prefix="zoo-days-") as root:
         for asset, frame in frames.items():
             write_telemetry(root, asset, frame)
             windows[asset] = [gb.read_window(root, asset, model.required_columns,
                                              START + pd.Timedelta(days=d),
                                              START + pd.Timedelta(days=d + 1), policy=policy,
                                              inputs=model.input_columns) for d in range(days)]
+    return windows
+
+
+def measure(family, assets: int, baseline_days: int, nights: int, seed: int = 1) -> dict:
+    """Seconds per asset-day of baseline and per asset-night, with the stages'."""
+    model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
+    vehicles, _ = plan_fleet(family, assets, 0, seed, baseline_days)
+    windows = day_windows(family, model, vehicles, baseline_days + nights)
     requests = [gb.FitRequest(model, windows[v.asset_id][:baseline_days], asset_id=v.asset_id,
                               seed=i) for i, v in enumerate(vehicles)]
     baseline_clock, night_clock = StageClock(), StageClock()

@@ -340,6 +340,8 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         and ProgPy's physical constants are not faults. Found by probing the derivatives at
         :data:`PROBES` perturbed states and inputs with each held value changed by 10 %; empty
         (every number parameter is then a hypothesis) when no held value matters."""
+        from graybox.parameter_estimation import with_parameters   # it imports the models
+
         held = [s for s in self.progpy_states if s not in self.states]
         if not held:
             return ()
@@ -354,8 +356,7 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
             for state in held:
                 name = HOLD_PREFIX + state
                 value = self.parameters[name]
-                changed = type(self)({**self.parameters, name: 1.1 * value + 0.1},
-                                     self.columns).derivatives(x, u)
+                changed = with_parameters(self, {name: 1.1 * value + 0.1}).derivatives(x, u)
                 if np.any(np.isfinite(changed) & np.isfinite(base) & (changed != base)):
                     names.append(name)
         return tuple(names)
