@@ -60,6 +60,7 @@ from graybox.analysis_rate import decimation_factor
 from graybox.epsilon_scaling import epsilon_scale
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
 from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.operating_conditions import outside
 from graybox.telemetry.window import window_periods
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
@@ -386,13 +387,18 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
     """
     total = baseline.n_samples
     night = 1 / (total / len(days)) + 1 / total
+    # a whole day driven beyond the other days' conditions is discounted as a night would be
+    # (graybox.operating_conditions); a piece's conditions are part of a day's (a diurnal
+    # cycle), not a day's, so pieces are compared as they are
+    beyond = [outside(whole.conditions, rest.conditions) for rest, whole in days]
     out = {}
     for channel in baseline.channel_names:
         for kind in TIER_KINDS:
             if kind.present(baseline.channel(channel)):
                 out[channel, kind.name] = (
                     [_rescaled(kind, rest, piece, channel, night) for rest, piece in pairs],
-                    [_rescaled(kind, rest, whole, channel, night) for rest, whole in days])
+                    [_rescaled(kind, rest, whole, channel, night, conditions)
+                     for (rest, whole), conditions in zip(days, beyond)])
     return out
 
 
@@ -412,7 +418,9 @@ def _calibrate(baseline: Signature, changes: dict[tuple[str, str], tuple[list, l
 
 
 def _rescaled(kind, rest: Signature, candidate: Signature, channel: str,
-              night: float) -> np.ndarray:
-    """A candidate's change against its rest refit, rescaled to a night's variance."""
-    delta = kind.deltas(candidate.channel(channel), rest.channel(channel))
+              night: float, conditions: float = 0.0) -> np.ndarray:
+    """A candidate's change against its rest refit (as :meth:`~graybox.tiers.Tier.drift_deltas`
+    discounts it, ``conditions`` the candidate's distance beyond the rest's input
+    conditions), rescaled to a night's variance."""
+    delta = kind.drift_deltas(candidate.channel(channel), rest.channel(channel), conditions)
     return delta * np.sqrt(night / (1 / candidate.n_samples + 1 / rest.n_samples))

@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from graybox.exceptions import StructureMismatchError
+from graybox.operating_conditions import outside
 from graybox.signature import ChannelSignature, Signature
 from graybox.summary import drift_summary
 from graybox.tiers import TIER_KINDS, tier_kind
@@ -13,7 +14,8 @@ from graybox.tiers import TIER_KINDS, tier_kind
 
 def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
                 tier: str) -> tuple[list[str], np.ndarray]:
-    """Per-parameter changes whose squares sum to zeta.
+    """Per-parameter changes whose squares sum to zeta (of a night inside the baseline's
+    operating range: :meth:`graybox.tiers.Tier.drift_deltas` discounts one outside it).
 
     Linear tier: ``a_i - a_i0``. Nonlinear tier: the change of the network's output on a fixed
     reference set of delay vectors (function space; Eq. 28 on the weights for structures stored
@@ -62,9 +64,11 @@ class TierDrift:
     Eq. 28 on the weights, recorded and shown); None elsewhere.
 
     ``outside`` is set where the candidate lies outside the baseline's operating range and
-    the tier discounted its change for that (the level tier, above 1: the night's
-    operating-condition correction over the largest of a baseline day's, see
-    :func:`graybox.level_tier.extrapolation`); None elsewhere.
+    the tier discounted its change for that (above 1): for the level tier the night's
+    operating-condition correction over the largest of a baseline day's
+    (:func:`graybox.level_tier.extrapolation`), for the other tiers the night's input
+    conditions beyond every baseline day's (:func:`graybox.operating_conditions.outside`);
+    None inside the range.
     """
 
     channel: str
@@ -180,6 +184,7 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     Drift
     """
     check_comparable(candidate, baseline)
+    conditions = outside(candidate.conditions, baseline.conditions)
     entries = []
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
@@ -189,8 +194,10 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             tier = kind.name
             names, current = kind.parameters(channel)
             _, reference = kind.parameters(healthy)
-            zeta = float(np.sum(kind.deltas(channel, healthy) ** 2))
-            contributions = kind.parameter_changes(channel, healthy) ** 2
+            beyond = kind.outside(channel, healthy, conditions)
+            discount = max(1.0, beyond)
+            zeta = float(np.sum(kind.drift_deltas(channel, healthy, conditions) ** 2))
+            contributions = (kind.parameter_changes(channel, healthy) / discount) ** 2
             order = np.argsort(contributions)[::-1][:top]
             changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
                                             float(contributions[i])) for i in order)
@@ -198,8 +205,7 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             epsilon = (None if calibration is None else
                        calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples,
                                            baseline_samples=healthy.n_samples))
-            outside = kind.outside(channel, healthy)
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
                                      None if parameter_zeta == zeta else parameter_zeta,
-                                     outside if outside is not None and outside > 1 else None))
+                                     beyond if beyond > 1 else None))
     return Drift(tuple(entries), candidate.n_samples)

@@ -28,6 +28,7 @@ from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
 from graybox.noise_tier import describe_noise
+from graybox.operating_conditions import OperatingConditions, operating_conditions
 from graybox.parameter_estimate import ParameterEstimate
 from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
@@ -103,6 +104,7 @@ class _Prepared:
     hidden_starts: tuple | None
     channels: list[_Channel] = field(default_factory=list)
     tuning: ParameterEstimate | None = None
+    conditions: OperatingConditions | None = None
 
 
 def _window_parts(window) -> tuple[list[pd.DataFrame], float, str | None]:
@@ -172,7 +174,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
     hidden = (tuple(HiddenStart(frame.index[0].isoformat(), segment.initial_hidden)
                     for frame, segment in zip(frames, states)) if model.hidden_states else None)
     prepared = _Prepared(request, interval, analysis, min(starts).isoformat(),
-                         max(ends).isoformat(), asset_id, integration, hidden)
+                         max(ends).isoformat(), asset_id, integration, hidden,
+                         conditions=operating_conditions(model, [s.u for s in states], owners))
     for index, name in enumerate(model.outputs):
         frozen = None if baseline is None else baseline.channel(name).structure
         with timed(clock, "stationarize_ar"):
@@ -463,7 +466,7 @@ def _finish(item: _Prepared, settings: GrayBoxSettings) -> Signature:
                      item.sample_interval, channels[0].n_samples, settings, item.asset_id,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval,
                      integration=item.integration, hidden_starts=item.hidden_starts,
-                     tuning=item.tuning)
+                     tuning=item.tuning, conditions=item.conditions)
 
 
 def tuned_request(request: FitRequest) -> tuple[FitRequest, ParameterEstimate | None]:

@@ -18,6 +18,7 @@ from graybox.models.spec import ModelSpec
 from graybox.parameter_estimate import ParameterEstimate
 from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
+from graybox.operating_conditions import OperatingConditions
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import Differencing
 from graybox.summary import signature_summary
@@ -169,6 +170,10 @@ class Signature:
         A baseline whose white box was tuned to its asset: the estimated parameters with
         their standard errors (``model`` holds the tuned values; its candidates use them).
         None otherwise.
+    conditions : OperatingConditions or None
+        Per telemetry window, the exogenous inputs' means and spreads
+        (:mod:`graybox.operating_conditions`); None for a model without exogenous inputs and
+        for signatures stored before the record.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -185,10 +190,11 @@ class Signature:
     integration: Integration | None = None
     hidden_starts: tuple[HiddenStart, ...] | None = None
     tuning: ParameterEstimate | None = None
+    conditions: OperatingConditions | None = None
 
     #: written only when present, so signatures stored before them read and write as before
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts",
-                                                             "tuning"})
+                                                             "tuning", "conditions"})
 
     @property
     def integration_used(self) -> Integration:

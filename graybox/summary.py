@@ -257,14 +257,17 @@ def drift_summary(drift: Drift) -> str:
             for e in drift.entries]
     lines += table_lines(("channel", "tier", "zeta", "epsilon", "ratio", "exceeded"), rows,
                          text_columns=2)
-    notes = []
+    notes = [f"{e.channel} {e.tier}: zeta on the weights (Eq. 28) "
+             f"{format_number(e.parameter_zeta)}"
+             for e in drift.entries if e.parameter_zeta is not None]
+    # the input conditions discount every tier but the level by the same figure: one note
+    beyond: dict[float, list[str]] = {}
     for e in drift.entries:
-        if e.parameter_zeta is not None:
-            notes.append(f"{e.channel} {e.tier}: zeta on the weights (Eq. 28) "
-                         f"{format_number(e.parameter_zeta)}")
         if e.outside is not None:
-            notes.append(f"{e.channel} {e.tier}: outside the baseline's operating range "
-                         f"({format_number(e.outside)} x its reach)")
+            beyond.setdefault(e.outside, []).append(f"{e.channel} {e.tier}")
+    notes += [f"{', '.join(tiers)}: outside the baseline's operating range "
+              f"({format_number(value)} x its reach), change discounted"
+              for value, tiers in beyond.items()]
     if notes:
         lines += ["-" * WIDTH, "Notes"] + [f"  {note}" for note in notes]
     changes = [[e.channel, e.tier, c.name, format_number(c.baseline), format_number(c.candidate),

@@ -63,7 +63,8 @@ class Tier:
         raise NotImplementedError
 
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
-        """Per-parameter changes of ``candidate`` from ``baseline`` whose squares sum to zeta.
+        """Per-parameter changes of ``candidate`` from ``baseline``, in the units zeta sums
+        (before :meth:`drift_deltas` discounts a night outside the baseline's range).
 
         Parameters
         ----------
@@ -96,10 +97,27 @@ class Tier:
         """
         return self.deltas(candidate, baseline)
 
-    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float | None:
-        """How far outside the baseline's operating range the candidate lies, for a tier
-        that discounts its change there (above 1: outside); None for a tier that does not."""
-        return None
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                conditions: float = 0.0) -> float:
+        """How far outside the baseline's operating range the candidate lies for this tier
+        (above 1: outside): by default ``conditions``, the asset's distance beyond its
+        baseline's input conditions (:func:`graybox.operating_conditions.outside`).
+
+        Parameters
+        ----------
+        candidate, baseline : ChannelSignature
+        conditions : float, default 0
+            The candidate's :func:`graybox.operating_conditions.outside` of its baseline.
+        """
+        return conditions
+
+    def drift_deltas(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                     conditions: float = 0.0) -> np.ndarray:
+        """The changes zeta sums: :meth:`deltas` divided by :meth:`outside` where that
+        exceeds 1. A tier's healthy change grows with the distance from the conditions
+        calibration saw, which reached 1 (:mod:`graybox.operating_conditions`)."""
+        return self.deltas(candidate, baseline) / max(1.0, self.outside(candidate, baseline,
+                                                                        conditions))
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -208,11 +226,12 @@ class LevelTierKind(Tier):
     operating point.
 
     One parameter, ``level``; its change is in units of the baseline's regression residual
-    standard deviation, divided by the candidate's :func:`~graybox.level_tier.extrapolation`
-    where that exceeds 1: a night whose operating-condition correction is twice the largest
-    of a baseline day's has its level change halved, since the slopes that make the
-    correction were only checked up to that reach (a slope's error grows the level error in
-    proportion to the distance). Absent from signatures stored before the tier existed.
+    standard deviation. Its :meth:`outside` is the candidate's own
+    :func:`~graybox.level_tier.extrapolation` (not the asset's input conditions): a night
+    whose operating-condition correction is twice the largest of a baseline day's has its
+    level change halved in :meth:`drift_deltas`, since the slopes that make the correction
+    were only checked up to that reach (a slope's error grows the level error in proportion
+    to the distance). Absent from signatures stored before the tier existed.
     """
 
     name = "level"
@@ -229,10 +248,10 @@ class LevelTierKind(Tier):
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
         delta = super().deltas(candidate, baseline)
         spread = baseline.level.residual_std
-        delta = delta / spread if spread > 0 else delta
-        return delta / max(1.0, self.outside(candidate, baseline))
+        return delta / spread if spread > 0 else delta
 
-    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature) -> float:
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                conditions: float = 0.0) -> float:
         return extrapolation(candidate.level, baseline.level)
 
 

@@ -227,9 +227,13 @@ def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
         text += " ALARM" if s.drift.alarmed else " no alarm"
         if worst.ratio is not None:
             text += f" (largest zeta/epsilon {worst.ratio:.2f}, {worst.channel} {worst.tier} tier)."
-        outside = [e for e in s.drift.entries if e.outside is not None]
-        if outside:
+        beyond: dict[float, list[str]] = {}
+        for e in s.drift.entries:
+            if e.outside is not None:
+                beyond.setdefault(e.outside, []).append(f"{e.channel} {e.tier}")
+        if beyond:
             text += (" Outside the baseline's operating range, changes discounted: "
-                     + ", ".join(f"{e.channel} {e.tier} tier x{e.outside:.1f}" for e in outside)
+                     + "; ".join(f"{', '.join(tiers)} x{value:.1f}"
+                                 for value, tiers in beyond.items())
                      + " (a longer or more varied baseline covers it).")
     return text

@@ -222,7 +222,12 @@ def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distanc
     night = dataclasses.replace(_level(0.55), operating_point=(130.0, 6.0))
     baseline = make_signature((dataclasses.replace(make_channel(), level=reference),))
     candidate = make_signature((dataclasses.replace(make_channel(), level=night),))
-    assert tier_kind("level").deltas(candidate.channels[0], baseline.channels[0]) == \
+    kind = tier_kind("level")
+    assert kind.deltas(candidate.channels[0], baseline.channels[0]) == pytest.approx([3.0])
+    assert kind.drift_deltas(candidate.channels[0], baseline.channels[0]) == \
+        pytest.approx([1.5])
+    # the asset's input conditions do not replace the level's own extrapolation
+    assert kind.drift_deltas(candidate.channels[0], baseline.channels[0], 6.0) == \
         pytest.approx([1.5])
     entry = compute_drift(candidate, baseline).get("omega", "level")
     assert entry.zeta == pytest.approx(2.25)

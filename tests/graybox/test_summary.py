@@ -120,7 +120,7 @@ def test_drift_summary_marks_the_exceeded_tier():
 def test_drift_summary_notes_the_weights_zeta_and_extrapolation_and_lists_top_changes():
     lines = summary_lines(drift())
     assert "  omega nonlinear: zeta on the weights (Eq. 28) 0.3000" in lines
-    assert "  omega level: outside the baseline's operating range (1.5000 x its reach)" in lines
+    assert "  omega level: outside the baseline's operating range (1.5000 x its reach), change discounted" in lines
     top = lines.index("Top changes")
     assert lines[top + 1].split() == ["channel", "tier", "parameter", "baseline", "candidate",
                                       "contribution"]

@@ -35,7 +35,7 @@ def test_a_night_outside_the_baselines_range_says_so_in_its_run():
                                plots=False)
     text = describe(ResolvedFit(submission, "2026-01-01T00:00:00+00:00",
                                 "2026-01-02T00:00:00+00:00", "hash", "key"), 1)
-    assert "Outside the baseline's operating range, changes discounted: omega level tier x6.0" \
+    assert "Outside the baseline's operating range, changes discounted: omega level x6.0" \
         in text
     # inside the range nothing is said
     inside = compute_drift(_signature(0.55, (130.0, 1.5)), baseline)

@@ -1,0 +1,166 @@
+"""The operating conditions a signature was fitted under, and how far a night lies outside
+its baseline's.
+
+A coarse white box leaves a model error in the residual that depends on how the plant is
+driven: a compressor's duty cycle follows the day's air demand, a conveyor's heating its
+day's load. Every tier's parameters move with it, and a baseline of a few days has only seen
+the conditions of those days. Calibration (:mod:`graybox.calibration`, step 5) learns how much
+healthy days differ from each other; a night driven beyond every baseline day's conditions
+differs by more, and no threshold from those days covers it.
+
+The conditions are the exogenous inputs (those no controller sets, see
+``WhiteBoxModel.controlled_inputs``: a fault a loop compensates moves the loop's output, and
+must not read as a night outside the range). Per telemetry window, each input's mean and
+standard deviation over the window's operating samples (level and excitation) are its
+*figures*; the window is also cut into :data:`PIECES` equal pieces, whose figures' variance
+over ``PIECES`` is what a window's figure would vary by if its pieces were independent.
+
+A baseline's *centre* is the mean of its windows' figures and its *reach* the largest distance
+of one window from the centre, per figure. A figure counts only where the baseline's windows
+differ by more than their pieces say they would by chance (a one-way analysis of variance at
+:data:`VARYING_LEVEL`): a plant driven through the same daily cycle every day (the gas
+turbine's load) has windows that differ by chance alone, and a night a little beyond the
+reach of five such days is not outside anything. A candidate lies :func:`outside` by the
+largest ratio, over the counted figures, of its distance from the centre to the reach: above
+1, it was driven beyond any baseline day. :class:`graybox.tiers.Tier` divides the AR, network
+and noise tiers' changes by that ratio where it exceeds 1 (zeta by its square), as the level
+tier's change is divided by its own extrapolation: a tier's healthy change grows with the
+distance, and calibration measured it only up to the reach. Calibration divides each left-out
+day's changes by its own ratio to the other days, so the threshold describes a night within
+the range and the two stay consistent.
+
+Measured on the plant zoo and the detection grid (docs/benchmarks.md, "Nights driven beyond
+the baseline's conditions").
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy import stats
+
+from graybox.models.base import WhiteBoxModel
+
+#: pieces a window is cut into to tell how much its figures vary within it
+PIECES = 8
+#: significance at which the baseline's windows must differ in a figure for it to count
+VARYING_LEVEL = 0.01
+
+
+@dataclass(frozen=True)
+class OperatingConditions:
+    """Per telemetry window, the exogenous inputs' means and standard deviations.
+
+    Attributes
+    ----------
+    inputs : tuple of str
+        The exogenous inputs (model input names), in the order of the figures.
+    means, spreads : tuple of tuple of float
+        Per window, per input: mean and standard deviation over the operating samples.
+    mean_variances, spread_variances : tuple of tuple of float
+        Per window, per input: the variance of the figure over the window's
+        :data:`PIECES` pieces, divided by their number (the figure's variance were the pieces
+        independent).
+    """
+
+    inputs: tuple[str, ...]
+    means: tuple[tuple[float, ...], ...]
+    spreads: tuple[tuple[float, ...], ...]
+    mean_variances: tuple[tuple[float, ...], ...]
+    spread_variances: tuple[tuple[float, ...], ...]
+
+    def figures(self) -> np.ndarray:
+        """Array of shape (windows, 2 * inputs): each window's means, then its spreads."""
+        return np.hstack([_array(self.means), _array(self.spreads)])
+
+    def point(self) -> np.ndarray:
+        """The figures averaged over the windows: where the fit as a whole was driven."""
+        return self.figures().mean(axis=0)
+
+    def reach(self) -> np.ndarray:
+        """Per figure, the largest distance of a window from the windows' centre."""
+        figures = self.figures()
+        return np.abs(figures - figures.mean(axis=0)).max(axis=0)
+
+    def varying(self) -> np.ndarray:
+        """Per figure, whether the windows differ by more than their pieces explain (F test
+        at :data:`VARYING_LEVEL`); all False with fewer than two windows."""
+        figures = self.figures()
+        windows = len(figures)
+        if windows < 2:
+            return np.zeros(figures.shape[1], dtype=bool)
+        within = np.hstack([_array(self.mean_variances),
+                            _array(self.spread_variances)]).mean(axis=0)
+        between = figures.var(axis=0, ddof=1)
+        critical = stats.f.ppf(1 - VARYING_LEVEL, windows - 1, windows * (PIECES - 1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
+        return ratio > critical
+
+
+def _array(rows) -> np.ndarray:
+    return np.asarray(rows, float).reshape(len(rows), -1)
+
+
+def exogenous_inputs(model: WhiteBoxModel) -> tuple[int, ...]:
+    """Positions in ``model.inputs`` of the inputs no controller sets."""
+    return tuple(i for i, name in enumerate(model.inputs) if name not in model.controlled_inputs)
+
+
+def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
+                         owners: Sequence[int]) -> OperatingConditions | None:
+    """The conditions of a fit from its segments' input arrays.
+
+    Parameters
+    ----------
+    model : WhiteBoxModel
+    inputs : sequence of ndarray of shape (T, n_inputs)
+        Each operating segment's inputs, in model order.
+    owners : sequence of int
+        The telemetry window of each segment (windows numbered from 0).
+
+    Returns
+    -------
+    OperatingConditions or None
+        None for a model without exogenous inputs.
+    """
+    positions = list(exogenous_inputs(model))
+    if not positions:
+        return None
+    owners = np.asarray(owners)
+    figures = {"means": [], "spreads": [], "mean_variances": [], "spread_variances": []}
+    for window in np.unique(owners):
+        u = np.concatenate([np.asarray(inputs[i], float).reshape(len(inputs[i]), -1)[:, positions]
+                            for i in np.flatnonzero(owners == window)])
+        pieces = [p for p in np.array_split(u, PIECES) if len(p)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)   # a piece with an all-NaN input
+            piece_means = np.array([np.nanmean(p, axis=0) for p in pieces])
+            piece_spreads = np.array([np.nanstd(p, axis=0) for p in pieces])
+            values = {"means": np.nanmean(u, axis=0), "spreads": np.nanstd(u, axis=0),
+                      "mean_variances": np.nanvar(piece_means, axis=0) / len(pieces),
+                      "spread_variances": np.nanvar(piece_spreads, axis=0) / len(pieces)}
+        for name, value in values.items():
+            figures[name].append(tuple(float(v) for v in np.nan_to_num(value)))
+    return OperatingConditions(tuple(model.inputs[i] for i in positions),
+                               **{name: tuple(rows) for name, rows in figures.items()})
+
+
+def outside(candidate: OperatingConditions | None, baseline: OperatingConditions | None) -> float:
+    """How far outside its baseline's conditions a candidate was driven: the largest ratio,
+    over the figures whose baseline windows differ (:meth:`OperatingConditions.varying`), of
+    the candidate's distance from the baseline's centre to the baseline's reach. Above 1:
+    beyond every baseline window. 0 where either lacks the record, their inputs differ, or no
+    figure of the baseline varies."""
+    if candidate is None or baseline is None or candidate.inputs != baseline.inputs:
+        return 0.0
+    counted = baseline.varying()
+    reach = baseline.reach()
+    counted &= reach > 0
+    if not counted.any():
+        return 0.0
+    distance = np.abs(candidate.point() - baseline.figures().mean(axis=0))
+    return float(np.max(distance[counted] / reach[counted]))
+
