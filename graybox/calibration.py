@@ -32,7 +32,10 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
    the pieces' F(1, 40) is 12): the price of not knowing, from five days, whether days
    differ.
    Measured on the plant zoo (``python -m benchmarks.zoo``): without step 5 healthy
-   asset-nights alarmed on 5-28 % of nights in four of six families.
+   asset-nights alarmed on 5-28 % of nights in four of six families. A left-out day driven
+   beyond the other days' input conditions has its changes divided by how far
+   (:mod:`graybox.operating_conditions`), as a night's are, so that epsilon describes a night
+   within the baseline's range.
 6. alpha = false_alarm_rate / (tiers x channels) (Bonferroni), so the asset-night false-alarm
    rate stays at or below the target. A candidate window shorter than the reference window
    gets epsilon scaled up by the ratio of sample counts, a longer one (several nights)
