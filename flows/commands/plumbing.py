@@ -118,14 +118,34 @@ def state_summary(state) -> RunSummary:
     return RunSummary.from_dict(data)
 
 
+#: said on stderr when a flow runs without a Prefect server (PREFECT_API_URL unset)
+TEMPORARY_SERVER_HINT = (
+    "fleet-health: no Prefect server set: starting a temporary one for this run (10-30 s); "
+    "to skip it, run `prefect server start` once and export "
+    "PREFECT_API_URL=http://127.0.0.1:4200/api")
+
+
+def temporary_server_hint() -> str | None:
+    """:data:`TEMPORARY_SERVER_HINT` when Prefect will start a temporary local server (no
+    API URL in the environment or the active Prefect profile); None otherwise."""
+    from prefect.settings import PREFECT_API_URL
+
+    return None if PREFECT_API_URL.value() else TEMPORARY_SERVER_HINT
+
+
 def run_flow(args: argparse.Namespace, call: Callable[[], object]) -> RunSummary:
-    """Run a flow with progress on stderr; return its RunSummary.
+    """Run a flow with progress on stderr; return its RunSummary. Without a Prefect server,
+    one line on stderr first says how to avoid the temporary one
+    (:func:`temporary_server_hint`).
 
     Raises
     ------
     FlowFailed
         If the flow failed for another reason than a usage or configuration error.
     """
+    hint = temporary_server_hint()
+    if hint:
+        print(hint, file=sys.stderr)
     with progress.reporting(progress.for_stream(sys.stderr)):
         state = call()
     try:

@@ -11,6 +11,7 @@ import sys
 import pytest
 
 from flows.cli import COMMANDS, build_parser, main
+from flows.commands.plumbing import TEMPORARY_SERVER_HINT, temporary_server_hint
 from flowtest_fleet import BASELINE_DAYS, DAYS, day
 
 
@@ -182,8 +183,20 @@ def test_a_prefect_server_too_slow_to_start_is_one_clear_line_and_exit_3(tmp_pat
     assert done.returncode == 3, done.stderr
     assert "Traceback" not in done.stderr
     lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and "did not start within 0 s" in lines[0]
-    assert "PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS" in lines[0]
+    # the line that says how to avoid the temporary server, then the one that says it failed
+    assert len(lines) == 2 and lines[0] == TEMPORARY_SERVER_HINT
+    assert "did not start within 0 s" in lines[1]
+    assert "PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS" in lines[1]
+
+
+def test_a_set_prefect_server_is_not_told_about_the_temporary_one(monkeypatch):
+    from prefect.settings import PREFECT_API_URL, temporary_settings
+
+    with temporary_settings(updates={PREFECT_API_URL: "http://127.0.0.1:4200/api"}):
+        assert temporary_server_hint() is None
+    with temporary_settings(restore_defaults={PREFECT_API_URL}):
+        assert temporary_server_hint() == TEMPORARY_SERVER_HINT
+        assert "prefect server start" in TEMPORARY_SERVER_HINT
 
 
 def test_the_command_line_allows_a_loaded_machine_time_to_start_prefect(monkeypatch):
