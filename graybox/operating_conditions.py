@@ -12,15 +12,17 @@ The conditions are the exogenous inputs (those no controller sets, see
 ``WhiteBoxModel.controlled_inputs``: a fault a loop compensates moves the loop's output, and
 must not read as a night outside the range). Per telemetry window, each input's mean and
 standard deviation over the window's operating samples (level and excitation) are its
-*figures*; the window is also cut into :data:`PIECES` equal pieces, whose figures' variance
-over ``PIECES`` is what a window's figure would vary by if its pieces were independent.
+*figures*; the same figures are kept for each of the window's :data:`PIECES` equal pieces (a
+day's pieces are its times of day).
 
 A baseline's *centre* is the mean of its windows' figures and its *reach* the largest distance
 of one window from the centre, per figure. A figure counts only where the baseline's windows
-differ by more than their pieces say they would by chance (a one-way analysis of variance at
-:data:`VARYING_LEVEL`): a plant driven through the same daily cycle every day (the gas
-turbine's load) has windows that differ by chance alone, and a night a little beyond the
-reach of five such days is not outside anything. A candidate lies :func:`outside` by the
+differ by more than chance: a two-way analysis of variance of the pieces' figures (window by
+piece, additive) tests the windows' effect against what is left after the windows' and the
+times of day's, at :data:`VARYING_LEVEL`. A daily cycle every window shares (the gas turbine's
+load, a mast's afternoon gusts) is the pieces' effect and does not hide the windows'; a plant
+driven the same way every day has windows that differ by chance alone, and a night a little
+beyond the reach of five such days is not outside anything. A candidate lies :func:`outside` by the
 largest ratio, over the counted figures, of its distance from the centre to the reach: above
 1, it was driven beyond any baseline day. :class:`graybox.tiers.Tier` divides the AR, network
 and noise tiers' changes by that ratio where it exceeds 1 (zeta by its square), as the level
@@ -59,17 +61,16 @@ class OperatingConditions:
         The exogenous inputs (model input names), in the order of the figures.
     means, spreads : tuple of tuple of float
         Per window, per input: mean and standard deviation over the operating samples.
-    mean_variances, spread_variances : tuple of tuple of float
-        Per window, per input: the variance of the figure over the window's
-        :data:`PIECES` pieces, divided by their number (the figure's variance were the pieces
-        independent).
+    piece_means, piece_spreads : tuple of tuple of tuple of float
+        Per window, per piece (:data:`PIECES` equal pieces of its operating samples), per
+        input: the same figures.
     """
 
     inputs: tuple[str, ...]
     means: tuple[tuple[float, ...], ...]
     spreads: tuple[tuple[float, ...], ...]
-    mean_variances: tuple[tuple[float, ...], ...]
-    spread_variances: tuple[tuple[float, ...], ...]
+    piece_means: tuple[tuple[tuple[float, ...], ...], ...]
+    piece_spreads: tuple[tuple[tuple[float, ...], ...], ...]
 
     def figures(self) -> np.ndarray:
         """Array of shape (windows, 2 * inputs): each window's means, then its spreads."""
@@ -85,23 +86,46 @@ class OperatingConditions:
         return np.abs(figures - figures.mean(axis=0)).max(axis=0)
 
     def varying(self) -> np.ndarray:
-        """Per figure, whether the windows differ by more than their pieces explain (F test
-        at :data:`VARYING_LEVEL`); all False with fewer than two windows."""
-        figures = self.figures()
-        windows = len(figures)
-        if windows < 2:
-            return np.zeros(figures.shape[1], dtype=bool)
-        within = np.hstack([_array(self.mean_variances),
-                            _array(self.spread_variances)]).mean(axis=0)
-        between = figures.var(axis=0, ddof=1)
-        critical = stats.f.ppf(1 - VARYING_LEVEL, windows - 1, windows * (PIECES - 1))
+        """Per figure, whether the windows differ by more than chance: the windows' effect
+        in a two-way additive analysis of variance of the pieces' figures (window by piece),
+        F test at :data:`VARYING_LEVEL`. All False with fewer than two windows or windows of
+        unequal piece counts."""
+        table = self.piece_figures()
+        windows = len(self.means)
+        if windows < 2 or table is None:
+            return np.zeros(2 * len(self.inputs), dtype=bool)
+        pieces = table.shape[1]
+        grand = table.mean(axis=(0, 1))
+        window_effect = table.mean(axis=1) - grand
+        piece_effect = table.mean(axis=0) - grand
+        left = table - grand - window_effect[:, None, :] - piece_effect[None, :, :]
+        between = pieces * (window_effect ** 2).sum(axis=0) / (windows - 1)
+        dof = (windows - 1) * (pieces - 1)
+        if dof < 1:
+            return np.zeros(table.shape[2], dtype=bool)
+        within = (left ** 2).sum(axis=(0, 1)) / dof
+        critical = stats.f.ppf(1 - VARYING_LEVEL, windows - 1, dof)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
         return ratio > critical
 
+    def piece_figures(self) -> np.ndarray | None:
+        """Array of shape (windows, pieces, 2 * inputs), means then spreads; None when the
+        windows have different numbers of pieces."""
+        if len({len(w) for w in self.piece_means}) != 1:
+            return None
+        means = np.asarray(self.piece_means, float).reshape(len(self.piece_means), -1,
+                                                             len(self.inputs))
+        spreads = np.asarray(self.piece_spreads, float).reshape(means.shape)
+        return np.concatenate([means, spreads], axis=2)
+
 
 def _array(rows) -> np.ndarray:
     return np.asarray(rows, float).reshape(len(rows), -1)
+
+
+def _floats(values: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.nan_to_num(values))
 
 
 def exogenous_inputs(model: WhiteBoxModel) -> tuple[int, ...]:
@@ -130,20 +154,17 @@ def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
     if not positions:
         return None
     owners = np.asarray(owners)
-    figures = {"means": [], "spreads": [], "mean_variances": [], "spread_variances": []}
+    figures = {"means": [], "spreads": [], "piece_means": [], "piece_spreads": []}
     for window in np.unique(owners):
         u = np.concatenate([np.asarray(inputs[i], float).reshape(len(inputs[i]), -1)[:, positions]
                             for i in np.flatnonzero(owners == window)])
         pieces = [p for p in np.array_split(u, PIECES) if len(p)]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)   # a piece with an all-NaN input
-            piece_means = np.array([np.nanmean(p, axis=0) for p in pieces])
-            piece_spreads = np.array([np.nanstd(p, axis=0) for p in pieces])
-            values = {"means": np.nanmean(u, axis=0), "spreads": np.nanstd(u, axis=0),
-                      "mean_variances": np.nanvar(piece_means, axis=0) / len(pieces),
-                      "spread_variances": np.nanvar(piece_spreads, axis=0) / len(pieces)}
-        for name, value in values.items():
-            figures[name].append(tuple(float(v) for v in np.nan_to_num(value)))
+            figures["means"].append(_floats(np.nanmean(u, axis=0)))
+            figures["spreads"].append(_floats(np.nanstd(u, axis=0)))
+            figures["piece_means"].append(tuple(_floats(np.nanmean(p, axis=0)) for p in pieces))
+            figures["piece_spreads"].append(tuple(_floats(np.nanstd(p, axis=0)) for p in pieces))
     return OperatingConditions(tuple(model.inputs[i] for i in positions),
                                **{name: tuple(rows) for name, rows in figures.items()})
 

@@ -31,12 +31,19 @@ class Thermostat(WhiteBoxModel):
         return u - x
 
 
-def _conditions(means, spreads=None, within=1e-4):
-    """One input's figures per window; ``within``: each figure's variance from its pieces."""
+def _conditions(means, spreads=None, residual=0.0, cycle=0.0):
+    """One input's figures per window. Its eight pieces add a daily ``cycle`` shared by every
+    window and, in the first two windows, ``+-residual`` in turn (zero row and column means:
+    the two-way analysis's residual sum of squares is 16 residual**2)."""
     spreads = spreads or [1.0] * len(means)
+    pattern = np.zeros((len(means), 8))
+    pattern[:2] = residual * np.array([[1, -1] * 4, [-1, 1] * 4])[:len(means)]
+    daily = cycle * np.sin(2 * np.pi * np.arange(8) / 8)
+    pieces = np.asarray(means, float)[:, None] + daily + pattern
     return OperatingConditions(("outdoor",), tuple((m,) for m in means),
-                               tuple((s,) for s in spreads), ((within,),) * len(means),
-                               ((within,),) * len(means))
+                               tuple((s,) for s in spreads),
+                               tuple(tuple((float(v),) for v in row) for row in pieces),
+                               tuple(tuple((float(sd),) for _ in range(8)) for sd in spreads))
 
 
 def test_each_windows_exogenous_inputs_mean_and_spread_over_its_segments():
@@ -51,10 +58,10 @@ def test_each_windows_exogenous_inputs_mean_and_spread_over_its_segments():
     assert conditions.inputs == ("outdoor", "sun")
     assert conditions.means == ((4.0, 1.0), (11.0, 1.0))
     np.testing.assert_allclose(conditions.spreads, [[np.sqrt(5.0), 1.0], [1.0, 0.0]])
-    # eight pieces of one sample: window 0's outdoor pieces 1, 3, 1, 3, 5, 7, 5, 7 vary by 5
-    # about their mean (each piece's spread is 0); window 1's by 1
-    np.testing.assert_allclose(conditions.mean_variances, [[5.0 / 8, 1.0 / 8], [1.0 / 8, 0.0]])
-    np.testing.assert_allclose(conditions.spread_variances, [[0.0, 0.0], [0.0, 0.0]])
+    # eight pieces of one sample each: their figures are the samples (spreads 0)
+    assert [p[0] for p in conditions.piece_means[0]] == [1.0, 3.0, 1.0, 3.0, 5.0, 7.0, 5.0, 7.0]
+    assert conditions.piece_means[1][7] == (12.0, 1.0)
+    assert conditions.piece_spreads[0] == ((0.0, 0.0),) * 8
     assert from_dict(OperatingConditions, json.loads(json.dumps(to_dict(conditions)))) == \
         conditions
     # every input set by a controller: nothing places a night in or outside a range
@@ -62,40 +69,41 @@ def test_each_windows_exogenous_inputs_mean_and_spread_over_its_segments():
 
 
 def test_outside_is_the_farthest_figure_over_the_baselines_reach():
-    baseline = _conditions([5.0, 8.0, 10.0])    # centre 23/3, reach 8/3 (the 5 C day)
+    baseline = _conditions([5.0, 8.0, 10.0], residual=0.1)   # centre 23/3, reach 8/3
     assert outside(_conditions([23 / 3 + 16 / 3]), baseline) == pytest.approx(2.0)
     assert outside(_conditions([8.0]), baseline) < 1.0
     # the same mean on a far gustier night: outside through the spread
-    baseline = _conditions([5.0, 8.0, 10.0], [1.0, 1.5, 2.0])   # spreads: centre 1.5, reach 0.5
+    baseline = _conditions([5.0, 8.0, 10.0], [1.0, 1.5, 2.0], residual=0.1)  # spreads: 1.5 +- 0.5
     assert outside(_conditions([8.0], [3.0]), baseline) == pytest.approx(3.0)
     # a night over two windows is placed at their average
     assert outside(_conditions([8.0, 8.0], [2.5, 3.5]), baseline) == pytest.approx(3.0)
     # no record, a single baseline window, other inputs or a figure no window moved: 0
     assert outside(None, baseline) == outside(_conditions([8.0]), None) == 0.0
     assert outside(_conditions([30.0]), _conditions([5.0])) == 0.0
-    other = OperatingConditions(("sun",), ((8.0,),), ((1.0,),), ((0.0,),), ((0.0,),))
+    other = OperatingConditions(("sun",), ((8.0,),), ((1.0,),), (((8.0,),),), (((1.0,),),))
     assert outside(other, baseline) == 0.0
     assert outside(_conditions([9.0], [1.0]), _conditions([4.0, 4.0], [1.0, 1.0])) == 0.0
 
 
 def test_a_figure_counts_only_where_the_baseline_windows_differ_beyond_chance():
-    # windows 5, 8, 10 C whose pieces say a window's mean varies by 0.1 (sd 0.3): they differ
-    baseline = _conditions([5.0, 8.0, 10.0], within=0.1)
-    assert list(baseline.varying()) == [True, False]   # the mean varies, the spread does not
+    # windows at 5, 8 and 10 C: the mean varies, the spread (1 in every window) does not
+    baseline = _conditions([5.0, 8.0, 10.0], residual=0.5)
+    assert list(baseline.varying()) == [True, False]
     assert outside(_conditions([13.0]), baseline) == pytest.approx(2.0)
-    # the same windows with pieces that vary by 10 (a strong daily cycle in every window):
-    # five such days differ by chance, and nothing is outside them
-    cycling = _conditions([5.0, 8.0, 10.0], within=10.0)
-    assert not cycling.varying().any()
-    assert outside(_conditions([13.0]), cycling) == 0.0
-    # F(2, 21) at 1 % is 5.78: between-window variance 6.33 against within 1.0 counts,
-    # against 1.2 it does not
-    assert _conditions([5.0, 8.0, 10.0], within=1.0).varying()[0]
-    assert not _conditions([5.0, 8.0, 10.0], within=1.2).varying()[0]
+    # a daily cycle every window shares is the times of day's effect, not the windows'
+    assert _conditions([5.0, 8.0, 10.0], residual=0.5, cycle=20.0).varying()[0]
+    # windows' effect: 8 x 12.667 / 2 = 50.67; residual 16 c^2 over 2 x 7; F(2, 14) at 1 %
+    # is 6.51: the windows differ for c = 2.5 (F 7.09), not for c = 2.7 (F 6.08), where
+    # five such days differ by chance and nothing is outside them
+    assert _conditions([5.0, 8.0, 10.0], residual=2.5).varying()[0]
+    noisy = _conditions([5.0, 8.0, 10.0], residual=2.7)
+    assert not noisy.varying()[0]
+    assert outside(_conditions([13.0]), noisy) == 0.0
 
 
 def test_a_night_beyond_the_baselines_conditions_has_its_tiers_changes_discounted():
-    base = make_signature((make_channel(a=(0.5,)),), conditions=_conditions([5.0, 8.0, 10.0]))
+    base = make_signature((make_channel(a=(0.5,)),),
+                          conditions=_conditions([5.0, 8.0, 10.0], residual=0.1))
     assert Signature.from_json(base.to_json()) == base
     moved = make_channel(a=(0.6,))
     inside = compute_drift(make_signature((moved,), conditions=_conditions([8.0])), base)
@@ -121,7 +129,7 @@ def test_calibration_discounts_a_left_out_day_driven_beyond_the_other_days():
     from graybox.calibration import _changes
 
     rest = make_signature((make_channel(a=(0.5,), n_samples=4000),), n_samples=4000,
-                          conditions=_conditions([5.0, 8.0, 10.0, 7.0]))
+                          conditions=_conditions([5.0, 8.0, 10.0, 7.0], residual=0.1))
     piece = make_signature((make_channel(a=(0.6,), n_samples=500),), n_samples=500,
                            conditions=_conditions([30.0]))
     # two left-out days with the same change: one inside the others' range, one at twice
