@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from graybox.exceptions import StructureMismatchError
-from graybox.operating_conditions import outside
+from graybox.operating_conditions import farthest
 from graybox.signature import ChannelSignature, Signature
 from graybox.summary import drift_summary
 from graybox.tiers import TIER_KINDS, tier_kind
@@ -105,10 +105,16 @@ class TierDrift:
 
 @dataclass(frozen=True)
 class Drift:
-    """Zeta per tier and channel of a candidate against its baseline."""
+    """Zeta per tier and channel of a candidate against its baseline.
+
+    ``conditions`` says, for a candidate driven beyond every baseline day's input conditions
+    (:mod:`graybox.operating_conditions`), which input figure lies farthest outside, with its
+    value and the baseline days' range; None inside the range.
+    """
 
     entries: tuple[TierDrift, ...]
     n_samples: int
+    conditions: str | None = None
 
     def get(self, channel: str, tier: str) -> TierDrift:
         for entry in self.entries:
@@ -151,8 +157,9 @@ class Drift:
     def from_dict(cls, data: dict) -> "Drift":
         """The drift of :meth:`to_dict` (or its JSON): an exact round trip; other keys are
         ignored."""
+        conditions = data.get("conditions")
         return cls(tuple(TierDrift.from_dict(e) for e in data["entries"]),
-                   int(data["n_samples"]))
+                   int(data["n_samples"]), None if conditions is None else str(conditions))
 
 
 def check_comparable(candidate: Signature, baseline: Signature) -> None:
@@ -184,7 +191,7 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     Drift
     """
     check_comparable(candidate, baseline)
-    conditions = outside(candidate.conditions, baseline.conditions)
+    conditions, figure = farthest(candidate.conditions, baseline.conditions)
     entries = []
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
@@ -208,4 +215,4 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
                                      None if parameter_zeta == zeta else parameter_zeta,
                                      beyond if beyond > 1 else None))
-    return Drift(tuple(entries), candidate.n_samples)
+    return Drift(tuple(entries), candidate.n_samples, figure if conditions > 1 else None)

@@ -175,13 +175,31 @@ def outside(candidate: OperatingConditions | None, baseline: OperatingConditions
     the candidate's distance from the baseline's centre to the baseline's reach. Above 1:
     beyond every baseline window. 0 where either lacks the record, their inputs differ, or no
     figure of the baseline varies."""
+    return farthest(candidate, baseline)[0]
+
+
+def farthest(candidate: OperatingConditions | None, baseline: OperatingConditions | None
+             ) -> tuple[float, str | None]:
+    """:func:`outside` and the figure that sets it, said for an engineer: the input, the
+    candidate's value and the range of the baseline's windows (None where nothing counts).
+
+    Examples
+    --------
+    ``(2.1, "demand_flow mean 4.42 (baseline days 2.91 to 3.62)")``
+    """
     if candidate is None or baseline is None or candidate.inputs != baseline.inputs:
-        return 0.0
+        return 0.0, None
     counted = baseline.varying()
     reach = baseline.reach()
     counted &= reach > 0
     if not counted.any():
-        return 0.0
-    distance = np.abs(candidate.point() - baseline.figures().mean(axis=0))
-    return float(np.max(distance[counted] / reach[counted]))
-
+        return 0.0, None
+    figures = baseline.figures()
+    point = candidate.point()
+    ratios = np.where(counted, np.abs(point - figures.mean(axis=0)) / np.where(counted, reach, 1.0),
+                      -np.inf)
+    index = int(np.argmax(ratios))
+    inputs = len(baseline.inputs)
+    name = f"{baseline.inputs[index % inputs]} {'mean' if index < inputs else 'spread'}"
+    return float(ratios[index]), (f"{name} {point[index]:.4g} (baseline days "
+                                  f"{figures[:, index].min():.4g} to {figures[:, index].max():.4g})")

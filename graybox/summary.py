@@ -268,6 +268,8 @@ def drift_summary(drift: Drift) -> str:
     notes += [f"{', '.join(tiers)}: outside the baseline's operating range "
               f"({format_number(value)} x its reach), change discounted"
               for value, tiers in beyond.items()]
+    if drift.conditions:
+        notes.append(f"farthest outside: {drift.conditions}")
     if notes:
         lines += ["-" * WIDTH, "Notes"] + [f"  {note}" for note in notes]
     changes = [[e.channel, e.tier, c.name, format_number(c.baseline), format_number(c.candidate),

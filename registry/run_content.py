@@ -235,5 +235,6 @@ def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
             text += (" Outside the baseline's operating range, changes discounted: "
                      + "; ".join(f"{', '.join(tiers)} x{value:.1f}"
                                  for value, tiers in beyond.items())
+                     + (f"; farthest: {s.drift.conditions}" if s.drift.conditions else "")
                      + " (a longer or more varied baseline covers it).")
     return text

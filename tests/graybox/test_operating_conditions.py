@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from conftest import make_channel, make_signature
 
-from graybox.drift import compute_drift
+from graybox.drift import Drift, compute_drift
 from graybox.models.base import WhiteBoxModel
 from graybox.operating_conditions import (OperatingConditions, exogenous_inputs,
-                                          operating_conditions, outside)
+                                          farthest, operating_conditions, outside)
 from graybox.records import from_dict, to_dict
 from graybox.signature import Signature
 
@@ -75,6 +75,8 @@ def test_outside_is_the_farthest_figure_over_the_baselines_reach():
     # the same mean on a far gustier night: outside through the spread
     baseline = _conditions([5.0, 8.0, 10.0], [1.0, 1.5, 2.0], residual=0.1)  # spreads: 1.5 +- 0.5
     assert outside(_conditions([8.0], [3.0]), baseline) == pytest.approx(3.0)
+    assert farthest(_conditions([8.0], [3.0]), baseline) == \
+        (pytest.approx(3.0), "outdoor spread 3 (baseline days 1 to 2)")
     # a night over two windows is placed at their average
     assert outside(_conditions([8.0, 8.0], [2.5, 3.5]), baseline) == pytest.approx(3.0)
     # no record, a single baseline window, other inputs or a figure no window moved: 0
@@ -119,6 +121,12 @@ def test_a_night_beyond_the_baselines_conditions_has_its_tiers_changes_discounte
     assert Signature.from_json(far.to_json()) == far
     assert "omega linear, omega nonlinear, omega noise: outside the baseline's operating " \
            "range (2.0000 x its reach), change discounted" in drift.summary()
+    # which input left the range, its value and the baseline days' range
+    assert drift.conditions == "outdoor mean 13 (baseline days 5 to 10)"
+    assert "farthest outside: outdoor mean 13 (baseline days 5 to 10)" in drift.summary()
+    assert Drift.from_dict(json.loads(json.dumps(drift.to_dict()))) == drift
+    assert compute_drift(make_signature((moved,), conditions=_conditions([8.0])),
+                         base).conditions is None
     # a baseline stored without the record: nothing discounted
     plain = make_signature((make_channel(a=(0.5,)),))
     assert compute_drift(far, plain).get("omega", "linear").zeta == pytest.approx(0.01)

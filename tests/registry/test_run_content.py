@@ -37,6 +37,14 @@ def test_a_night_outside_the_baselines_range_says_so_in_its_run():
                                 "2026-01-02T00:00:00+00:00", "hash", "key"), 1)
     assert "Outside the baseline's operating range, changes discounted: omega level x6.0" \
         in text
+    # a night driven beyond the baseline's input conditions names the input that left
+    conditions = dataclasses.replace(drift, conditions="load mean 16 (baseline days 0.5 to 1.5)")
+    submission = dataclasses.replace(submission, drift=conditions)
+    text = describe(ResolvedFit(submission, "2026-01-01T00:00:00+00:00",
+                                "2026-01-02T00:00:00+00:00", "hash", "key"), 1)
+    assert "farthest: load mean 16 (baseline days 0.5 to 1.5) (a longer or more varied " \
+           "baseline covers it)" in text
+    assert drift_from_document(drift_document(conditions, 1)) == conditions
     # inside the range nothing is said
     inside = compute_drift(_signature(0.55, (130.0, 1.5)), baseline)
     assert not any(name.startswith("outside.") for name in fit_metrics(candidate, None, inside))
