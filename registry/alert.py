@@ -92,6 +92,11 @@ class Alert:
         ranking after it kept for inspection) or ``"failed"`` (``hypothesis`` "diagnosis
         failed: <reason>"). ``()``: not diagnosed (a stale alert, or recorded before
         diagnoses). See :mod:`registry.alert_diagnosis`. A list given is kept as a tuple.
+    conditions : str or None
+        For a window driven beyond every baseline day's input conditions, the input figure
+        farthest outside with the baseline days' range (``Drift.conditions``, e.g.
+        ``demand_flow mean 4.42 (baseline days 2.91 to 3.62)``): the tiers' changes were
+        discounted for it, and a longer or more varied baseline would cover it. None inside.
     """
 
     asset_id: str
@@ -111,6 +116,7 @@ class Alert:
     source: str = NIGHTLY
     kind: str = DRIFT
     diagnosis: tuple[dict, ...] = ()
+    conditions: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "top_changes", tuple(dict(c) for c in self.top_changes))
@@ -122,7 +128,8 @@ class Alert:
         return (self.asset_id, self.window_start, self.window_end, self.channel, self.tier)
 
     def hint(self, count: int = 3) -> str:
-        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...``; for the level tier
+        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...`` (and, for a window driven beyond
+        the baseline's input conditions, which input left them); for the level tier
         ``level moved from 129.02 to 129.49 (+0.47)`` (the channel's k-step prediction error
         at the baseline's operating point, in the channel's units)."""
         if self.kind == STALE:
@@ -131,8 +138,10 @@ class Alert:
             change = self.top_changes[0]
             a, b = change["baseline"], change["candidate"]
             return f"level moved from {a:.6g} to {b:.6g} ({b - a:+.3g})"
-        return ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
-                         for c in self.top_changes[:count])
+        moved = ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
+                          for c in self.top_changes[:count])
+        return moved + (f"; outside the baseline's conditions: {self.conditions}"
+                        if self.conditions else "")
 
     def likely_cause(self) -> str:
         """The diagnosis' first entry in a line (see
@@ -198,7 +207,7 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
             severity=severity(ratio, major_ratio, critical_ratio),
             top_changes=tuple(asdict(c) for c in entry.top_changes),
             version=version, baseline_version=baseline_version, run_id=run_id, source=source,
-            diagnosis=tuple(diagnosis)))
+            diagnosis=tuple(diagnosis), conditions=drift.conditions))
     out.sort(key=lambda a: -a.ratio)
     return out
 
