@@ -135,6 +135,17 @@ class Drift:
     def alarmed(self) -> bool:
         return bool(self.alarms)
 
+    @property
+    def discounted(self) -> dict[float, list[str]]:
+        """The entries discounted outside the baseline's operating range, as
+        ``"channel tier"``, grouped by how far outside (the input conditions set one figure
+        for every tier but the level, see :mod:`graybox.operating_conditions`)."""
+        groups: dict[float, list[str]] = {}
+        for e in self.entries:
+            if e.outside is not None:
+                groups.setdefault(e.outside, []).append(f"{e.channel} {e.tier}")
+        return groups
+
     def summary(self) -> str:
         """A readable plain-text table of the drift, as statsmodels' ``summary()``.
 

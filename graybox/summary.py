@@ -260,14 +260,9 @@ def drift_summary(drift: Drift) -> str:
     notes = [f"{e.channel} {e.tier}: zeta on the weights (Eq. 28) "
              f"{format_number(e.parameter_zeta)}"
              for e in drift.entries if e.parameter_zeta is not None]
-    # the input conditions discount every tier but the level by the same figure: one note
-    beyond: dict[float, list[str]] = {}
-    for e in drift.entries:
-        if e.outside is not None:
-            beyond.setdefault(e.outside, []).append(f"{e.channel} {e.tier}")
     notes += [f"{', '.join(tiers)}: outside the baseline's operating range "
               f"({format_number(value)} x its reach), change discounted"
-              for value, tiers in beyond.items()]
+              for value, tiers in drift.discounted.items()]
     if drift.conditions:
         notes.append(f"farthest outside: {drift.conditions}")
     if notes:

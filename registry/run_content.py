@@ -227,10 +227,7 @@ def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
         text += " ALARM" if s.drift.alarmed else " no alarm"
         if worst.ratio is not None:
             text += f" (largest zeta/epsilon {worst.ratio:.2f}, {worst.channel} {worst.tier} tier)."
-        beyond: dict[float, list[str]] = {}
-        for e in s.drift.entries:
-            if e.outside is not None:
-                beyond.setdefault(e.outside, []).append(f"{e.channel} {e.tier}")
+        beyond = s.drift.discounted
         if beyond:
             text += (" Outside the baseline's operating range, changes discounted: "
                      + "; ".join(f"{', '.join(tiers)} x{value:.1f}"
