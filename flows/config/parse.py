@@ -168,9 +168,9 @@ def _nightly(check: Checker, table: Mapping) -> NightlySettings:
         raise check.error("nightly.window", f"{window!r} is not a duration such as '1D' or "
                                             f"'6h'") from None
     day = pd.Timedelta(days=1)
-    if delta < pd.Timedelta(hours=1) or delta > day or (day % delta) != pd.Timedelta(0):
+    if delta < pd.Timedelta(minutes=1) or delta > day or (day % delta) != pd.Timedelta(0):
         raise check.error("nightly.window", f"{window!r} must divide a day and be at least "
-                                            f"1 hour (e.g. '1D', '12h', '6h')")
+                                            f"1 minute (e.g. '1D', '6h', '10min')")
     plots = check.string("nightly.plots", table.get("plots", default.plots))
     if plots not in PLOT_POLICIES:
         raise check.error("nightly.plots", f"must be one of {', '.join(PLOT_POLICIES)}, "
