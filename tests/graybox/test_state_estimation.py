@@ -9,7 +9,7 @@ from scipy.signal import cont2discrete, dlsim
 
 from graybox.integration import Integration, IntegrationError, advance, choose_integration
 from graybox.residual import residual_frame
-from graybox.state_estimation import estimate_states, window_arrays
+from graybox.state_estimation import check_prediction, estimate_states, window_arrays
 
 from contract_models import Armature, HiddenCharge, WrongSign
 
@@ -125,3 +125,15 @@ def test_a_wrong_sign_fails_loudly_naming_the_model_and_the_state():
     change = np.sqrt(np.mean(np.diff(window.states, axis=0) ** 2, axis=0))
     with pytest.raises(IntegrationError, match=r"WrongSign: state 'x'.*signs"):
         choose_integration(model, window.states, window.u, DT, change)
+
+
+def test_a_wrong_constant_is_a_bias_and_a_blow_up_is_divergence():
+    # a quiet channel near 0.027 (range 0.002), predicted 0.212 by a level parameter tuned
+    # elsewhere: 7 magnitudes off, a bias for the tiers and the estimation, not divergence
+    rng = np.random.default_rng(2)
+    measured = 0.027 + rng.uniform(-0.001, 0.001, (300, 1))
+    check_prediction(WrongSign(), measured, np.full_like(measured, 0.212), "prediction")
+    blown = np.full_like(measured, 0.212)
+    blown[-5:] = 50.0                     # > 100 times the magnitude: a blow-up
+    with pytest.raises(IntegrationError, match="diverges"):
+        check_prediction(WrongSign(), measured, blown, "prediction")
