@@ -29,7 +29,8 @@ from graybox.stage_clock import StageClock, timed
 from flows.batching import (batch_task, batch_task_body, guard_asset_error, no_telemetry,
                             run_over_fleet)
 from flows.config import FleetConfig, load_config
-from flows.discovery import AssetRef, UsageError, range_windows, utc
+from flows.discovery import AssetRef, range_windows, utc
+from flows.errors import UsageError
 from flows.hooks import notify_hook
 from flows.pipeline import PendingAsset, fit_baselines, process_in_groups, read
 from flows.run_tables import flow_result

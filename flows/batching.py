@@ -26,8 +26,9 @@ from graybox.stage_clock import StageClock
 from flows import progress
 from flows.config import FleetConfig, NightlySettings, load_config
 from flows.discovery import AssetRef, batches, discover
-from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, TransientError,
-                           describe_error, is_transient, now_iso)
+from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, describe_error,
+                           is_transient, now_iso)
+from flows.errors import TransientError
 from flows.task_runner import batch_runner
 from registry.exceptions import RegistryError
 

@@ -28,7 +28,7 @@ from rich.table import Table
 
 from flows import progress
 from flows.config import load_config, render_config
-from flows.discovery import UsageError
+from flows.errors import UsageError
 from flows.run_tables import alert_table, fleet_table
 from flows.results import RunSummary
 from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet

@@ -35,14 +35,11 @@ from graybox import timestamps
 from graybox.exceptions import InvalidAssetIdError
 from graybox.telemetry import validate_asset_id
 from graybox.telemetry.layout import EXPECTED_LAYOUT, Skipped, scan
+from flows.errors import UsageError
 
 DAY = pd.Timedelta(days=1)
 #: how far past the machine's clock an --as-of or --start may lie (clock skew between hosts)
 CLOCK_SKEW = pd.Timedelta(minutes=5)
-
-
-class UsageError(ValueError):
-    """A bad command-line request (unknown asset or class, bad date): exit status 2."""
 
 
 @dataclass(frozen=True)

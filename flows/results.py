@@ -30,7 +30,8 @@ from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
 from registry.cli import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError
-from registry.retry import is_locked_error
+from registry.retry import is_transient_store_error
+from flows.errors import TransientError
 
 logger = logging.getLogger(__name__)
 
@@ -41,12 +42,6 @@ UNUSABLE_BASELINE = "unusable baseline"
 STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE)
 #: statuses of an asset that was monitored this run (checked against its baseline)
 MONITORED = (OK, UP_TO_DATE)
-
-
-
-class TransientError(RuntimeError):
-    """A transient failure (registry unreachable or locked, I/O hiccup) that stopped a batch;
-    the batch task is retried."""
 
 
 @dataclass
@@ -82,29 +77,20 @@ def is_transient(error: BaseException) -> bool:
     """Whether retrying could help: the registry or a file system was briefly unavailable.
 
     Data and configuration errors (GrayBoxError, RegistryError, ConfigError, ValueError) are
-    never transient; neither are missing files or permissions.
+    never transient; neither are missing files or permissions. Whether the tracking store's
+    error is a passing one, the registry says (:func:`registry.retry.is_transient_store_error`).
     """
     if isinstance(error, TransientError):
         return True
     if isinstance(error, (GrayBoxError, RegistryError, ValueError, TypeError, KeyError)):
         return False
-    if is_locked_error(error):
+    if is_transient_store_error(error):
         return True
     if isinstance(error, (ConnectionError, TimeoutError)):
         return True
     if isinstance(error, OSError):
         return error.errno not in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR,
                                    errno.ENOTDIR, errno.EROFS)
-    try:  # mlflow loads only when an error may be its own: --help must not import it
-        from mlflow.exceptions import MlflowException
-        from mlflow.protos import databricks_pb2
-    except ImportError:  # pragma: no cover
-        return False
-    if isinstance(error, MlflowException):
-        transient_codes = {databricks_pb2.ErrorCode.Name(code) for code in (
-            databricks_pb2.INTERNAL_ERROR, databricks_pb2.TEMPORARILY_UNAVAILABLE,
-            databricks_pb2.REQUEST_LIMIT_EXCEEDED, databricks_pb2.IO_ERROR)}
-        return error.error_code in transient_codes
     return False
 
 

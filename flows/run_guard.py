@@ -37,9 +37,9 @@ def exclusive_run(config, flow: str) -> Iterator[GuardedRun]:
 
     Raises
     ------
-    flows.store_probe.StoreUnavailable
+    flows.errors.StoreUnavailable
         The MLflow server did not answer within the bound.
-    flows.run_lock.RunLockTimeout
+    flows.errors.RunLockTimeout
         Another run of the fleet held it longer than the wait.
     """
     from prefect.runtime import flow_run

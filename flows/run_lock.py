@@ -32,16 +32,13 @@ from flows.results import now_iso
 from registry.exceptions import RegistryError
 from registry.locks import file_lock
 from registry.store import resolve_store
+from flows.errors import RunLockTimeout
 
 logger = logging.getLogger(__name__)
 
 LOCK_WAIT_ENV = "FLEET_HEALTH_RUN_LOCK_WAIT"
 DEFAULT_LOCK_WAIT = 900.0
 LOCK_NAME, HOLDER_NAME = "fleet-run.lock", "fleet-run.json"
-
-
-class RunLockTimeout(RuntimeError):
-    """Another run of the fleet held the lock for longer than the wait: nothing was run."""
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ import urllib.error
 import urllib.request
 
 from flows.env_seconds import env_seconds
+from flows.errors import StoreUnavailable
 
 #: MLflow's HTTP retry settings the command line sets unless already set: a request to a
 #: dead server gives up after 1 + 2 + 4 s of backoff, a hanging one after 4 x 20 s
@@ -26,10 +27,6 @@ MLFLOW_HTTP_DEFAULTS = {"MLFLOW_HTTP_REQUEST_MAX_RETRIES": "3",
 
 STORE_TIMEOUT_ENV = "FLEET_HEALTH_STORE_TIMEOUT"
 DEFAULT_STORE_TIMEOUT = 60.0
-
-
-class StoreUnavailable(RuntimeError):
-    """The tracking store did not answer within the bound: nothing was run."""
 
 
 def bound_mlflow_requests(environ: dict = os.environ) -> None:

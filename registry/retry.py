@@ -63,6 +63,29 @@ def is_locked_error(error: BaseException) -> bool:
     return False
 
 
+def is_transient_store_error(error: BaseException) -> bool:
+    """Whether the tracking store was only briefly unavailable, so a later try could succeed:
+    locked or asking for the transaction again (:func:`is_locked_error`), or an MLflow error
+    whose code says the server was temporarily unavailable, failed internally, limited the
+    request rate or had an I/O error.
+
+    The one place that reads MLflow's error codes: callers above the registry ask this.
+    """
+    if is_locked_error(error):
+        return True
+    try:  # mlflow loads only when an error may be its own: --help must not import it
+        from mlflow.exceptions import MlflowException
+        from mlflow.protos import databricks_pb2
+    except ImportError:  # pragma: no cover
+        return False
+    if isinstance(error, MlflowException):
+        transient_codes = {databricks_pb2.ErrorCode.Name(code) for code in (
+            databricks_pb2.INTERNAL_ERROR, databricks_pb2.TEMPORARILY_UNAVAILABLE,
+            databricks_pb2.REQUEST_LIMIT_EXCEEDED, databricks_pb2.IO_ERROR)}
+        return error.error_code in transient_codes
+    return False
+
+
 def call_with_retry(function: Callable[..., T], *args, policy: RetryPolicy = RetryPolicy(),
                     what: str | None = None, **kwargs) -> T:
     """Call ``function(*args, **kwargs)``, retrying only "database is locked" errors.

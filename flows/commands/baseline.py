@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from flows.commands.plumbing import (FlowFailed, class_option, flow_command_options, load,
+from flows.commands.plumbing import (class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
-from flows.discovery import UsageError, parse_time
+from flows.errors import FlowFailed, UsageError
+from flows.discovery import parse_time
 from registry.cli import EXIT_FAILED, _error, add_baseline_commands
 
 

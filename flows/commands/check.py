@@ -132,7 +132,8 @@ def check_telemetry(config: FleetConfig):
 
 def check_store(config: FleetConfig):
     """(registry or None, findings): the store reachable, readable and writable."""
-    from flows.store_probe import StoreUnavailable, require_store
+    from flows.store_probe import require_store
+    from flows.errors import StoreUnavailable
     from registry.store import resolve_store
 
     uri = config.tracking_uri

@@ -15,7 +15,7 @@ from rich.table import Table
 from flows import progress
 from flows.commands.plumbing import guarded
 from flows.config import load_config
-from flows.discovery import UsageError
+from flows.errors import UsageError
 from graybox.telemetry.changes import mark_changed
 from graybox.telemetry.exports import ExportError, ExportFormat, ExportRead, read_export
 from graybox.telemetry.merging import DayImport, ImportConflict, plan_import, write_day

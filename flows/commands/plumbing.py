@@ -10,10 +10,10 @@ from typing import Callable
 
 from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
-from flows.discovery import UsageError
+from flows.errors import FlowFailed, StoreUnavailable, UsageError
 from flows.run_tables import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary
-from flows.store_probe import StoreUnavailable, bound_mlflow_requests, require_store
+from flows.store_probe import bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError
 from registry.cli import EXIT_FAILED, EXIT_USAGE, _console, _error
 
@@ -76,7 +76,7 @@ def load(args: argparse.Namespace) -> FleetConfig:
 
     Raises
     ------
-    flows.store_probe.StoreUnavailable
+    flows.errors.StoreUnavailable
         When an MLflow server does not answer within the bound (nothing was run).
     """
     config = load_config(args.config).with_tracking_uri(args.tracking_uri)
@@ -102,10 +102,6 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
             return 130
     run.__name__ = function.__name__
     return run
-
-
-class FlowFailed(RuntimeError):
-    """The flow itself failed (not an asset): the message says why."""
 
 
 def state_summary(state) -> RunSummary:

@@ -5,10 +5,10 @@ import argparse
 
 from rich.table import Table
 
-from flows.commands.plumbing import (FlowFailed, asset_option, class_option,
-                                     flow_command_options, load, prefect_environment,
-                                     report_summary, run_flow)
-from flows.discovery import UsageError, not_in_future, parse_time, range_windows
+from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
+                                     prefect_environment, report_summary, run_flow)
+from flows.errors import FlowFailed, UsageError
+from flows.discovery import not_in_future, parse_time, range_windows
 from flows.run_tables import window_label
 from flows.results import RunSummary
 from registry.cli import EXIT_FAILED, _console, _error

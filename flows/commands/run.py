@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import argparse
 
-from flows.commands.plumbing import (FlowFailed, asset_option, class_option,
-                                     flow_command_options, load, prefect_environment,
-                                     report_summary, run_flow)
+from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
+                                     prefect_environment, report_summary, run_flow)
+from flows.errors import FlowFailed
 from flows.discovery import not_in_future, parse_time
 from registry.cli import EXIT_FAILED, _error
 

@@ -60,9 +60,10 @@ from flows.config.checker import Checker
 from flows.config.parse import RENAMED_SETTINGS, load_config, parse_config
 from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_MEMORY_BUDGET, DEFAULT_TELEMETRY_ROOT,
                                    DEFAULT_TRACKING_URI, PLOT_POLICIES, TASK_RUNNERS,
-                                   AlertSettings, ConfigError, DaskSettings, FleetConfig,
-                                   NightlySettings, NotificationSettings, ScheduleSettings, VehicleClass,
+                                   AlertSettings, DaskSettings, FleetConfig, NightlySettings,
+                                   NotificationSettings, ScheduleSettings, VehicleClass,
                                    resolve_tracking_uri)
+from flows.errors import ConfigError
 from flows.config.template import render_config
 
 __all__ = ["DEFAULT_CONFIG", "DEFAULT_MEMORY_BUDGET", "DEFAULT_TELEMETRY_ROOT",

@@ -5,7 +5,7 @@ import dataclasses
 import math
 from typing import Mapping
 
-from flows.config.settings import ConfigError
+from flows.errors import ConfigError
 
 
 class Checker:

@@ -12,6 +12,7 @@ import pandas as pd
 
 from graybox.models import load_model
 from registry.store import resolve_store
+from flows.errors import ConfigError
 
 DEFAULT_CONFIG = "fleet.toml"
 DEFAULT_TELEMETRY_ROOT = "telemetry"
@@ -22,10 +23,6 @@ TASK_RUNNERS = ("sequential", "dask")
 
 #: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
-
-
-class ConfigError(ValueError):
-    """``fleet.toml`` is missing, unreadable or wrong; the message names the file and key."""
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,8 @@ from flows.cli import main
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
                            UP_TO_DATE, AssetResult, RunSummary)
 from flowtest_config import write_config
-from flows.run_lock import LOCK_WAIT_ENV, RunLock, RunLockTimeout
+from flows.run_lock import LOCK_WAIT_ENV, RunLock
+from flows.errors import RunLockTimeout
 from registry.exceptions import RegistryError
 from flows.store_probe import MLFLOW_HTTP_DEFAULTS, STORE_TIMEOUT_ENV, bound_mlflow_requests
 from flowtest_store import committed_state

@@ -7,8 +7,8 @@ import pandas as pd
 import pytest
 
 from flows.config import ConfigError, load_config
-from flows.discovery import (UsageError, discover, parse_time, pending_windows, range_windows,
-                         windows_in_dates)
+from flows.discovery import discover, parse_time, pending_windows, range_windows, windows_in_dates
+from flows.errors import UsageError
 
 DAY = pd.Timedelta(days=1)
 T0 = pd.Timestamp("2026-01-01", tz="UTC")

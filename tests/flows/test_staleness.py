@@ -140,7 +140,8 @@ def test_fault_future_as_of_is_a_usage_error(tmp_path, capsys, argv):
 
 
 def test_as_of_within_clock_skew_is_accepted():
-    from flows.discovery import UsageError, not_in_future
+    from flows.discovery import not_in_future
+    from flows.errors import UsageError
 
     now = pd.Timestamp("2026-03-01T12:00", tz="UTC")
     assert not_in_future(now + pd.Timedelta(minutes=4), "--as-of", now=now) == \
