@@ -37,12 +37,11 @@ from flows.commands.run import add_run_command
 from flows.commands.serve import add_serve_command
 from flows.commands.simulate import add_simulate_command
 from flows.config import DEFAULT_CONFIG, DEFAULT_TRACKING_URI, ConfigError, load_config
-from registry.cli import EXIT_USAGE, _error
+from flows.terminal import EXIT_UNAVAILABLE, EXIT_USAGE, print_error
 
 __all__ = ["COMMANDS", "DEFAULT_CONFIG", "DEFAULT_TRACKING_URI", "EPHEMERAL_STARTUP_TIMEOUT",
            "EXIT_UNAVAILABLE", "build_parser", "main"]
 
-EXIT_UNAVAILABLE = 3
 _EPHEMERAL_TIMEOUT_MESSAGE = "Timed out while attempting to connect to ephemeral Prefect API"
 
 
@@ -101,7 +100,7 @@ def _resolve_registry_uri(args: argparse.Namespace) -> int | None:
         try:
             args.tracking_uri = load_config(path).tracking_uri
         except ConfigError as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_USAGE
     else:
         args.tracking_uri = DEFAULT_TRACKING_URI
@@ -127,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         if _EPHEMERAL_TIMEOUT_MESSAGE not in str(error):
             raise
         timeout = os.environ.get("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS")
-        _error(f"Prefect's temporary API server did not start within {timeout} s (a busy "
+        print_error(f"Prefect's temporary API server did not start within {timeout} s (a busy "
                f"machine?): nothing was run. Retry, raise "
                f"PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS, or start a server once "
                f"(`prefect server start`) and set PREFECT_API_URL=http://127.0.0.1:4200/api.")

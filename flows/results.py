@@ -28,7 +28,7 @@ import pandas as pd
 
 from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
-from registry.cli import EXIT_FAILED, EXIT_OK
+from flows.terminal import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError
 from registry.retry import is_transient_store_error
 from flows.errors import TransientError

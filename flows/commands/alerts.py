@@ -10,7 +10,7 @@ from flows.commands.plumbing import asset_option, config_options, guarded, load
 from flows.discovery import parse_time
 from flows.run_tables import alert_table
 from graybox.exceptions import ArtifactError
-from registry.cli import EXIT_FAILED, EXIT_OK, _console, _error
+from flows.terminal import EXIT_FAILED, EXIT_OK, print_error, rich_console
 from registry.exceptions import RegistryError
 
 
@@ -46,7 +46,7 @@ def alerts(args: argparse.Namespace) -> int:
                                              major_ratio=config.alerts.major_ratio,
                                              critical_ratio=config.alerts.critical_ratio)
         except (RegistryError, ArtifactError) as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_FAILED
         if args.assets:
             found = [a for a in found if a.asset_id in set(args.assets)]
@@ -55,7 +55,7 @@ def alerts(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps([a.to_dict() for a in found], indent=2, default=str))
         return EXIT_OK
-    console = _console()
+    console = rich_console()
     if not found:
         where = "the registry" if args.from_registry else str(config.alerts.jsonl)
         console.print(f"No alerts recorded in {where}" + (f" since {since:%Y-%m-%d}"
@@ -73,9 +73,9 @@ def export(config, since) -> int:
                                           major_ratio=config.alerts.major_ratio,
                                           critical_ratio=config.alerts.critical_ratio)
     except (RegistryError, ArtifactError) as error:
-        _error(str(error))
+        print_error(str(error))
         return EXIT_FAILED
-    _console().print(f"{len(written)} alert(s) written to {log.path} ({len(recorded)} in the "
+    rich_console().print(f"{len(written)} alert(s) written to {log.path} ({len(recorded)} in the "
                      f"registry" + (f" since {since:%Y-%m-%d}" if since is not None else "")
                      + f", {len(recorded) - len(written)} already in the file).")
     return EXIT_OK

@@ -1,5 +1,5 @@
 """``fleet-health baseline``: the registry's group (list, history, promote, reject,
-rollback; :mod:`registry.cli`) plus ``baseline fit``."""
+rollback; :mod:`flows.commands.review`) plus ``baseline fit``."""
 from __future__ import annotations
 
 import argparse
@@ -8,7 +8,8 @@ from flows.commands.plumbing import (class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
 from flows.errors import FlowFailed, UsageError
 from flows.discovery import parse_time
-from registry.cli import EXIT_FAILED, _error, add_baseline_commands
+from flows.commands.review import add_baseline_commands
+from flows.terminal import EXIT_FAILED, print_error
 
 
 def add_baseline_group(subparsers) -> argparse.ArgumentParser:
@@ -58,6 +59,6 @@ def baseline_fit(args: argparse.Namespace) -> int:
             promote=args.promote, reason=args.reason, tracking_uri=args.tracking_uri,
             return_state=True))
     except FlowFailed as error:
-        _error(f"the baseline flow failed: {error}")
+        print_error(f"the baseline flow failed: {error}")
         return EXIT_FAILED
     return report_summary(args, summary, f"Baselines from {start:%Y-%m-%d} to {end:%Y-%m-%d}")

@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass
 
 from flows.commands.plumbing import USAGE_ERRORS, config_options, load, prefect_environment
 from flows.config import FleetConfig
-from registry.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _console, _error
+from flows.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error, rich_console
 
 CHECK_EXPERIMENT = "fleet-health-check"
 PROBLEM, NOTE, OK = "problem", "note", "ok"
@@ -300,12 +300,12 @@ def _report(args, findings: list[Finding], status: int, config: FleetConfig | No
     for f in findings:
         table.add_row(f.area, escape(f.subject), marks[f.level], escape(f.detail),
                       escape(f.fix))
-    console = _console()
+    console = rich_console()
     console.print(table)
     if problems:
         console.print(f"{len(problems)} problem(s) found.")
         for f in problems:
-            _error(f"{f.area} {f.subject}: {f.detail}" + (f" -> {f.fix}" if f.fix else ""))
+            print_error(f"{f.area} {f.subject}: {f.detail}" + (f" -> {f.fix}" if f.fix else ""))
     else:
         console.print("All good.")
     return status

@@ -9,7 +9,7 @@ import sys
 from flows.commands.plumbing import (guarded, nonnegative_int, positive_int,
                                      prefect_environment)
 from flows.demo import prepare_workdir, run_demo
-from registry.cli import _console
+from flows.terminal import rich_console
 
 
 def add_demo_command(subparsers) -> argparse.ArgumentParser:
@@ -41,4 +41,4 @@ def demo(args: argparse.Namespace) -> int:
     prefect_environment(args)
     return run_demo(workdir, vehicles=args.vehicles, days=args.days,
                     baseline_days=args.baseline_days, seed=args.seed,
-                    sample_interval=args.sample_interval, console=_console())
+                    sample_interval=args.sample_interval, console=rich_console())

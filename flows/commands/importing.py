@@ -19,7 +19,7 @@ from flows.errors import UsageError
 from graybox.telemetry.changes import mark_changed
 from graybox.telemetry.exports import ExportError, ExportFormat, ExportRead, read_export
 from graybox.telemetry.merging import DayImport, ImportConflict, plan_import, write_day
-from registry.cli import EXIT_FAILED, EXIT_OK, _console, _error
+from flows.terminal import EXIT_FAILED, EXIT_OK, print_error, rich_console
 
 #: export files taken from a directory given as FILE
 EXPORT_SUFFIXES = (".csv", ".parquet")
@@ -105,16 +105,16 @@ def import_exports(args: argparse.Namespace) -> int:
         try:
             reads = read_all(files, fmt)
         except ExportError as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_FAILED
         if report_bad_rows(reads, args.skip_bad_rows):
             return EXIT_FAILED
         try:
             days = plan_import(root, [rows for read in reads for rows in read.assets])
         except ImportConflict as error:
-            _error(f"conflicting rows, nothing written:\n{error}")
+            print_error(f"conflicting rows, nothing written:\n{error}")
             return EXIT_FAILED
-        console = _console()
+        console = rich_console()
         console.print(day_table(days, dry_run=args.dry_run))
         changed = [day for day in days if day.changed]
         if args.dry_run:
@@ -185,7 +185,7 @@ def report_bad_rows(reads: list[ExportRead], skip: bool) -> bool:
             print(f"fleet-health: ... and {more} more bad rows in {read.file}", file=sys.stderr)
     if bad and not skip:
         total = sum(len(read.bad_rows) for read in bad)
-        _error(f"{total} bad row(s) in {len(bad)} file(s): nothing written (fix them, or "
+        print_error(f"{total} bad row(s) in {len(bad)} file(s): nothing written (fix them, or "
                f"--skip-bad-rows to import the other rows)")
         return True
     return False

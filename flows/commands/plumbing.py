@@ -15,7 +15,7 @@ from flows.run_tables import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary
 from flows.store_probe import bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError
-from registry.cli import EXIT_FAILED, EXIT_USAGE, _console, _error
+from flows.terminal import EXIT_FAILED, EXIT_USAGE, print_error, rich_console
 
 #: seconds Prefect's temporary local server may take to start (Prefect's own default, 20 s,
 #: is missed on a loaded machine: a first run in a new PREFECT_HOME took 27.7 s on an idle one)
@@ -91,13 +91,13 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
         try:
             return function(args)
         except USAGE_ERRORS as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_USAGE
         except StoreUnavailable as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_FAILED
         except KeyboardInterrupt:
-            _error("interrupted; rerun the command: committed results are kept and nothing "
+            print_error("interrupted; rerun the command: committed results are kept and nothing "
                    "is duplicated")
             return 130
     run.__name__ = function.__name__
@@ -157,7 +157,7 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2, default=str))
     else:
-        console = _console()
+        console = rich_console()
         console.print(fleet_table(summary, title=title))
         if summary.alerts:
             console.print(alert_table(summary.alerts))

@@ -11,7 +11,7 @@ from flows.errors import FlowFailed, UsageError
 from flows.discovery import not_in_future, parse_time, range_windows
 from flows.run_tables import window_label
 from flows.results import RunSummary
-from registry.cli import EXIT_FAILED, _console, _error
+from flows.terminal import EXIT_FAILED, print_error, rich_console
 
 
 def add_reanalyze_command(subparsers) -> argparse.ArgumentParser:
@@ -63,10 +63,10 @@ def reanalyze(args: argparse.Namespace) -> int:
             version=args.version, tracking_uri=args.tracking_uri,
             candidate_nights=args.candidate_nights, return_state=True))
     except FlowFailed as error:
-        _error(f"the reanalysis failed: {error}")
+        print_error(f"the reanalysis failed: {error}")
         return EXIT_FAILED
     if not args.json:
-        _console().print(window_table(summary))
+        rich_console().print(window_table(summary))
     return report_summary(args, summary, f"Reanalysis {start:%Y-%m-%d %H:%M} → "
                                          f"{end:%Y-%m-%d %H:%M}")
 

@@ -12,7 +12,7 @@ from flows.commands.plumbing import config_options, guarded, load, positive_int
 from flows.discovery import parse_time
 from flows.fleet_view import DEFAULT_NIGHTS, DEFAULT_TOP, collect_view
 from graybox.exceptions import ArtifactError
-from registry.cli import EXIT_FAILED, EXIT_OK, _error
+from flows.terminal import EXIT_FAILED, EXIT_OK, print_error
 from registry.exceptions import RegistryError
 
 PAGE_FILE = "index.html"
@@ -73,7 +73,7 @@ def report(args: argparse.Namespace) -> int:
             known = [n for n in (latest_candidate_night(registry.backend),
                                  max(fleet_runs(registry.backend), default=None)) if n]
             if not known:
-                _error(f"nothing recorded in {registry.tracking_uri} yet: run the nightly "
+                print_error(f"nothing recorded in {registry.tracking_uri} yet: run the nightly "
                        f"flow first (fleet-health run)")
                 return EXIT_FAILED
             last = max(known)
@@ -84,7 +84,7 @@ def report(args: argparse.Namespace) -> int:
                                              critical_ratio=config.alerts.critical_ratio)
                   if first <= pd.Timestamp(a.window_start) < end]
     except (RegistryError, ArtifactError) as error:
-        _error(str(error))
+        print_error(str(error))
         return EXIT_FAILED
     png = heatmap_png(view, args.top)
     args.out.mkdir(parents=True, exist_ok=True)

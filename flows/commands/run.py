@@ -7,7 +7,7 @@ from flows.commands.plumbing import (asset_option, class_option, flow_command_op
                                      prefect_environment, report_summary, run_flow)
 from flows.errors import FlowFailed
 from flows.discovery import not_in_future, parse_time
-from registry.cli import EXIT_FAILED, _error
+from flows.terminal import EXIT_FAILED, print_error
 
 
 def add_run_command(subparsers) -> argparse.ArgumentParser:
@@ -39,6 +39,6 @@ def run(args: argparse.Namespace) -> int:
             vehicle_class=args.vehicle_class, tracking_uri=args.tracking_uri,
             return_state=True))
     except FlowFailed as error:
-        _error(f"the nightly run failed: {error}")
+        print_error(f"the nightly run failed: {error}")
         return EXIT_FAILED
     return report_summary(args, summary, f"Nightly run as of {summary.as_of[:16]} UTC")

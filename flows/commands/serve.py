@@ -5,7 +5,7 @@ import argparse
 import os
 
 from flows.commands.plumbing import config_options, guarded, load, prefect_environment
-from registry.cli import EXIT_OK, _console
+from flows.terminal import EXIT_OK, rich_console
 
 
 def add_serve_command(subparsers) -> argparse.ArgumentParser:
@@ -30,7 +30,7 @@ def serve(args: argparse.Namespace) -> int:
     from flows.serve import build_deployments, serve_deployments
 
     deployments = build_deployments(config, tracking_uri=args.tracking_uri)
-    console = _console()
+    console = rich_console()
     for d in deployments:
         schedules = ", ".join(f"cron '{s.schedule.cron}' ({s.schedule.timezone})"
                               for s in (d.schedules or [])) or "on demand"

@@ -8,7 +8,7 @@ import sys
 from flows import progress
 from flows.commands.plumbing import guarded, nonnegative_int, positive_int
 from flows.demo import parse_fault, simulated_fleet, write_simulation
-from registry.cli import EXIT_OK, _console
+from flows.terminal import EXIT_OK, rich_console
 
 
 def add_simulate_command(subparsers) -> argparse.ArgumentParser:
@@ -43,7 +43,7 @@ def simulate(args: argparse.Namespace) -> int:
                            args.sample_interval, faults=faults, healthy=args.healthy)
     with progress.reporting(progress.for_stream(sys.stderr)):
         write_simulation(spec, pathlib.Path(args.out), config_out=args.config_out)
-    console = _console()
+    console = rich_console()
     console.print(f"Wrote {len(spec.vehicles)} vehicles x {spec.days} days "
                   f"({spec.sample_interval:g} s samples) to {args.out}")
     for vehicle in spec.vehicles:

@@ -22,9 +22,8 @@ from typing import Callable
 import pandas as pd
 
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
+from flows.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error, rich_console
 from registry.exceptions import RegistryError
-
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 def add_baseline_commands(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -89,17 +88,6 @@ def _positive(text: str) -> int:
 
 # -- plumbing --------------------------------------------------------------------------------
 
-def _console(stream=None):
-    from rich.console import Console
-
-    stream = stream or sys.stdout
-    width = None if stream.isatty() else 200
-    return Console(file=stream, width=width, highlight=False, soft_wrap=False)
-
-
-def _error(message: str) -> None:
-    print(f"fleet-health: error: {message}", file=sys.stderr)
-
 
 def _guarded(function: Callable[[argparse.Namespace], int], *,
              needs_existing_store: bool = False) -> Callable[[argparse.Namespace], int]:
@@ -111,15 +99,15 @@ def _guarded(function: Callable[[argparse.Namespace], int], *,
         try:
             store = resolve_store(args.tracking_uri)
             if needs_existing_store and store.db_path is not None and not store.db_path.exists():
-                _error(f"no registry at {store.db_path} (nothing recorded yet); "
+                print_error(f"no registry at {store.db_path} (nothing recorded yet); "
                        f"pass --tracking-uri or set FLEET_HEALTH_TRACKING_URI")
                 return EXIT_FAILED
             return function(args)
         except (InvalidAssetIdError, ValueError) as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_USAGE
         except (RegistryError, ArtifactError, MlflowException) as error:
-            _error(str(error))
+            print_error(str(error))
             return EXIT_FAILED
     return run
 
@@ -155,7 +143,7 @@ def _list_impl(args: argparse.Namespace) -> int:
         return EXIT_OK
     from rich.table import Table
 
-    console = _console()
+    console = rich_console()
     if not summaries:
         console.print("No assets recorded" + (f" in class {args.vehicle_class!r}"
                                               if args.vehicle_class else "") + ".")
@@ -204,7 +192,7 @@ def _history_impl(args: argparse.Namespace) -> int:
         table.add_row(f"v{v.version}", status, v.role or "", _window(v),
                       "yes" if v.calibrated else "no", _alarm(v), _when(v.created),
                       "; ".join(notes))
-    _console().print(table)
+    rich_console().print(table)
     return EXIT_OK
 
 
@@ -212,7 +200,7 @@ def _report(args: argparse.Namespace, info, message: str) -> int:
     if args.json:
         print(json.dumps(info.to_dict(), indent=2))
     else:
-        _console().print(message)
+        rich_console().print(message)
     return EXIT_OK
 
 
