@@ -2,7 +2,7 @@
 one-step residual, for one simulated gas-turbine day at 10 s and at 1 s (white box 20 % off).
 
 The level tier runs at the analysis interval (every ``factor``-th telemetry sample, as
-:func:`graybox.fleet_fit.fit_signatures` does); the residual at the telemetry's rate.
+:func:`graybox.signature_fit.fit_signatures` does); the residual at the telemetry's rate.
 """
 from __future__ import annotations
 

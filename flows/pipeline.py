@@ -29,7 +29,7 @@ from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.diagnosis import Diagnosis, diagnose
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError, TelemetryError
-from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed

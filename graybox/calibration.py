@@ -48,7 +48,7 @@ AR order, network delays) plus ``min_samples``. A day of 10-s or 1-s telemetry g
 rescaling accounts for their length.
 
 :func:`fit_baselines` runs the whole method: baselines, the leave-one-window-out refits and
-the pieces, all assets batched together (:func:`graybox.fleet_fit.fit_signatures`).
+the pieces, all assets batched together (:func:`graybox.signature_fit.fit_signatures`).
 """
 from __future__ import annotations
 
@@ -58,11 +58,11 @@ from typing import ClassVar, Sequence
 import numpy as np
 from scipy import stats
 
-from graybox import records
+from graybox import record_json
 from graybox.analysis_rate import decimation_factor
 from graybox.epsilon_scaling import epsilon_scale
 from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
-from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.operating_conditions import outside
 from graybox.telemetry.window import window_periods
 from graybox.settings import GrayBoxSettings
@@ -133,16 +133,16 @@ class Calibration:
 
     def to_dict(self) -> dict:
         """A JSON-ready dict; :meth:`from_dict` gives back an equal calibration."""
-        return records.to_dict(self)
+        return record_json.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
-        return records.to_json(self, indent)
+        return record_json.to_json(self, indent)
 
     @classmethod
     def from_dict(cls, data) -> "Calibration":
         """Rebuild from :meth:`to_dict`; anything malformed raises ArtifactError (every
         number must be finite, every epsilon >= 0, one threshold per channel and tier)."""
-        calibration = records.from_dict(cls, data)
+        calibration = record_json.from_dict(cls, data)
         seen = set()
         for entry in calibration.thresholds:
             where = f"Calibration threshold of channel {entry.channel!r}, tier {entry.tier!r}"
@@ -160,7 +160,7 @@ class Calibration:
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Calibration":
-        return cls.from_dict(records.parse_json(text, "calibration"))
+        return cls.from_dict(record_json.parse_json(text, "calibration"))
 
 
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
@@ -221,7 +221,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
 
     clock : StageClock, optional
         Accumulates the seconds of the fits' stages (see
-        :func:`graybox.fleet_fit.fit_signatures`).
+        :func:`graybox.signature_fit.fit_signatures`).
 
     Returns
     -------

@@ -328,7 +328,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     clock = _Deadline(time_budget)
     hypotheses = tuple(hypotheses or candidate_hypotheses(model))
     # many small vector products: BLAS threads spin-waiting cost more than they give (as in
-    # graybox.fleet_fit.fit_signatures)
+    # graybox.signature_fit.fit_signatures)
     with threadpool_limits(limits=1):
         try:
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,

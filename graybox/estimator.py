@@ -2,9 +2,9 @@
 
 :class:`GrayBox` follows scikit-learn's estimator rules (arguments stored in ``__init__``,
 learning in :meth:`GrayBox.fit`, which returns self). It is built on the fleet forms:
-:func:`graybox.fleet_fit.fit_signatures` (batched fitting of many assets) and
+:func:`graybox.signature_fit.fit_signatures` (batched fitting of many assets) and
 :func:`graybox.calibration.fit_baselines` (baselines with calibrated epsilons), re-exported
-here with :class:`~graybox.settings.GrayBoxSettings` and :class:`~graybox.fleet_fit.FitRequest`.
+here with :class:`~graybox.settings.GrayBoxSettings` and :class:`~graybox.signature_fit.FitRequest`.
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pandas as pd
 from graybox.calibration import fit_baselines
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError
-from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature

@@ -125,7 +125,7 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
     train_input_weights : bool, default True
         When False the hidden layer ``w_jk`` keeps its starting values (fixed random
         features) and only ``W_1j`` is fitted: a well-posed problem with one minimum, used
-        where there is no nonlinear structure to learn (see :mod:`graybox.fleet_fit`).
+        where there is no nonlinear structure to learn (see :mod:`graybox.signature_fit`).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """The output layer of an Eq. 25 network whose hidden layer is fixed, by Levenberg-Marquardt.
 
-With the hidden weights ``w`` fixed (the null network of :mod:`graybox.fleet_fit`), the
+With the hidden weights ``w`` fixed (the null network of :mod:`graybox.signature_fit`), the
 hidden activations ``H = tanh(X w^T)`` are data and the network is ``tanh(H W)``: a
 generalised linear model in the ``J`` output weights. Its loss, the same as the batched
 L-BFGS minimises for a full network,

@@ -75,7 +75,7 @@ def float_parameters(model: WhiteBoxModel) -> tuple[str, ...]:
 
 def operating_segments(windows: Sequence) -> tuple[list[pd.DataFrame], float]:
     """Every operating period of ``windows`` (TelemetryWindow, DataFrame or a sequence of
-    DataFrames each, as :class:`~graybox.fleet_fit.FitRequest` takes them) and the sample
+    DataFrames each, as :class:`~graybox.signature_fit.FitRequest` takes them) and the sample
     interval in seconds."""
     frames = [frame for window in windows for frame in window_periods(window)]
     if not frames:

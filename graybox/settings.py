@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar, Mapping
 
-from graybox import records
+from graybox import record_json
 from graybox.network_settings import FitSettings
 from graybox.residual import RESIDUAL_METHODS
 
@@ -185,16 +185,16 @@ class GrayBoxSettings:
 
     def to_dict(self) -> dict:
         """A JSON-ready dict; :meth:`from_dict` gives back equal settings."""
-        return records.to_dict(self)
+        return record_json.to_dict(self)
 
     @classmethod
     def from_dict(cls, data: Mapping) -> "GrayBoxSettings":
         """Rebuild from :meth:`to_dict` (through :meth:`migrate`); raises ArtifactError."""
-        return records.from_dict(cls, data)
+        return record_json.from_dict(cls, data)
 
     @classmethod
     def migrate(cls, data: Mapping) -> dict:
-        """Stored settings in today's fields (applied by :func:`graybox.records.from_dict`).
+        """Stored settings in today's fields (applied by :func:`graybox.record_json.from_dict`).
 
         Settings stored before the method was rate-invariant (with ``max_ar_order`` and
         ``max_delay`` counts) were fitted at the telemetry's own interval: they load with

@@ -8,7 +8,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from graybox import records
+from graybox import record_json
 from graybox.exceptions import ArtifactError
 from graybox.frozen_map import FrozenMap
 from graybox.integration import Integration
@@ -261,10 +261,10 @@ class Signature:
 
     def to_dict(self) -> dict:
         """A JSON-ready dict; :meth:`from_dict` gives back an equal signature."""
-        return records.to_dict(self)
+        return record_json.to_dict(self)
 
     def to_json(self, indent: int | None = None) -> str:
-        return records.to_json(self, indent)
+        return record_json.to_json(self, indent)
 
     @classmethod
     def from_dict(cls, data: Any) -> "Signature":
@@ -273,13 +273,13 @@ class Signature:
         if version is not None and version != FORMAT_VERSION:
             raise ArtifactError(f"signature format {version!r} is not supported "
                                 f"(this code reads {FORMAT_VERSION})")
-        signature = records.from_dict(cls, data)
+        signature = record_json.from_dict(cls, data)
         check_consistent(signature)
         return signature
 
     @classmethod
     def from_json(cls, text: str | bytes) -> "Signature":
-        return cls.from_dict(records.parse_json(text, "signature"))
+        return cls.from_dict(record_json.parse_json(text, "signature"))
 
 
 def tier_parameters(channel: ChannelSignature, tier: str) -> tuple[list[str], np.ndarray]:

@@ -12,7 +12,7 @@ import sys
 from dataclasses import dataclass
 from typing import Collection, Mapping
 
-from graybox import records
+from graybox import record_json
 from graybox.exceptions import ModelSpecError
 from graybox.frozen_map import FrozenMap
 from graybox.models.base import WhiteBoxModel, load_model
@@ -85,9 +85,9 @@ class ModelSpec:
 
     def to_dict(self) -> dict:
         """``{"spec", "parameters", "columns"}``, as :meth:`WhiteBoxModel.to_dict` writes."""
-        return records.to_dict(self)
+        return record_json.to_dict(self)
 
     @classmethod
     def from_dict(cls, data: Mapping) -> "ModelSpec":
         """Inverse of :meth:`to_dict` (raises ArtifactError on malformed input)."""
-        return records.from_dict(cls, data)
+        return record_json.from_dict(cls, data)

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from graybox import records
+from graybox import record_json
 from graybox.diagnosis import Diagnosis, candidate_hypotheses, diagnose, diagnose_window
 from graybox.exceptions import GrayBoxError, ModelSpecError
 from graybox.innovation_spread import innovation_spreads
@@ -117,10 +117,10 @@ def test_a_healthy_window_has_no_single_cause(levels):
 
 def test_the_diagnosis_round_trips_json_and_reads(levels):
     diagnosis = diagnose_window(Drive(), levels, [drive_frame(Drive(), 12, bias=(0.0, 1.0))])
-    again = records.from_dict(Diagnosis, records.parse_json(records.to_json(diagnosis), "d"))
+    again = record_json.from_dict(Diagnosis, record_json.parse_json(record_json.to_json(diagnosis), "d"))
     assert again == diagnosis
     assert diagnosis.summary().startswith("temperature sensor bias 0 -> 1.0")
-    first = records.to_dict(diagnosis)["hypotheses"][0]
+    first = record_json.to_dict(diagnosis)["hypotheses"][0]
     assert set(first) == {"hypothesis", "kind", "target", "baseline", "estimate", "interval",
                           "score", "log_likelihood_gain"}
 
@@ -277,5 +277,5 @@ def test_the_evidence_holds_the_residual_and_what_the_best_three_leave(levels):
     # the runners-up: the temperature's gain and the cooling, a parameter (both channels)
     assert [f.hypothesis.target for f in evidence.fits[1:]] == ["temperature", "cooling"]
     assert evidence.concerned() == (0, 1)
-    assert "evidence" not in records.to_dict(diagnosis)
-    assert records.from_dict(Diagnosis, records.to_dict(diagnosis)).evidence is None
+    assert "evidence" not in record_json.to_dict(diagnosis)
+    assert record_json.from_dict(Diagnosis, record_json.to_dict(diagnosis)).evidence is None

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from graybox.exceptions import GrayBoxError
-from graybox.fleet_fit import (FitRequest, _fit_networks_isolated, _prepare, fit_signatures)
+from graybox.signature_fit import (FitRequest, _fit_networks_isolated, _prepare, fit_signatures)
 from graybox.models import load_model
 from graybox.telemetry import GridPolicy, read_window
 

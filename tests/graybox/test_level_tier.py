@@ -13,7 +13,7 @@ from graybox.drift import Drift
 from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
                                 k_step_prediction, level_data, operating_features)
 from graybox.models.base import WhiteBoxModel
-from graybox.records import from_dict, to_dict
+from graybox.record_json import from_dict, to_dict
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
 from graybox.rk4 import rk4_step

@@ -9,7 +9,7 @@ from graybox.drift import Drift, compute_drift
 from graybox.models.base import WhiteBoxModel
 from graybox.operating_conditions import (OperatingConditions, exogenous_inputs,
                                           farthest, operating_conditions, outside)
-from graybox.records import from_dict, to_dict
+from graybox.record_json import from_dict, to_dict
 from graybox.signature import Signature
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from graybox import records
+from graybox import record_json
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import ModelSpecError
 from graybox.integration import Integration, advance
@@ -85,7 +85,7 @@ def test_the_effective_sample_size_of_an_ar1_series_is_its_known_value():
 def test_the_estimate_round_trips_json_and_names_are_checked():
     estimate = ParameterEstimate(("inertia",), (51.0,), (0.5,), ((0.25,),), (60.0,),
                                  ("omega",), (1.2,), 12, 2000, 400.5, True)
-    again = records.from_dict(ParameterEstimate, records.parse_json(records.to_json(estimate), "x"))
+    again = record_json.from_dict(ParameterEstimate, record_json.parse_json(record_json.to_json(estimate), "x"))
     assert again == estimate
     assert estimate.interval(0.95)[0] == pytest.approx((51.0 - 1.96 * 0.5, 51.0 + 1.96 * 0.5),
                                                        abs=1e-3)

@@ -9,7 +9,7 @@ import pytest
 
 from graybox.calibration import _split
 from graybox.exceptions import InsufficientDataError, TelemetryError
-from graybox.fleet_fit import FitRequest, fit_signatures
+from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models import PumpLoop
 from graybox.settings import GrayBoxSettings
 from graybox.telemetry import GridPolicy, read_window, to_grid, write_telemetry

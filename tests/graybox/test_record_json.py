@@ -1,4 +1,4 @@
-"""The one serialisation helper of frozen records (graybox.records) and its FrozenMap."""
+"""The one serialisation helper of frozen records (graybox.record_json) and its FrozenMap."""
 from __future__ import annotations
 
 import json
@@ -7,7 +7,7 @@ from typing import Mapping
 
 import pytest
 
-from graybox import records
+from graybox import record_json
 from graybox.exceptions import ArtifactError
 from graybox.frozen_map import FrozenMap
 from graybox.models import ModelSpec, load_model
@@ -52,32 +52,32 @@ def make_tree(**changes) -> Tree:
 
 
 def round_trip(record):
-    return records.from_dict(type(record), json.loads(json.dumps(records.to_dict(record))))
+    return record_json.from_dict(type(record), json.loads(json.dumps(record_json.to_dict(record))))
 
 
 def test_round_trip_is_exact_for_nested_records_tuples_maps_and_unions():
     tree = make_tree()
     forest = Forest((tree, make_tree(best=None, span="auto", labels=FrozenMap())))
     assert round_trip(forest) == forest
-    assert json.dumps(records.to_dict(round_trip(forest))) == json.dumps(records.to_dict(forest))
-    assert list(records.to_dict(tree)["labels"]) == ["b", "a"]      # order is kept
+    assert json.dumps(record_json.to_dict(round_trip(forest))) == json.dumps(record_json.to_dict(forest))
+    assert list(record_json.to_dict(tree)["labels"]) == ["b", "a"]      # order is kept
     assert isinstance(round_trip(tree).labels, FrozenMap)
     assert isinstance(round_trip(tree).grid[0], tuple)
 
 
 def test_defaults_fill_absent_fields_and_integers_become_floats():
-    data = records.to_dict(make_tree())
+    data = record_json.to_dict(make_tree())
     del data["best"], data["span"], data["flag"]
     data["leaves"][0]["weight"] = 2
-    tree = records.from_dict(Tree, data)
+    tree = record_json.from_dict(Tree, data)
     assert tree.best is None and tree.span == "auto" and tree.flag is False
     assert tree.leaves[0].weight == 2.0 and isinstance(tree.leaves[0].weight, float)
 
 
 def test_migrate_hook_applies_wherever_the_record_is_nested():
-    data = records.to_dict(Forest((make_tree(),)))
+    data = record_json.to_dict(Forest((make_tree(),)))
     data["trees"][0]["old_span"] = data["trees"][0].pop("span")
-    assert records.from_dict(Forest, data) == Forest((make_tree(),))
+    assert record_json.from_dict(Forest, data) == Forest((make_tree(),))
 
 
 @pytest.mark.parametrize("mutate, message", [
@@ -97,10 +97,10 @@ def test_migrate_hook_applies_wherever_the_record_is_nested():
     (lambda d: d["leaves"].append(None), r"Tree.leaves\[2\] must not be null"),
 ])
 def test_malformed_input_names_the_record_and_field(mutate, message):
-    data = records.to_dict(make_tree())
+    data = record_json.to_dict(make_tree())
     mutate(data)
     with pytest.raises(ArtifactError, match=message):
-        records.from_dict(Tree, data)
+        record_json.from_dict(Tree, data)
 
 
 def test_a_record_refusing_its_values_is_an_artifact_error():
@@ -113,9 +113,9 @@ def test_a_record_refusing_its_values_is_an_artifact_error():
                 raise ValueError("value must be > 0")
 
     with pytest.raises(ArtifactError, match="Positive: value must be > 0"):
-        records.from_dict(Positive, {"value": -1})
+        record_json.from_dict(Positive, {"value": -1})
     with pytest.raises(ArtifactError, match="Positive: expected an object, got str"):
-        records.from_dict(Positive, "value")
+        record_json.from_dict(Positive, "value")
 
 
 def test_frozen_map_is_an_ordered_hashable_read_only_mapping():
@@ -146,14 +146,14 @@ def test_model_spec_rebuilds_its_white_box():
 
 def test_json_text_round_trip_and_text_that_is_not_json():
     tree = make_tree()
-    text = records.to_json(tree, indent=2)
-    assert text == json.dumps(records.to_dict(tree), indent=2)
-    assert records.from_dict(Tree, records.parse_json(text, "tree")) == tree
-    assert records.parse_json(text.encode(), "tree") == json.loads(text)
+    text = record_json.to_json(tree, indent=2)
+    assert text == json.dumps(record_json.to_dict(tree), indent=2)
+    assert record_json.from_dict(Tree, record_json.parse_json(text, "tree")) == tree
+    assert record_json.parse_json(text.encode(), "tree") == json.loads(text)
     with pytest.raises(ArtifactError, match=r"^tree is not valid JSON: Expecting property name"):
-        records.parse_json("{'name': 'a'}", "tree")
+        record_json.parse_json("{'name': 'a'}", "tree")
     with pytest.raises(ArtifactError, match=r"^tree is not valid JSON: 'utf-8' codec"):
-        records.parse_json(b"\x80", "tree")
+        record_json.parse_json(b"\x80", "tree")
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def test_transient_fields_are_never_written_and_read_as_their_default():
     import numpy as np
 
     measured = Measured(2.0, np.arange(3))
-    assert records.to_dict(measured) == {"value": 2.0}
+    assert record_json.to_dict(measured) == {"value": 2.0}
     assert round_trip(measured) == Measured(2.0)
     with pytest.raises(ArtifactError, match=r"unknown field\(s\) \['samples'\]"):
-        records.from_dict(Measured, {"value": 2.0, "samples": [0, 1, 2]})
+        record_json.from_dict(Measured, {"value": 2.0, "samples": [0, 1, 2]})
