@@ -18,8 +18,13 @@ earlier healthy rows do not fill :data:`MIN_BASELINE_WINDOWS` windows cannot be 
 is reported as such (never scored).
 
 Windows are the product's analysis windows (``[nightly] window``, aligned to UTC). A window
-is *fault* when it holds a labelled anomaly row, *healthy* when all its rows come before the
-experiment's first anomaly, and *after* otherwise (rows after the anomaly ended).
+is *fault* when it holds a labelled anomaly row, *overlap* when it holds none of its own but
+rows another file labels anomalous (the files of a session were cut from one log and overlap:
+other/13's first 7 minutes are other/12's cavitation, labelled 1 there and 0 in other/13),
+*healthy* when all its rows come before the experiment's first anomaly, and *after* otherwise
+(rows after the anomaly ended). Overlap windows are scored neither way, and no baseline takes
+a row any file labels anomalous. The point-wise scores keep each file's own labels, as SKAB's
+leaderboard does.
 """
 from __future__ import annotations
 
@@ -36,6 +41,8 @@ SESSIONS = (("other", "2020-02-08", "other-feb08"), ("other", "2020-03-01", "oth
             ("valve1", None, "valve1"), ("valve2", None, "valve2"))
 #: whole windows of healthy rows a baseline needs (flows.baseline.MIN_WINDOWS)
 MIN_BASELINE_WINDOWS = 3
+#: the rows' column marking rows another file labels anomalous at the same time
+FOREIGN = "foreign_anomaly"
 
 
 @dataclass(frozen=True)
@@ -67,9 +74,19 @@ class Experiment:
         return self.rows["timestamp"][anomalous].iloc[0] if anomalous.any() else None
 
     def prefix(self) -> pd.DataFrame:
-        """The rows before the first anomaly (the whole file if none)."""
-        onset = self.onset
-        return self.rows if onset is None else self.rows[self.rows["timestamp"] < onset]
+        """The rows before the first anomaly, its own or another file's at the same time (the
+        whole file if none)."""
+        flagged = (self.rows["anomaly"].to_numpy() > 0) | self.foreign()
+        if not flagged.any():
+            return self.rows
+        return self.rows[self.rows["timestamp"] < self.rows["timestamp"][flagged].iloc[0]]
+
+    def foreign(self) -> np.ndarray:
+        """Rows another experiment's file labels anomalous at the same time (other/13's first
+        minutes are other/12's cavitation: the files were cut from one log)."""
+        if FOREIGN not in self.rows:
+            return np.zeros(len(self.rows), bool)
+        return self.rows[FOREIGN].to_numpy() > 0
 
 
 def _number(path: pathlib.Path) -> int:
@@ -77,7 +94,8 @@ def _number(path: pathlib.Path) -> int:
 
 
 def experiments(data_dir) -> list[Experiment]:
-    """Every test experiment of the dataset at ``data_dir``, by session and number."""
+    """Every test experiment of the dataset at ``data_dir``, by session and number; each
+    one's rows carry :data:`FOREIGN` (labelled anomalous by another file at that time)."""
     data = pathlib.Path(data_dir) / "data"
     found = []
     for folder, date, session in SESSIONS:
@@ -85,7 +103,20 @@ def experiments(data_dir) -> list[Experiment]:
             rows = read_skab_csv(path, asset_id=f"{folder}-{path.stem}")
             if date is None or rows["timestamp"].iloc[0].strftime("%Y-%m-%d") == date:
                 found.append(Experiment(f"{folder}/{path.stem}", path, session, rows))
-    return found
+    return with_foreign_labels(found)
+
+
+def with_foreign_labels(found: list[Experiment]) -> list[Experiment]:
+    """The experiments with :data:`FOREIGN` set on rows another file labels anomalous."""
+    out = []
+    for experiment in found:
+        others = [e.rows.loc[e.rows["anomaly"] > 0, "timestamp"] for e in found
+                  if e is not experiment]
+        flagged = pd.concat(others) if others else pd.Series([], dtype=object)
+        rows = experiment.rows.copy()
+        rows[FOREIGN] = rows["timestamp"].isin(flagged).astype(float)
+        out.append(Experiment(experiment.name, experiment.path, experiment.session, rows))
+    return out
 
 
 def healthy_file_rows(data_dir) -> pd.DataFrame:
@@ -116,7 +147,7 @@ def baseline_plan(experiment: Experiment, every: list[Experiment], healthy: pd.D
     only the rows of windows they cover for at least ``min_cover`` (the class grid's
     ``min_duration``), as an engineer picks the whole healthy windows to fit on."""
     earlier = [e for e in every if e.session == experiment.session and e.start < experiment.start
-               and e.prefix()["timestamp"].iloc[-1] < experiment.start]
+               and len(e.prefix()) and e.prefix()["timestamp"].iloc[-1] < experiment.start]
     sources = tuple(f"{e.name} prefix" for e in earlier)
     parts = tuple(e.prefix() for e in earlier)
     if experiment.session == "other-feb08":
@@ -152,16 +183,19 @@ def window_starts(experiment: Experiment, window: pd.Timedelta) -> pd.DatetimeIn
 
 
 def window_labels(experiment: Experiment, window: pd.Timedelta) -> pd.Series:
-    """``fault``, ``healthy`` or ``after`` per window start (module docstring)."""
+    """``fault``, ``healthy``, ``overlap`` or ``after`` per window start (module docstring)."""
     rows = experiment.rows
     starts = rows["timestamp"].dt.floor(window)
     anomalous = rows["anomaly"].to_numpy() > 0
+    foreign = experiment.foreign()
     onset = experiment.onset
     labels = {}
     for begin in window_starts(experiment, window):
         inside = (starts == begin).to_numpy()
         if anomalous[inside].any():
             labels[begin] = "fault"
+        elif foreign[inside].any():
+            labels[begin] = "overlap"
         elif onset is None or begin + window <= onset:
             labels[begin] = "healthy"
         else:

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from benchmarks.skab.detectors import CHANNELS, PcaModel, WindowDetector
-from benchmarks.skab.protocol import Experiment, baseline_plan, window_labels
+from benchmarks.skab.protocol import (Experiment, baseline_plan, window_labels,
+                                      with_foreign_labels)
 from benchmarks.skab.run import conditioned, fleet_config
 from flows.config import load_config
 from benchmarks.skab.scoring import PointCounts, point_counts, score_experiment
@@ -42,6 +43,19 @@ def test_windows_are_fault_healthy_or_after_by_their_rows():
     labels = window_labels(_experiment("valve1/1", rows), WINDOW)
     assert labels.index[0] == pd.Timestamp("2020-03-09 12:00", tz="UTC")
     assert list(labels) == ["healthy", "healthy", "fault", "fault", "after"]
+
+
+def test_rows_another_file_labels_anomalous_are_neither_healthy_nor_the_experiments_fault():
+    # the first file's fault (12:05 to 12:15) overlaps the second file's first 10 minutes,
+    # which that file labels normal (SKAB's other/12 and other/13)
+    earlier = _experiment("other/12", _rows("2020-02-08 11:55:00", 1200, onset=600))
+    later = _experiment("other/13", _rows("2020-02-08 12:05:00", 1200, onset=900))
+    earlier, later = with_foreign_labels([earlier, later])
+    assert later.foreign().sum() == 600 and not earlier.foreign().any()
+    labels = window_labels(later, WINDOW)
+    assert list(labels) == ["overlap", "overlap", "healthy", "fault"]
+    # its prefix stops before the other file's fault: no baseline gets those rows
+    assert len(later.prefix()) == 0 and len(earlier.prefix()) == 600
 
 
 def test_a_session_baseline_takes_only_earlier_whole_healthy_windows():
