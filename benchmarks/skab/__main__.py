@@ -1,5 +1,5 @@
 """``python -m benchmarks.skab``: the gray box on SKAB through the product's flows, scored
-against PCA T2+Q and Isolation forest on the same windows.
+against PCA T2+Q, Isolation forest and the project's classic detectors on the same windows.
 
 Examples
 --------
@@ -23,6 +23,7 @@ from dataclasses import asdict
 
 import pandas as pd
 
+from benchmarks.skab.classic import CLASSIC, classic_alarms
 from benchmarks.skab.data import dataset_dir
 from benchmarks.skab.detectors import DETECTORS, WindowDetector
 from benchmarks.skab.protocol import (baseline_plan, experiments, healthy_file_rows,
@@ -32,6 +33,8 @@ from benchmarks.skab.scoring import (HEADER, PointCounts, point_counts, score_ex
                                      summarise)
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
+#: every detector run beside the gray box on the same windows
+COMPARED = (*DETECTORS, *CLASSIC)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -73,7 +76,7 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
     prepare(workdir, plans, args.window, args.candidate_nights)
     gray = run_gray_box(workdir, plans, args.window,
                         progress=lambda line: print(line, file=sys.stderr, flush=True))
-    scores = {name: [] for name in ("gray_box", *DETECTORS)}
+    scores = {name: [] for name in ("gray_box", *COMPARED)}
     points = {name: PointCounts() for name in scores}
     windows = []
     for asset in sorted(plans, key=lambda a: plans[a][0].name):
@@ -83,9 +86,11 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
         alarms = {"gray_box": pd.Series({s: w.alarm for s, w in analysed.items()}, dtype=object)}
         rows = conditioned(experiment.rows)
         training = pd.concat([conditioned(p) for p in plan.parts], ignore_index=True)
-        for name in DETECTORS:
-            found = WindowDetector.fit(name, training, window).windows(rows, window)["alarm"]
-            alarms[name] = found[found.index.isin(list(analysed))].astype(object)
+        found = {name: WindowDetector.fit(name, training, window).windows(rows, window)["alarm"]
+                 for name in DETECTORS}
+        found.update(classic_alarms(training, rows, window))
+        for name, series in found.items():
+            alarms[name] = series[series.index.isin(list(analysed))].astype(object)
         for name, series in alarms.items():
             scores[name].append(score_experiment(experiment.name, labels, series,
                                                  experiment.onset))
@@ -100,7 +105,7 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
                             "tiers": [] if entry is None else list(entry.alarms),
                             "cause": "" if entry is None else entry.cause,
                             **{n: (None if start not in alarms[n].index else
-                                   bool(alarms[n][start])) for n in DETECTORS}})
+                                   bool(alarms[n][start])) for n in COMPARED}})
         failed = [w.status for w in gray[asset] if w.alarm is None]
         if failed:
             print(f"{experiment.name}: not analysed: {failed[0]}", file=sys.stderr)
@@ -122,7 +127,7 @@ def report(results: dict) -> str:
         lines += ["", "Not baselined (not scored):", ""]
         lines += [f"- {name}: {why}" for name, why in results["not_baselined"].items()]
     lines += ["", "| experiment | window | label | gray box (tiers) | ratio | likely cause | "
-              + " | ".join(DETECTORS) + " |", "|---|---|---|---|---|---|" + "---|" * len(DETECTORS)]
+              + " | ".join(COMPARED) + " |", "|---|---|---|---|---|---|" + "---|" * len(COMPARED)]
     mark = {True: "alarm", False: "-", None: "n/a"}
     for w in results["windows"]:
         tiers = ", ".join(sorted(set(w["tiers"])))
@@ -130,7 +135,7 @@ def report(results: dict) -> str:
         lines.append(f"| {w['experiment']} | {w['window_start'][11:16]} | {w['label']} | "
                      f"{mark[w['gray_box']]}{' (' + tiers + ')' if tiers else ''} | {ratio} | "
                      f"{w['cause']} | "
-                     + " | ".join(mark[w[n]] for n in DETECTORS) + " |")
+                     + " | ".join(mark[w[n]] for n in COMPARED) + " |")
     return "\n".join(lines) + "\n"
 
 

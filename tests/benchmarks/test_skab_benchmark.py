@@ -1,6 +1,7 @@
 """The SKAB benchmark's smoke run (issue 20): two experiments through the product's own
 command line (import, baseline fit, reanalyze), every baseline fitting and each experiment
-scored by the gray box and the comparison detectors.
+scored by the gray box and the comparison detectors (PCA T2+Q, Isolation forest, the project's
+classic detectors).
 
 Reads the GPL-3.0 data from ``../shared/datasets/skab`` beside the repository (never copied
 into it); skipped when that folder is absent.
@@ -38,7 +39,7 @@ def test_two_experiments_are_baselined_reanalysed_and_scored(tmp_path):
     results = json.loads((tmp_path / "skab.json").read_text())
     assert results["not_baselined"] == {}
     # each experiment scored by every detector, on the windows the gray box analysed
-    for detector in ("gray_box", "pca_t2q", "iforest"):
+    for detector in ("gray_box", "pca_t2q", "iforest", "classic_cusum_mean", "classic_glr"):
         scored = results["experiments"][detector]
         assert [s["experiment"] for s in scored] == ["other/5", "valve1/4"]
         assert all(s["fault_windows"] >= 2 and s["healthy_windows"] >= 1 for s in scored)
