@@ -13,7 +13,8 @@ that the window's rate stays near ``alpha`` (1 %, the gray box's target).
 
 Only whole windows are used: each window's rows go on the 1-s grid (the product's grid) and
 its first :data:`SAMPLES` residual samples are kept, so every "day" has the same length, as the
-calibration needs.
+calibration needs. A baseline of fewer than 3 whole windows leaves the experiment unanalysed
+by these detectors (its windows count neither way).
 """
 from __future__ import annotations
 
@@ -38,6 +39,8 @@ ALPHA = 0.01
 GRID = GridPolicy(sample_interval=SKAB_GRID.sample_interval, max_gap=SKAB_GRID.max_gap,
                   min_duration=240.0, intermittent=True)
 CLASSIC = tuple(f"classic_{name}" for name in DETECTORS)
+#: whole baseline windows the calibration needs (benchmarks.detection.classic.calibrate)
+MIN_DAYS = 3
 
 
 def _model(parameters=None):
@@ -77,6 +80,9 @@ def classic_alarms(training_rows: pd.DataFrame, test_rows: pd.DataFrame,
                    window: pd.Timedelta) -> dict[str, pd.Series]:
     """Per classic detector, ``alarm`` per whole test window."""
     training = window_grids(training_rows, window)
+    if len(training) < MIN_DAYS:
+        # the calibration's leave-one-out needs 3 days: nothing is analysed (not "no alarm")
+        return {name: pd.Series([], dtype=object) for name in CLASSIC}
     model = tuned_model(training)
     days = residuals(model, training)
     tests = residuals(model, window_grids(test_rows, window))
