@@ -103,6 +103,8 @@ class Summary:
 
 
 def summarise(detector: str, scores: list[ExperimentScore], points: PointCounts) -> Summary:
+    """The detector over the experiments it analysed (a window of them, at least)."""
+    scores = [s for s in scores if s.fault_windows + s.healthy_windows > 0]
     delays = [s.delay_s for s in scores if s.delay_s is not None]
     return Summary(detector, len(scores), sum(s.detected for s in scores),
                    sum(s.false_alarm for s in scores), sum(s.healthy_windows for s in scores),

@@ -13,7 +13,8 @@ from benchmarks.skab.protocol import (Experiment, baseline_plan, window_labels,
                                       with_foreign_labels)
 from benchmarks.skab.run import conditioned, fleet_config
 from flows.config import load_config
-from benchmarks.skab.scoring import PointCounts, point_counts, score_experiment
+from benchmarks.skab.scoring import (ExperimentScore, PointCounts, point_counts,
+                                     score_experiment, summarise)
 
 WINDOW = pd.Timedelta("5min")
 
@@ -148,3 +149,10 @@ def test_the_benchmark_fleet_is_a_configuration_the_product_accepts(tmp_path):
     skab = config.classes["skab_pump"]
     assert skab.grid.min_duration == 240
     assert "vibration_1_level" in skab.estimate
+
+
+def test_a_detector_is_summarised_over_the_experiments_it_analysed():
+    analysed = ExperimentScore("a", True, False, 60.0, 1, 2, 1)
+    unanalysed = ExperimentScore("b", False, False, None, 0, 0, 0)
+    summary = summarise("d", [analysed, unanalysed], PointCounts())
+    assert (summary.experiments, summary.detected, summary.median_delay_s) == (1, 1, 60.0)
