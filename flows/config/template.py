@@ -57,7 +57,7 @@ lookback = "{nightly.lookback}"                     # late-arriving windows befo
 candidate_nights = {candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
 task_runner = "{nightly.task_runner}"            # "dask": batches at once on the [dask] cluster
 
-# [dask]                                   # with task_runner = "dask" (README "Running on a Dask cluster")
+# [dask]                                   # with task_runner = "dask" (docs/operations.md)
 # address = "tcp://scheduler:8786"         # an existing cluster; or (not both) a LocalCluster per run:
 # workers = 2                              # its worker processes (default: one per core)
 # threads_per_worker = {DaskSettings().threads_per_worker}                   # batches at once per worker
