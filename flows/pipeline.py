@@ -131,10 +131,14 @@ class PendingAsset:
         return sum(w.nbytes for w in self.windows)
 
     def fail(self, error: BaseException, window_start=None) -> None:
-        """Mark the asset failed; the first error is the one reported."""
+        """Mark the asset failed; the first error is the one reported, and a window's error
+        is kept with every other window's (``AssetResult.window_errors``)."""
+        described = describe_error(error, window_start)
+        if window_start is not None:
+            self.result.window_errors.append(described)
         if self.result.error is None:
             self.result.status = FAILED
-            self.result.error = describe_error(error, window_start)
+            self.result.error = described
 
 
 def configured_models(config: FleetConfig, ref: AssetRef) -> frozenset[str]:

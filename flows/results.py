@@ -124,6 +124,9 @@ class AssetResult:
     error: ErrorInfo | None = None
     alerts: list[Alert] = field(default_factory=list)
     note: str | None = None
+    #: every window that failed, in the order met (``error`` is the first of them or the
+    #: asset's own error): a reanalysis goes on past a failed window, and each one is named
+    window_errors: list[ErrorInfo] = field(default_factory=list)
 
     @property
     def failed(self) -> bool:
@@ -133,6 +136,7 @@ class AssetResult:
         data = asdict(self)
         data["error"] = None if self.error is None else self.error.to_dict()
         data["alerts"] = [alert.to_dict() for alert in self.alerts]
+        data["window_errors"] = [error.to_dict() for error in self.window_errors]
         return data
 
     @classmethod
@@ -141,6 +145,7 @@ class AssetResult:
         data["windows"] = [WindowResult(**w) for w in data.get("windows", [])]
         data["error"] = ErrorInfo.from_dict(data.get("error"))
         data["alerts"] = [Alert.from_dict(a) for a in data.get("alerts", [])]
+        data["window_errors"] = [ErrorInfo.from_dict(e) for e in data.get("window_errors", [])]
         return cls(**data)
 
     def reason(self) -> str:

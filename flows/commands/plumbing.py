@@ -179,6 +179,10 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
             continue
         what = "failed" if asset.failed else f"not monitored ({asset.status})"
         print(f"fleet-health: {asset.asset_id} {what}: {asset.reason()}", file=sys.stderr)
+        for error in asset.window_errors:
+            if error != asset.error:             # the first is the line above
+                print(f"fleet-health: {asset.asset_id} window {error.window_start} failed "
+                      f"too: {error.message}", file=sys.stderr)
     return summary.exit_status
 
 

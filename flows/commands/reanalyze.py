@@ -72,7 +72,8 @@ def reanalyze(args: argparse.Namespace) -> int:
 
 
 def window_table(summary: RunSummary) -> Table:
-    """Every reanalysed window of every asset, with its ratio and alarm."""
+    """Every reanalysed window of every asset, with its ratio and alarm, and every window
+    that failed."""
     table = Table(title="Reanalysed windows", title_justify="left")
     for column in ("asset", "window", "against", "max zeta/epsilon", "alarm", "run"):
         table.add_column(column, no_wrap=True)
@@ -82,4 +83,8 @@ def window_table(summary: RunSummary) -> Table:
             table.add_row(asset.asset_id, window_label(w.window_start, w.window_end),
                           f"v{asset.baseline_version}", ratio,
                           "[bold red]ALARM[/]" if w.alarm else "ok", w.run_id[:12])
+        for error in asset.window_errors:       # the reason is printed below the tables
+            table.add_row(asset.asset_id, f"{error.window_start[:16].replace('T', ' ')} ...",
+                          f"v{asset.baseline_version}", "", "[bold]FAILED[/]",
+                          error.kind or error.type)
     return table
