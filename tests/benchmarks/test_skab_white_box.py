@@ -64,3 +64,16 @@ def test_baseline_signature_fits_with_the_defaults(model, frame):
     (signature,) = signatures
     assert {channel.channel for channel in signature.channels} == set(model.outputs)
     assert signature.analysis_step >= 1.0
+
+
+def test_the_recorded_defaults_are_what_the_estimate_gives_on_the_healthy_file(frame):
+    # benchmarks/skab/estimate.py (python -m benchmarks.skab.estimate): the white box's
+    # data-dependent defaults are its printout, rounded as recorded in the class
+    from benchmarks.skab.estimate import energy_balance_defaults
+
+    estimates = energy_balance_defaults(frame)
+    assert set(estimates) == {"motor_ambient_conductance", "fluid_ambient_conductance",
+                              "flow_per_watt", "flow_time_constant", "vibration_1_level",
+                              "vibration_2_level"}
+    for name, value in estimates.items():
+        assert SkabPump.default_parameters[name] == pytest.approx(value, rel=5e-3), name
