@@ -34,6 +34,8 @@ class Tier:
     """
 
     name: str = ""
+    #: the name of the tier's one stored array (:meth:`tensors`), e.g. ``coefficients``
+    tensor_part: str = ""
 
     def present(self, channel: ChannelSignature) -> bool:
         """Whether ``channel`` has this tier (signatures stored before a tier existed lack it).
@@ -61,6 +63,21 @@ class Tier:
         values : ndarray of shape (len(names),)
         """
         raise NotImplementedError
+
+    def tensors(self, channel: ChannelSignature) -> dict[str, np.ndarray]:
+        """The tier's parameters as the arrays a signature bundle stores, by part name (the
+        bundle names them ``<channel>.<tier>.<part>``): by default one array,
+        :attr:`tensor_part`, of :meth:`parameters`' values.
+
+        Parameters
+        ----------
+        channel : ChannelSignature
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
+        return {self.tensor_part: self.parameters(channel)[1]}
 
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
         """Per-parameter changes of ``candidate`` from ``baseline``, in the units zeta sums
@@ -127,6 +144,7 @@ class LinearTierKind(Tier):
     """The AR tier: coefficients ``a_1..a_n``; changes ``a_i - a_i0``."""
 
     name = "linear"
+    tensor_part = "coefficients"
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         coefficients = channel.linear.coefficients
@@ -146,6 +164,11 @@ class NonlinearTierKind(Tier):
     """
 
     name = "nonlinear"
+
+    def tensors(self, channel: ChannelSignature) -> dict[str, np.ndarray]:
+        """``input_weights`` of shape (J, m) and ``output_weights`` (J,)."""
+        w, W = channel.nonlinear.weight_arrays()
+        return {"input_weights": w, "output_weights": W}
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         w, W = channel.nonlinear.weight_arrays()
@@ -209,6 +232,7 @@ class NoiseTierKind(Tier):
     """
 
     name = "noise"
+    tensor_part = "moments"
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         names = ["mean", "variance", "skewness", "excess_kurtosis"]
@@ -235,6 +259,7 @@ class LevelTierKind(Tier):
     """
 
     name = "level"
+    tensor_part = "level"
 
     def present(self, channel: ChannelSignature) -> bool:
         return channel.level is not None

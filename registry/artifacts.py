@@ -37,7 +37,7 @@ from safetensors.numpy import save as save_tensors
 
 from graybox.calibration import Calibration
 from graybox.exceptions import ArtifactError
-from graybox.signature import TIER_KINDS, TIERS, Signature, tier_parameters
+from graybox.signature import TIER_KINDS, Signature
 
 SIGNATURE_FILE = "signature.json"
 CALIBRATION_FILE = "calibration.json"
@@ -75,7 +75,8 @@ def sha256_bytes(data: bytes) -> str:
 
 
 def weight_tensors(signature: Signature) -> dict[str, np.ndarray]:
-    """Every tier's parameters as float64 arrays, named ``<channel>.<tier>.<part>``.
+    """Every tier's parameters as float64 arrays, named ``<channel>.<tier>.<part>``; each tier
+    kind names its parts (:meth:`graybox.tiers.Tier.tensors`).
 
     ``<channel>.nonlinear.input_weights`` has shape (J, m), ``.output_weights`` (J,),
     ``<channel>.linear.coefficients`` (n,), ``<channel>.noise.moments`` (4,) and, when the
@@ -83,17 +84,11 @@ def weight_tensors(signature: Signature) -> dict[str, np.ndarray]:
     """
     tensors: dict[str, np.ndarray] = {}
     for channel in signature.channels:
-        w, W = channel.nonlinear.weight_arrays()
-        tensors[f"{channel.channel}.nonlinear.input_weights"] = np.ascontiguousarray(w, np.float64)
-        tensors[f"{channel.channel}.nonlinear.output_weights"] = np.ascontiguousarray(W, np.float64)
-        _, coefficients = tier_parameters(channel, "linear")
-        tensors[f"{channel.channel}.linear.coefficients"] = np.ascontiguousarray(coefficients, np.float64)
-        _, moments = tier_parameters(channel, "noise")
-        tensors[f"{channel.channel}.noise.moments"] = np.ascontiguousarray(moments, np.float64)
-        if channel.level is not None:
-            _, level = tier_parameters(channel, "level")
-            tensors[f"{channel.channel}.level.level"] = np.ascontiguousarray(level, np.float64)
-    assert set(TIERS) == {"linear", "nonlinear", "noise", "level"}
+        for kind in TIER_KINDS:
+            if kind.present(channel):
+                for part, values in kind.tensors(channel).items():
+                    tensors[f"{channel.channel}.{kind.name}.{part}"] = np.ascontiguousarray(
+                        values, np.float64)
     return tensors
 
 

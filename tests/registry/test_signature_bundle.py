@@ -116,3 +116,20 @@ def test_wrong_asset_is_refused(tmp_path, fits):
     write_bundle(tmp_path / "b", fits.baseline, asset_id="T-02")
     with pytest.raises(ArtifactError, match="belongs to asset 'T-02'"):
         read_bundle(tmp_path / "b", expected_asset_id="T-01")
+
+
+def test_the_stored_arrays_keep_their_names_and_shapes(fits):
+    # bundles written before the tier kinds named their own arrays must still be read
+    tensors = weight_tensors(fits.baseline)
+    expected = {}
+    for channel in fits.baseline.channels:
+        c = channel.channel
+        w, W = channel.nonlinear.weight_arrays()
+        expected[f"{c}.nonlinear.input_weights"] = w.shape
+        expected[f"{c}.nonlinear.output_weights"] = (len(W),)
+        expected[f"{c}.linear.coefficients"] = (len(channel.linear.coefficients),)
+        expected[f"{c}.noise.moments"] = (4,)
+        if channel.level is not None:
+            expected[f"{c}.level.level"] = (1,)
+    assert {name: values.shape for name, values in tensors.items()} == expected
+    assert all(values.dtype == np.float64 for values in tensors.values())
