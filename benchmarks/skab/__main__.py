@@ -28,7 +28,7 @@ from benchmarks.skab.data import dataset_dir
 from benchmarks.skab.detectors import DETECTORS, WindowDetector
 from benchmarks.skab.protocol import (baseline_plan, experiments, healthy_file_rows,
                                       point_labels, window_labels)
-from benchmarks.skab.run import (MIN_DURATION, WINDOW, conditioned, prepare, run_gray_box)
+from benchmarks.skab.run import MIN_DURATION, WINDOW, Conditioned, prepare, run_gray_box
 from benchmarks.skab.scoring import (HEADER, PointCounts, point_counts, score_experiment,
                                      summarise)
 
@@ -73,19 +73,19 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
             plans[experiment.asset] = (experiment, plan)
         else:
             unplanned[experiment.name] = plan.reason
-    prepare(workdir, plans, args.window, args.candidate_nights)
+    data = {asset: Conditioned.of(*planned) for asset, planned in plans.items()}
+    prepare(workdir, data, args.window, args.candidate_nights)
     gray = run_gray_box(workdir, plans, args.window,
                         progress=lambda line: print(line, file=sys.stderr, flush=True))
     scores = {name: [] for name in ("gray_box", *COMPARED)}
     points = {name: PointCounts() for name in scores}
     windows = []
     for asset in sorted(plans, key=lambda a: plans[a][0].name):
-        experiment, plan = plans[asset]
+        experiment, _ = plans[asset]
         labels = window_labels(experiment, window)
         analysed = {w.start: w for w in gray[asset] if w.alarm is not None}
         alarms = {"gray_box": pd.Series({s: w.alarm for s, w in analysed.items()}, dtype=object)}
-        rows = conditioned(experiment.rows)
-        training = pd.concat([conditioned(p) for p in plan.parts], ignore_index=True)
+        rows, training = data[asset].rows, data[asset].training()
         found = {name: WindowDetector.fit(name, training, window).windows(rows, window)["alarm"]
                  for name in DETECTORS}
         found.update(classic_alarms(training, rows, window))

@@ -146,13 +146,15 @@ def baseline_plan(experiment: Experiment, every: list[Experiment], healthy: pd.D
     """The healthy data of ``experiment``'s session that is not in it (module docstring):
     only the rows of windows they cover for at least ``min_cover`` (the class grid's
     ``min_duration``), as an engineer picks the whole healthy windows to fit on."""
-    earlier = [e for e in every if e.session == experiment.session and e.start < experiment.start
-               and len(e.prefix()) and e.prefix()["timestamp"].iloc[-1] < experiment.start]
-    sources = tuple(f"{e.name} prefix" for e in earlier)
-    parts = tuple(e.prefix() for e in earlier)
-    if experiment.session == "other-feb08":
-        sources, parts = ("anomaly-free", *sources), (healthy, *parts)
-    parts = tuple(p for p in (_whole_windows(p, window, min_cover) for p in parts) if len(p))
+    candidates = [] if experiment.session != "other-feb08" else [("anomaly-free", healthy)]
+    for e in every:
+        if e.session == experiment.session and e.start < experiment.start:
+            prefix = e.prefix()
+            if len(prefix) and prefix["timestamp"].iloc[-1] < experiment.start:
+                candidates.append((f"{e.name} prefix", prefix))
+    kept = [(source, whole) for source, rows in candidates
+            if len(whole := _whole_windows(rows, window, min_cover))]
+    sources, parts = tuple(s for s, _ in kept), tuple(p for _, p in kept)
     if not parts:
         return BaselinePlan((), (), None, None, "no earlier healthy rows in its session")
     start = min(p["timestamp"].iloc[0] for p in parts).floor(window)

@@ -32,6 +32,7 @@ import pandas as pd
 from benchmarks.skab.data import (INPUT_AVERAGING, SKAB_GRID, TESTBED_TIMEZONE)
 from benchmarks.skab.protocol import BaselinePlan, Experiment
 from benchmarks.skab.white_box import SKAB_COLUMNS
+from registry.alert_diagnosis import cause_text
 
 WINDOW = "5min"
 CLASS_NAME = "skab_pump"
@@ -147,26 +148,33 @@ class GrayBoxWindow:
     cause: str = ""                    # the top diagnosis of the window's largest alert
 
 
-def top_cause(alert: dict) -> str:
-    """The alert's best-ranked fault hypothesis with its estimate, or ""."""
-    if not alert.get("diagnosis"):
-        return ""
-    best = alert["diagnosis"][0]
-    low, high = best["interval"]
-    return (f"{best['hypothesis']}: {best['baseline']:.3g} -> {best['estimate']:.3g} "
-            f"({low:.3g} to {high:.3g})")
+@dataclass(frozen=True)
+class Conditioned:
+    """An experiment's rows and its baseline's healthy parts, conditioned (what is imported,
+    and what the comparison detectors see)."""
+
+    rows: pd.DataFrame
+    parts: tuple[pd.DataFrame, ...]
+
+    @classmethod
+    def of(cls, experiment: Experiment, plan: BaselinePlan) -> "Conditioned":
+        return cls(conditioned(experiment.rows), tuple(conditioned(p) for p in plan.parts))
+
+    def training(self) -> pd.DataFrame:
+        """The healthy parts as one frame."""
+        return pd.concat(self.parts, ignore_index=True)
 
 
-def prepare(workdir: pathlib.Path, plans: dict[str, tuple[Experiment, BaselinePlan]],
-            window: str = WINDOW, candidate_nights: int = 1) -> None:
+def prepare(workdir: pathlib.Path, data: dict[str, Conditioned], window: str = WINDOW,
+            candidate_nights: int = 1) -> None:
     """Write the conditioned exports and the fleet.toml of every experiment with a baseline."""
     workdir.mkdir(parents=True, exist_ok=True)
-    (workdir / "fleet.toml").write_text(fleet_config(sorted(plans), window, candidate_nights))
-    for asset, (experiment, plan) in plans.items():
+    (workdir / "fleet.toml").write_text(fleet_config(sorted(data), window, candidate_nights))
+    for asset, frames in data.items():
         folder = workdir / "exports" / asset
-        for index, part in enumerate(plan.parts):
-            write_export(conditioned(part), folder / f"healthy-{index}.csv")
-        write_export(conditioned(experiment.rows), folder / "experiment.csv")
+        for index, part in enumerate(frames.parts):
+            write_export(part, folder / f"healthy-{index}.csv")
+        write_export(frames.rows, folder / "experiment.csv")
 
 
 def run_gray_box(workdir: pathlib.Path, plans: dict[str, tuple[Experiment, BaselinePlan]],
@@ -204,6 +212,11 @@ def run_gray_box(workdir: pathlib.Path, plans: dict[str, tuple[Experiment, Basel
     return results
 
 
+def _likely_cause(alert: dict) -> str:
+    """The product's own "likely cause" line of an alert's diagnosis ("" if none)."""
+    return cause_text(alert["diagnosis"][0] if alert.get("diagnosis") else None)
+
+
 def windows_of(summary: dict, asset: str, baseline_status: str) -> list[GrayBoxWindow]:
     """The reanalysis summary's windows of ``asset`` (alarmed tiers from its alerts)."""
     (entry,) = [a for a in summary["assets"] if a["asset_id"] == asset]
@@ -216,7 +229,7 @@ def windows_of(summary: dict, asset: str, baseline_status: str) -> list[GrayBoxW
             largest[start] = alert
     out = [GrayBoxWindow(pd.Timestamp(w["window_start"]), bool(w["alarm"]), w["max_ratio"],
                          entry["status"], tuple(alarms.get(w["window_start"], ())),
-                         top_cause(largest.get(w["window_start"], {})))
+                         _likely_cause(largest.get(w["window_start"], {})))
            for w in entry.get("windows", [])]
     if not out:
         reason = entry.get("error", {}) or {}
