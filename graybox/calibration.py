@@ -68,7 +68,7 @@ from graybox.telemetry.window import window_periods
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock
-from graybox.state_cache import StateCache
+from graybox.segment_cache import SegmentCache
 from graybox.tiers import TIER_KINDS, TIERS
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
@@ -232,9 +232,11 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
     settings = settings or GrayBoxSettings()
     fresh = [replace(r, baseline=None, warm_start=None) for r in requests]
-    # every window is fitted several times below; its hidden states are estimated once
-    cache = StateCache()
+    # every window is fitted several times below: its hidden states, residual and level
+    # data are computed once (the pieces, new data, are not kept)
+    cache = SegmentCache()
     signatures = fit_signatures(fresh, settings, chunk_size, clock, cache)
+    cache.storing = False
     results: list = list(signatures)
     jobs = []  # (position, baseline signature, number of windows)
     for position, (request, signature) in enumerate(zip(fresh, signatures)):

@@ -145,10 +145,54 @@ def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: fl
     return state
 
 
+def segment_level_data(model: WhiteBoxModel, window: WindowStates, dt: float, k: int,
+                       stride: int = 1, integration: Integration | None = None
+                       ) -> tuple[np.ndarray, np.ndarray] | None:
+    """One segment's k-step errors and predictions (see :func:`level_data`).
+
+    Returns
+    -------
+    (errors, predicted) or None
+        ``errors`` and ``predicted`` of shape (N, n_outputs), one row every ``stride``
+        samples from sample ``k``; None when the segment is not longer than ``k``.
+    """
+    if len(window.y) <= k:
+        return None
+    predicted = k_step_prediction(model, window.states, window.u, dt, k, stride=stride,
+                                  integration=integration)
+    measured = window.y[k::stride]
+    predicted = model.output(predicted, window.u[k::stride])
+    check_prediction(model, measured, predicted, f"{k}-step prediction")
+    return measured - predicted, predicted
+
+
+def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
+                    parts: Sequence[tuple[np.ndarray, np.ndarray] | None], k: int,
+                    stride: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """:func:`level_data` from each segment's :func:`segment_level_data`."""
+    errors = {name: [] for name in model.outputs}
+    features = {name: [] for name in model.outputs}
+    segments = []
+    for position, (window, part) in enumerate(zip(windows, parts)):
+        if part is None:
+            continue
+        error, predicted = part
+        segments.append(np.full(len(error), position))
+        for i, name in enumerate(model.outputs):
+            errors[name].append(error[:, i])
+            features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
+    if not segments:
+        raise InsufficientDataError(f"channel {model.outputs[0]!r}: no segment is longer "
+                                    f"than the level tier's horizon of {k} samples")
+    positions = np.concatenate(segments)
+    return {name: (np.concatenate(errors[name]), np.concatenate(features[name]), positions)
+            for name in model.outputs}
+
+
 def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFrame], dt: float,
                k: int,
                stride: int = 1, integration: Integration | None = None
-               ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+               ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per output channel, the k-step errors and their operating features, pooled over
     segments (a prediction never crosses a segment border); one prediction every
     ``stride`` samples.
@@ -160,30 +204,12 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
         prediction, then the inputs at the predicted sample; ``segments`` (N,): the position
         in ``windows`` each sample comes from.
     """
-    errors = {name: [] for name in model.outputs}
-    features = {name: [] for name in model.outputs}
-    segments = []
-    for position, window in enumerate(windows):
-        if isinstance(window, pd.DataFrame):
-            window = estimate_states(model, *window_arrays(model, window), dt,
-                                     integration or Integration())
-        if len(window.y) <= k:
-            continue
-        predicted = k_step_prediction(model, window.states, window.u, dt, k, stride=stride,
-                                      integration=integration)
-        measured = window.y[k::stride]
-        predicted = model.output(predicted, window.u[k::stride])
-        check_prediction(model, measured, predicted, f"{k}-step prediction")
-        segments.append(np.full(len(measured), position))
-        for i, name in enumerate(model.outputs):
-            errors[name].append(measured[:, i] - predicted[:, i])
-            features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
-    if not segments:
-        raise InsufficientDataError(f"channel {model.outputs[0]!r}: no segment is longer "
-                                    f"than the level tier's horizon of {k} samples")
-    positions = np.concatenate(segments)
-    return {name: (np.concatenate(errors[name]), np.concatenate(features[name]), positions)
-            for name in model.outputs}
+    windows = [estimate_states(model, *window_arrays(model, window), dt,
+                               integration or Integration())
+               if isinstance(window, pd.DataFrame) else window for window in windows]
+    parts = [segment_level_data(model, window, dt, k, stride, integration)
+             for window in windows]
+    return pool_level_data(model, windows, parts, k, stride)
 
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,

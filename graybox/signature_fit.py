@@ -22,8 +22,8 @@ from graybox.analysis_rate import choose_analysis_interval, decimate, decimation
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.integration import Integration, IntegrationError, choose_integration
-from graybox.level_tier import (LevelTier, fit_level, horizon_samples, level_data,
-                                operating_features, start_stride)
+from graybox.level_tier import (LevelTier, fit_level, horizon_samples, operating_features,
+                                pool_level_data, segment_level_data, start_stride)
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
@@ -37,7 +37,7 @@ from graybox.settings import GrayBoxSettings
 from graybox.signature import (ChannelSignature, ChannelStructure, HiddenStart, Selection,
                                Signature)
 from graybox.stage_clock import StageClock, timed
-from graybox.state_cache import StateCache
+from graybox.segment_cache import SegmentCache
 from graybox.state_estimation import WindowStates, estimate_states, window_arrays
 from graybox.telemetry.window import window_periods
 from graybox.stationarize import choose_differencing
@@ -137,7 +137,7 @@ def _operating_segments(parts, settings: GrayBoxSettings, interval: float
 
 
 def _prepare(request: FitRequest, settings: GrayBoxSettings,
-             clock: StageClock | None = None, cache: StateCache | None = None) -> _Prepared:
+             clock: StageClock | None = None, cache: SegmentCache | None = None) -> _Prepared:
     if not request.windows:
         raise InsufficientDataError("no telemetry windows to fit")
     parts = [_window_parts(w) for w in request.windows]
@@ -159,16 +159,22 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
                                      int(_per_window([len(f) for f in frames], owners).min()))
         factor = decimation_factor(analysis, interval)
         window = settings.derivative_window(interval)
-        residuals = [residual_frame(model, frame, settings.residual, interval, window,
-                                    integration, segment)
-                     for frame, segment in zip(frames, states)]
-        decimated = {name: [decimate(r[name].to_numpy(), factor) for r in residuals]
-                     for name in model.outputs}
-        del residuals
+        def residual(frame, segment) -> dict[str, np.ndarray]:
+            r = residual_frame(model, frame, settings.residual, interval, window, integration,
+                               segment)
+            return {name: decimate(r[name].to_numpy(), factor) for name in model.outputs}
+
+        details = (interval, integration, settings.residual, window, factor)
+        per_segment = [residual(frame, segment) if cache is None else
+                       cache.remember("residual", model, segment, details,
+                                      lambda f=frame, s=segment: residual(f, s))
+                       for frame, segment in zip(frames, states)]
+        decimated = {name: [r[name] for r in per_segment] for name in model.outputs}
+        del per_segment
         # the level tier at the analysis interval too: a 1-Hz window costs several times fewer
         # integration steps and loses nothing (the level moves far slower than a sample)
         levels = _fit_levels(request, [segment.decimated(factor) for segment in states],
-                             analysis, integration, owners)
+                             analysis, integration, owners, cache)
     starts = [frame.index[0] for frame in frames]
     ends = [frame.index[-1] + pd.Timedelta(seconds=interval) for frame in frames]
     hidden = (tuple(HiddenStart(frame.index[0].isoformat(), segment.initial_hidden)
@@ -187,7 +193,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings,
 
 
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
-               cache: StateCache | None) -> tuple[Integration, list[WindowStates]]:
+               cache: SegmentCache | None) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
 
     A new baseline's integrator is chosen at the data's own states
@@ -223,8 +229,8 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
 
 
 def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
-                interval: float, integration: Integration, owners: Sequence[int]
-                ) -> dict[str, LevelTier]:
+                interval: float, integration: Integration, owners: Sequence[int],
+                cache: SegmentCache | None = None) -> dict[str, LevelTier]:
     """The level tier of every channel (:mod:`graybox.level_tier`) of ``windows`` sampled
     every ``interval`` seconds (the analysis interval: every ``factor``-th telemetry sample);
     ``owners`` the telemetry window of each segment.
@@ -241,8 +247,16 @@ def _fit_levels(request: FitRequest, windows: Sequence[WindowStates],
         if any(level is None for level in references.values()):
             return {}
         horizon = next(iter(references.values())).horizon
-    data = level_data(request.model, windows, interval, horizon, start_stride(interval),
-                      integration)
+    model, stride = request.model, start_stride(interval)
+
+    def segment(window: WindowStates):
+        return segment_level_data(model, window, interval, horizon, stride, integration)
+
+    parts = [segment(window) if cache is None else
+             cache.remember("level", model, window, (interval, horizon, stride, integration),
+                            lambda w=window: segment(w))
+             for window in windows]
+    data = pool_level_data(model, windows, parts, horizon, stride)
     levels = {}
     for name in outputs:
         try:
@@ -498,7 +512,7 @@ def tuned_request(request: FitRequest) -> tuple[FitRequest, ParameterEstimate | 
 
 def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
                    chunk_size: int = 32, clock: StageClock | None = None,
-                   cache: StateCache | None = None) -> list[Signature | GrayBoxError]:
+                   cache: SegmentCache | None = None) -> list[Signature | GrayBoxError]:
     """Fit many assets' signatures; all networks of a shape train in batched computations.
 
     Parameters
@@ -514,7 +528,7 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     clock : StageClock, optional
         Accumulates the seconds of the stages ``residual``, ``stationarize_ar``, ``network``
         and ``noise``.
-    cache : StateCache, optional
+    cache : SegmentCache, optional
         Hidden-state estimates of segments fitted before (by a calibration's earlier fits).
 
     Returns
@@ -541,7 +555,7 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
 
 
 def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
-               chunk_size: int, clock: StageClock | None, cache: StateCache | None
+               chunk_size: int, clock: StageClock | None, cache: SegmentCache | None
                ) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     prepared, positions = [], []

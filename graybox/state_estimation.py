@@ -60,7 +60,7 @@ class WindowStates:
         The fitted hidden state at the first sample (empty without hidden states).
     chunk_starts : ndarray (n_chunks, n_hidden), optional
         The chained hidden states at the multiple-shooting chunks' first samples: the run
-        again from them is the same estimate (:class:`graybox.state_cache.StateCache`).
+        again from them is the same estimate (:class:`graybox.segment_cache.SegmentCache`).
     """
 
     y: np.ndarray
