@@ -26,8 +26,8 @@ from prefect import flow
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import (batch_task, batch_task_body, guard_asset_error, no_telemetry,
-                            run_over_fleet)
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, no_telemetry, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
@@ -154,19 +154,11 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
                              fit_and_record, baseline=True)
 
 
-@batch_task("baseline-batch", "baseline {label}")
-def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                   end: str, promote: bool, reason: str | None, label: str) -> dict:
-    """One batch of baseline fits (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_baseline_batch, config_path, tracking_uri, refs, start, end,
-                           promote, reason)
-
-
 def run_baseline(config: FleetConfig, config_path: str, start, end,
                  tracking_uri: str | None = None, assets: Sequence[str] | None = None,
                  vehicle_class: str | None = None, promote: bool = False,
                  reason: str | None = None) -> RunSummary:
-    """The baseline flow's body (plain Python calling the batch task)."""
+    """The baseline flow's body (plain Python running the batch task)."""
     if promote and not (reason and reason.strip()):
         raise UsageError("--promote needs --reason (it is recorded with the promotion)")
     baseline_windows(config, start, end)   # fail early on a too-short range
@@ -178,9 +170,9 @@ def run_baseline(config: FleetConfig, config_path: str, start, end,
     missing = no_telemetry if not assets else (lambda ref: AssetResult(
         ref.asset_id, ref.vehicle_class, FAILED,
         error=describe_error(RuntimeError("no telemetry in the store"))))
-    return run_over_fleet(summary, baseline_batch, config,
-                          (config_path, tracking_uri, utc(start).isoformat(),
-                           utc(end).isoformat(), promote, reason),
+    job = BatchJob.for_fleet("baseline", config, tracking_uri, start=utc(start).isoformat(),
+                             end=utc(end).isoformat(), promote=promote, reason=reason)
+    return run_over_fleet(summary, job, config,
                           f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
                           assets, vehicle_class, missing)
 

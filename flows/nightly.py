@@ -88,7 +88,8 @@ from registry.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
-from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
@@ -301,24 +302,16 @@ def _progress_text(result: AssetResult) -> str:
 
 # -- Prefect ---------------------------------------------------------------------------------
 
-@batch_task("nightly-batch", "nightly {label}")
-def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,
-                  label: str) -> dict:
-    """One batch of assets (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_batch, config_path, tracking_uri, refs, as_of)
-
-
 def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
                 as_of=None, assets: Sequence[str] | None = None,
                 vehicle_class: str | None = None) -> RunSummary:
-    """The nightly pass as plain Python calling the batch task (the flow's body)."""
+    """The nightly pass as plain Python running the batch task (the flow's body)."""
     as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
                 else pd.Timestamp.now(tz="UTC"))
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
-    summary = run_over_fleet(summary, nightly_batch, config,
-                             (config_path, tracking_uri, as_of_ts.isoformat()),
-                             f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+    job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
+    summary = run_over_fleet(summary, job, config, f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
                              vehicle_class)
     export_night_alerts(config, summary)
     return summary

@@ -25,7 +25,8 @@ from prefect import flow
 
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
@@ -105,15 +106,6 @@ def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], star
         fit_and_record, baseline=False)
 
 
-@batch_task("reanalysis-batch", "reanalyze {label}")
-def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                     end: str, version: str | None, candidate_nights: int | None,
-                     label: str) -> dict:
-    """One batch of reanalyses (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_reanalysis_batch, config_path, tracking_uri, refs, start,
-                           end, version, candidate_nights)
-
-
 def run_reanalysis(config: FleetConfig, config_path: str, start, end,
                    tracking_uri: str | None = None, assets: Sequence[str] | None = None,
                    vehicle_class: str | None = None, version=None,
@@ -126,10 +118,11 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
                          extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
                                 "version": str(_reference(version)),
                                 "candidate_nights": nights})
-    return run_over_fleet(summary, reanalysis_batch, config,
-                          (config_path, tracking_uri, utc(start).isoformat(),
-                           utc(end).isoformat(), None if version is None else str(version),
-                           nights),
+    job = BatchJob.for_fleet("reanalysis", config, tracking_uri, start=utc(start).isoformat(),
+                             end=utc(end).isoformat(),
+                             version=None if version is None else str(version),
+                             candidate_nights=nights)
+    return run_over_fleet(summary, job, config,
                           f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
                           assets, vehicle_class)
 
