@@ -1,7 +1,9 @@
-"""What a batch task is asked to do: :class:`BatchJob`, one flow's work on one batch of assets.
+"""What a batch task is asked to do, :class:`BatchJob` (one flow's work on one batch of
+assets), and what it returns, :class:`BatchOutput`.
 
-A job names its flow; the flow's batch function (:data:`BATCH_FLOWS`) processes the batch
-with the job's ``options`` as keyword arguments. A job travels as a plain dict
+A job names its flow; the flow's planning function (:data:`BATCH_FLOWS`) turns the job's
+``options`` into the batch's :class:`flows.pipeline.BatchPlan`, which
+:func:`flows.pipeline.execute` runs. A job travels as a plain dict
 (:meth:`BatchJob.to_dict`), the form Prefect records as the task's parameter and Dask ships
 to a worker, and carries absolute locations, since the worker may run on another host.
 """
@@ -15,6 +17,22 @@ from graybox.stage_clock import StageClock
 
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef
+from flows.results import AssetResult
+
+
+@dataclass
+class BatchOutput:
+    """What a batch task returns: per asset its result, and its stages' seconds."""
+
+    assets: list[AssetResult]
+    stages: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"assets": [a.to_dict() for a in self.assets], "stages": self.stages}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "BatchOutput":
+        return cls([AssetResult.from_dict(a) for a in data["assets"]], dict(data["stages"]))
 
 
 @dataclass(frozen=True)
@@ -23,26 +41,26 @@ class BatchFlow:
 
     Attributes
     ----------
-    function : str
-        ``"module:name"`` of the function processing one batch,
-        ``function(config, refs, **options, clock=...) -> list[AssetResult]``.
+    planner : str
+        ``"module:name"`` of the function planning one batch,
+        ``planner(config, refs, **options, clock=...) -> BatchPlan``.
     task_name : str
         The Prefect task's name.
     run_name : str
         Each task run's name (``{label}``: the batch's assets).
     """
 
-    function: str
+    planner: str
     task_name: str
     run_name: str
 
 
 #: The flows that run in batches, by the name a :class:`BatchJob` gives.
 BATCH_FLOWS = {
-    "nightly": BatchFlow("flows.nightly:process_batch", "nightly-batch", "nightly {label}"),
-    "baseline": BatchFlow("flows.baseline:process_baseline_batch", "baseline-batch",
+    "nightly": BatchFlow("flows.nightly:plan_batch", "nightly-batch", "nightly {label}"),
+    "baseline": BatchFlow("flows.baseline:plan_baseline_batch", "baseline-batch",
                           "baseline {label}"),
-    "reanalysis": BatchFlow("flows.reanalyze:process_reanalysis_batch", "reanalysis-batch",
+    "reanalysis": BatchFlow("flows.reanalyze:plan_reanalysis_batch", "reanalysis-batch",
                             "reanalyze {label}"),
 }
 
@@ -97,19 +115,24 @@ class BatchJob:
                    tuple(AssetRef(**r) for r in data.get("refs", ())),
                    dict(data.get("options", {})))
 
-    def batch_function(self) -> Callable:
-        """The flow's function processing one batch (imported here: the flows import this
+    def planner(self) -> Callable:
+        """The flow's function planning one batch (imported here: the flows import this
         module)."""
-        module, name = BATCH_FLOWS[self.flow].function.split(":")
+        module, name = BATCH_FLOWS[self.flow].planner.split(":")
         return getattr(importlib.import_module(module), name)
 
-    def run(self, clock: StageClock | None = None) -> list:
-        """Process the batch: load the configuration and call the flow's batch function.
+    def run(self) -> BatchOutput:
+        """Process the batch: load the configuration, plan the batch with the flow's
+        planner and execute the plan.
 
         Returns
         -------
-        list of AssetResult
-            One per asset, in the order of ``refs``.
+        BatchOutput
+            One result per asset, in the order of ``refs``, and the seconds of the stages.
         """
+        from flows.pipeline import execute   # the pipeline imports the batching, and it this
+
         config = load_config(self.config_path).with_tracking_uri(self.tracking_uri)
-        return self.batch_function()(config, list(self.refs), **self.options, clock=clock)
+        clock = StageClock()
+        plan = self.planner()(config, list(self.refs), **self.options, clock=clock)
+        return BatchOutput(execute(config, plan, clock), clock.to_dict())

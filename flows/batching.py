@@ -2,7 +2,8 @@
 and what a batch that still fails reports.
 
 Every flow runs the same task (:func:`batch_task`) on a :class:`flows.batch_job.BatchJob`
-naming the flow, its batch of assets and its own options. A batch task returns :class:`BatchOutput` as a dict: the assets' results and the seconds its
+naming the flow, its batch of assets and its own options. A batch task returns the job's
+:class:`flows.batch_job.BatchOutput` as a dict: the assets' results and the seconds its
 stages took (see :class:`graybox.stage_clock.StageClock`). Transient errors (registry locked
 or unreachable, I/O) stop the batch and Prefect retries it (``[nightly] retries``); after the
 last retry its assets are reported failed and the other batches go on.
@@ -14,7 +15,6 @@ fleet's order and are the same.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 from prefect import Task, task
@@ -24,7 +24,7 @@ from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock
 
 from flows import progress
-from flows.batch_job import BATCH_FLOWS, BatchJob
+from flows.batch_job import BATCH_FLOWS, BatchJob, BatchOutput
 from flows.config import FleetConfig, NightlySettings
 from flows.discovery import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, describe_error,
@@ -34,21 +34,6 @@ from flows.task_runner import batch_runner
 from registry.exceptions import RegistryError
 
 logger = logging.getLogger(__name__)
-
-
-@dataclass
-class BatchOutput:
-    """What a batch task returns: per asset its result, and its stages' seconds."""
-
-    assets: list[AssetResult]
-    stages: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {"assets": [a.to_dict() for a in self.assets], "stages": self.stages}
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "BatchOutput":
-        return cls([AssetResult.from_dict(a) for a in data["assets"]], dict(data["stages"]))
 
 
 def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
@@ -76,14 +61,14 @@ def retry_transient(task_, task_run, state) -> bool:
 def batch_task(flow: str) -> Task:
     """The Prefect task of ``flow``'s batches (:data:`flows.batch_job.BATCH_FLOWS` names it
     and its runs): it runs the :class:`~flows.batch_job.BatchJob` it is given (as a dict)
-    and returns its :class:`BatchOutput` as a dict. Never cached, retried only after a
-    transient error (:func:`retry_transient`; :func:`run_batches` sets the counts of
-    ``[nightly] retries``)."""
+    and returns its :class:`~flows.batch_job.BatchOutput` as a dict. Never cached, retried
+    only after a transient error (:func:`retry_transient`; :func:`run_batches` sets the
+    counts of ``[nightly] retries``)."""
     names = BATCH_FLOWS[flow]
 
     def run_batch(job: dict, label: str) -> dict:
         """One batch of assets (a Prefect task: retried on transient errors)."""
-        return run_batch_job(BatchJob.from_dict(job))
+        return BatchJob.from_dict(job).run().to_dict()
 
     # Dask names a task's keys after its function: one name per flow, e.g. nightly_batch
     run_batch.__name__ = run_batch.__qualname__ = f"{flow}_batch"
@@ -91,14 +76,6 @@ def batch_task(flow: str) -> Task:
                 retries=NightlySettings().retries,
                 retry_delay_seconds=NightlySettings().retry_delay_seconds,
                 retry_condition_fn=retry_transient, task_run_name=names.run_name)
-
-
-def run_batch_job(job: BatchJob) -> dict:
-    """What every batch task does: run ``job`` (:meth:`BatchJob.run`) and return its
-    :class:`BatchOutput`, with the seconds its stages took, as a dict."""
-    clock = StageClock()
-    results = job.run(clock)
-    return BatchOutput(results, clock.to_dict()).to_dict()
 
 
 def task_attempts(state, error: BaseException | str, retries: int) -> int:
@@ -179,7 +156,8 @@ def no_telemetry(ref: AssetRef) -> AssetResult:
                        note="no telemetry in the store")
 
 
-def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, description: str, assets: Sequence[str] | None = None,
+def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, description: str,
+                   assets: Sequence[str] | None = None,
                    vehicle_class: str | None = None,
                    without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
                    ) -> RunSummary:

@@ -16,7 +16,6 @@ import sys
 import time
 
 from flows.batch_job import BatchJob
-from flows.batching import run_batch_job
 
 
 def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> int:
@@ -33,7 +32,7 @@ def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> i
         time.sleep(0.01)
     job = BatchJob.from_dict({"flow": "nightly", "config_path": config_path, "refs": refs,
                               "options": {"as_of": as_of}})
-    print(json.dumps(run_batch_job(job)))
+    print(json.dumps(job.run().to_dict()))
     return 0
 
 
