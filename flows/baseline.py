@@ -18,7 +18,8 @@ baseline's window.
 """
 from __future__ import annotations
 
-from typing import Iterator, Sequence
+from dataclasses import dataclass
+from typing import ClassVar, Iterator, Sequence
 
 import pandas as pd
 from prefect import flow
@@ -26,13 +27,13 @@ from prefect import flow
 from graybox.exceptions import GrayBoxError, InsufficientDataError
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import (batch_task, batch_task_body, guard_asset_error, no_telemetry,
-                            run_over_fleet)
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, no_telemetry, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
 from flows.hooks import notify_hook
-from flows.pipeline import PendingAsset, fit_baselines, process_in_groups, read
+from flows.pipeline import BatchPlan, CommitPolicy, PendingAsset, execute, read
 from flows.run_tables import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
@@ -128,6 +129,23 @@ def _promotion(registry, asset: str, version: int, promote: bool,
     return None, f"v{version} (recorded before); promote it with {command}"
 
 
+def plan_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
+                        promote: bool = False, reason: str | None = None,
+                        registry=None, clock: StageClock | None = None) -> BatchPlan:
+    """The baselines of one batch of assets from ``[start, end)``: each asset's healthy
+    windows read (:func:`select`), committed by :class:`RecordAndPromote`.
+
+    Raises
+    ------
+    UsageError
+        When the range holds fewer than :data:`MIN_WINDOWS` whole windows.
+    """
+    registry = registry or config.registry()
+    windows = baseline_windows(config, start, end)
+    return BatchPlan((select(config, ref, windows, clock) for ref in refs),
+                     RecordAndPromote(config, registry, clock, promote, reason))
+
+
 def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
                            promote: bool = False, reason: str | None = None,
                            registry=None, clock: StageClock | None = None
@@ -140,33 +158,31 @@ def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start,
         When the registry failed transiently (the batch can be retried: recorded fits are
         found again, not duplicated).
     """
-    registry = registry or config.registry()
-    windows = baseline_windows(config, start, end)
+    return execute(config, plan_baseline_batch(config, refs, start, end, promote, reason,
+                                               registry, clock), clock)
 
-    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
-        fits = fit_baselines(group, config.classes, config.alerts.false_alarm_rate, clock)
+
+@dataclass
+class RecordAndPromote(CommitPolicy):
+    """The baseline commit: each asset's new baseline recorded (alias ``candidate``), and
+    promoted to ``baseline`` with ``promote``."""
+
+    promote: bool = False
+    reason: str | None = None
+    fits_baselines: ClassVar[bool] = True
+
+    def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
         for pending in group:
-            record_baseline(registry, config, pending, fits[pending.asset_id], promote, reason,
-                            clock)
+            record_baseline(self.registry, self.config, pending, pending.baseline_fit,
+                            self.promote, self.reason, self.clock)
             yield pending
-
-    return process_in_groups(config, refs, lambda ref: select(config, ref, windows, clock),
-                             fit_and_record, baseline=True)
-
-
-@batch_task("baseline-batch", "baseline {label}")
-def baseline_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                   end: str, promote: bool, reason: str | None, label: str) -> dict:
-    """One batch of baseline fits (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_baseline_batch, config_path, tracking_uri, refs, start, end,
-                           promote, reason)
 
 
 def run_baseline(config: FleetConfig, config_path: str, start, end,
                  tracking_uri: str | None = None, assets: Sequence[str] | None = None,
                  vehicle_class: str | None = None, promote: bool = False,
                  reason: str | None = None) -> RunSummary:
-    """The baseline flow's body (plain Python calling the batch task)."""
+    """The baseline flow's body (plain Python running the batch task)."""
     if promote and not (reason and reason.strip()):
         raise UsageError("--promote needs --reason (it is recorded with the promotion)")
     baseline_windows(config, start, end)   # fail early on a too-short range
@@ -178,9 +194,9 @@ def run_baseline(config: FleetConfig, config_path: str, start, end,
     missing = no_telemetry if not assets else (lambda ref: AssetResult(
         ref.asset_id, ref.vehicle_class, FAILED,
         error=describe_error(RuntimeError("no telemetry in the store"))))
-    return run_over_fleet(summary, baseline_batch, config,
-                          (config_path, tracking_uri, utc(start).isoformat(),
-                           utc(end).isoformat(), promote, reason),
+    job = BatchJob.for_fleet("baseline", config, tracking_uri, start=utc(start).isoformat(),
+                             end=utc(end).isoformat(), promote=promote, reason=reason)
+    return run_over_fleet(summary, job, config,
                           f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
                           assets, vehicle_class, missing)
 

@@ -1,7 +1,9 @@
 """Batch plumbing the three flows share: one Prefect task per batch of assets, its retries,
 and what a batch that still fails reports.
 
-A batch task returns :class:`BatchOutput` as a dict: the assets' results and the seconds its
+Every flow runs the same task (:func:`batch_task`) on a :class:`flows.batch_job.BatchJob`
+naming the flow, its batch of assets and its own options. A batch task returns the job's
+:class:`flows.batch_job.BatchOutput` as a dict: the assets' results and the seconds its
 stages took (see :class:`graybox.stage_clock.StageClock`). Transient errors (registry locked
 or unreachable, I/O) stop the batch and Prefect retries it (``[nightly] retries``); after the
 last retry its assets are reported failed and the other batches go on.
@@ -13,18 +15,17 @@ fleet's order and are the same.
 from __future__ import annotations
 
 import logging
-from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
-from prefect import task
+from prefect import Task, task
 from prefect.cache_policies import NO_CACHE
-from prefect.utilities.callables import get_call_parameters
 
 from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock
 
 from flows import progress
-from flows.config import FleetConfig, NightlySettings, load_config
+from flows.batch_job import BATCH_FLOWS, BatchJob, BatchOutput
+from flows.config import FleetConfig, NightlySettings
 from flows.discovery import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, describe_error,
                            is_transient, now_iso)
@@ -33,21 +34,6 @@ from flows.task_runner import batch_runner
 from registry.exceptions import RegistryError
 
 logger = logging.getLogger(__name__)
-
-
-@dataclass
-class BatchOutput:
-    """What a batch task returns: per asset its result, and its stages' seconds."""
-
-    assets: list[AssetResult]
-    stages: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {"assets": [a.to_dict() for a in self.assets], "stages": self.stages}
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "BatchOutput":
-        return cls([AssetResult.from_dict(a) for a in data["assets"]], dict(data["stages"]))
 
 
 def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
@@ -72,13 +58,24 @@ def retry_transient(task_, task_run, state) -> bool:
     return False
 
 
-def batch_task(name: str, run_name: str) -> Callable:
-    """The decorator of a flow's batch task: a Prefect task ``name``, never cached, retried
-    only after a transient error (:func:`retry_transient`; :func:`run_batches` sets the counts
-    of ``[nightly] retries``), each run named ``run_name`` (with its ``{label}``)."""
-    return task(name=name, cache_policy=NO_CACHE, retries=NightlySettings().retries,
+def batch_task(flow: str) -> Task:
+    """The Prefect task of ``flow``'s batches (:data:`flows.batch_job.BATCH_FLOWS` names it
+    and its runs): it runs the :class:`~flows.batch_job.BatchJob` it is given (as a dict)
+    and returns its :class:`~flows.batch_job.BatchOutput` as a dict. Never cached, retried
+    only after a transient error (:func:`retry_transient`; :func:`run_batches` sets the
+    counts of ``[nightly] retries``)."""
+    names = BATCH_FLOWS[flow]
+
+    def run_batch(job: dict, label: str) -> dict:
+        """One batch of assets (a Prefect task: retried on transient errors)."""
+        return BatchJob.from_dict(job).run().to_dict()
+
+    # Dask names a task's keys after its function: one name per flow, e.g. nightly_batch
+    run_batch.__name__ = run_batch.__qualname__ = f"{flow}_batch"
+    return task(run_batch, name=names.task_name, cache_policy=NO_CACHE,
+                retries=NightlySettings().retries,
                 retry_delay_seconds=NightlySettings().retry_delay_seconds,
-                retry_condition_fn=retry_transient, task_run_name=run_name)
+                retry_condition_fn=retry_transient, task_run_name=names.run_name)
 
 
 def task_attempts(state, error: BaseException | str, retries: int) -> int:
@@ -114,28 +111,23 @@ def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
     return out
 
 
-def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tuple,
+def run_batches(job: BatchJob, config: FleetConfig, refs: Sequence[AssetRef],
                 clock: StageClock | None = None,
                 on_failure: Callable = batch_failed) -> list[AssetResult]:
-    """Run a batch task for each batch of ``[nightly] batch_size`` assets with the runner of
-    ``[nightly] task_runner`` (:mod:`flows.task_runner`): one after another in this process,
-    or all at once on Dask. ``args`` are the task's arguments before and after the batch's
-    asset list: ``(config_path, tracking_uri, *rest)``. Returns the assets' results in the
-    order of ``refs`` whatever order the batches finish in; the batches' stage seconds are
-    added to ``clock``."""
-    configured = task_fn.with_options(retries=config.nightly.retries,
-                                      retry_delay_seconds=config.nightly.retry_delay_seconds)
-    # a worker may run elsewhere: the configuration's and the store's absolute locations
-    config_path, tracking_uri = str(config.path), config.tracking_uri if args[1] else None
+    """Run ``job`` on each batch of ``[nightly] batch_size`` assets of ``refs``, each as a
+    task of :func:`batch_task`, with the runner of ``[nightly] task_runner``
+    (:mod:`flows.task_runner`): one after another in this process, or all at once on Dask.
+    Returns the assets' results in the order of ``refs`` whatever order the batches finish
+    in; the batches' stage seconds are added to ``clock``."""
+    configured = batch_task(job.flow).with_options(
+        retries=config.nightly.retries, retry_delay_seconds=config.nightly.retry_delay_seconds)
     parts = batches(list(refs), config.nightly.batch_size)
     outputs: list[list[AssetResult]] = [[] for _ in parts]
     with batch_runner(config) as runner:
         for batch in parts:
             label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
                      if len(batch) > 1 else batch[0].asset_id)
-            call = (config_path, tracking_uri, [asdict(r) for r in batch], *args[2:])
-            runner.submit(configured, get_call_parameters(configured.fn, call,
-                                                          {"label": label}))
+            runner.submit(configured, {"job": job.for_batch(batch).to_dict(), "label": label})
         for index, outcome in runner.completed():
             batch = parts[index]
             if not isinstance(outcome, BaseException) and outcome.is_completed():
@@ -158,35 +150,25 @@ def run_batches(task_fn, config: FleetConfig, refs: Sequence[AssetRef], args: tu
     return [result for output in outputs for result in output]
 
 
-def batch_task_body(process: Callable, config_path: str, tracking_uri: str | None,
-                    refs: list[dict], *args) -> dict:
-    """What every batch task does: load the configuration, ``process(config, refs, *args,
-    clock=...)`` the batch, and return its :class:`BatchOutput` as a dict."""
-    config = load_config(config_path).with_tracking_uri(tracking_uri)
-    clock = StageClock()
-    results = process(config, [AssetRef(**r) for r in refs], *args, clock=clock)
-    return BatchOutput(results, clock.to_dict()).to_dict()
-
-
 def no_telemetry(ref: AssetRef) -> AssetResult:
     """The result of an asset listed in fleet.toml without any telemetry in the store."""
     return AssetResult(ref.asset_id, ref.vehicle_class, NO_TELEMETRY,
                        note="no telemetry in the store")
 
 
-def run_over_fleet(summary: RunSummary, task_fn, config: FleetConfig, args: tuple,
-                   description: str, assets: Sequence[str] | None = None,
+def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, description: str,
+                   assets: Sequence[str] | None = None,
                    vehicle_class: str | None = None,
                    without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
                    ) -> RunSummary:
-    """A flow's body: discover the assets, run ``task_fn`` over their batches (see
+    """A flow's body: discover the assets, run ``job`` on their batches (see
     :func:`run_batches`) with progress, and complete ``summary`` (assets, stage seconds)."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
     summary.skipped = [s.to_dict() for s in fleet.skipped]
     progress.start(description, len(fleet.assets))
     clock = StageClock()
-    summary.assets = run_batches(task_fn, config, fleet.assets, args, clock)
+    summary.assets = run_batches(job, config, fleet.assets, clock)
     summary.assets += [without_telemetry(ref) for ref in fleet.without_telemetry]
     summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()

@@ -75,6 +75,7 @@ above holds per group.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Iterator, Sequence
 
 import pandas as pd
@@ -88,12 +89,13 @@ from registry.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
-from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
-from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
+from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_models, execute,
                             read_against, record_candidates)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
@@ -238,6 +240,16 @@ def _stale(result: AssetResult, alert: Alert | None) -> AssetResult:
     return result
 
 
+def plan_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
+               clock: StageClock | None = None) -> BatchPlan:
+    """The nightly work of one batch of assets up to ``as_of``: each asset's windows
+    selected and read (:func:`select`), committed by :class:`RecordThenAdvance`."""
+    registry = registry or config.registry()
+    as_of = utc(as_of)
+    return BatchPlan((select(config, registry, ref, as_of, clock) for ref in refs),
+                     RecordThenAdvance(config, registry, clock))
+
+
 def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
                   clock: StageClock | None = None) -> list[AssetResult]:
     """Process one batch of assets up to ``as_of`` (see the module docstring).
@@ -253,23 +265,31 @@ def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry
         When the registry or file system failed transiently (retry the batch: everything
         committed so far is kept and not repeated).
     """
-    registry = registry or config.registry()
-    as_of = utc(as_of)
+    return execute(config, plan_batch(config, refs, as_of, registry, clock), clock)
 
-    def fit_and_commit(group: list[PendingAsset]) -> Iterator[PendingAsset]:
-        fit_candidates(group, clock)
-        # 1. every candidate recorded (with its alerts), 2. watermarks
+
+@dataclass
+class RecordThenAdvance(CommitPolicy):
+    """The nightly commit of a group: 1. every candidate recorded (with its alerts), then
+    2. each asset's watermark advanced to the end of its last recorded window (and the
+    changed-day marks of its windows cleared)."""
+
+    def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
         for pending in group:
-            record_candidates(config, registry, pending, reanalysis=False, stop_at_error=True,
-                              clock=clock)
+            record_candidates(self.config, self.registry, pending, reanalysis=False,
+                              clock=self.clock)
         for pending in group:
-            _commit_watermark(registry, pending, clock)
+            _commit_watermark(self.registry, pending, self.clock)
             if pending.changed_days and pending.result.status != FAILED:
-                clear_changed(config.telemetry_root, pending.asset_id, pending.changed_days)
+                clear_changed(self.config.telemetry_root, pending.asset_id,
+                              pending.changed_days)
             yield pending
 
-    return process_in_groups(config, refs, lambda ref: select(config, registry, ref, as_of, clock),
-                             fit_and_commit, baseline=False, describe=_progress_text)
+    def progress_text(self, result: AssetResult) -> str:
+        if result.status in (FAILED, UNUSABLE_BASELINE):
+            return f"{result.asset_id} {result.status.upper()}"
+        alarms = sum(1 for w in result.windows if w.alarm)
+        return f"{result.asset_id} {result.status}" + (f", {alarms} alarmed" if alarms else "")
 
 
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
@@ -292,32 +312,18 @@ def _starts(bounds) -> str:
     return ", ".join(f"{s:%Y-%m-%d %H:%M}" for s, _ in bounds)
 
 
-def _progress_text(result: AssetResult) -> str:
-    if result.status in (FAILED, UNUSABLE_BASELINE):
-        return f"{result.asset_id} {result.status.upper()}"
-    alarms = sum(1 for w in result.windows if w.alarm)
-    return f"{result.asset_id} {result.status}" + (f", {alarms} alarmed" if alarms else "")
-
-
 # -- Prefect ---------------------------------------------------------------------------------
-
-@batch_task("nightly-batch", "nightly {label}")
-def nightly_batch(config_path: str, tracking_uri: str | None, refs: list[dict], as_of: str,
-                  label: str) -> dict:
-    """One batch of assets (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_batch, config_path, tracking_uri, refs, as_of)
-
 
 def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
                 as_of=None, assets: Sequence[str] | None = None,
                 vehicle_class: str | None = None) -> RunSummary:
-    """The nightly pass as plain Python calling the batch task (the flow's body)."""
+    """The nightly pass as plain Python running the batch task (the flow's body)."""
     as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
                 else pd.Timestamp.now(tz="UTC"))
     summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
                          config=str(config.path), tracking_uri=config.tracking_uri)
-    summary = run_over_fleet(summary, nightly_batch, config,
-                             (config_path, tracking_uri, as_of_ts.isoformat()),
+    job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
+    summary = run_over_fleet(summary, job, config,
                              f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
                              vehicle_class)
     export_night_alerts(config, summary)

@@ -1,26 +1,28 @@
-"""The pipeline the three flows share: telemetry -> residual -> signature -> drift -> record.
+"""The pipeline the three flows share: plan -> execute -> commit.
 
-Every flow works on :class:`PendingAsset` records (an asset, its reference version, and the
-:class:`PendingWindow` s it has to process) through the same stages:
+A flow's batch is a :class:`BatchPlan`: its assets planned one after another (an asset's
+result so far and, when it has work, a :class:`PendingAsset`: the asset, its reference
+version and the :class:`PendingWindow` s it has to process, read, validated and gridded by
+:func:`read`, stage ``read``), and the flow's :class:`CommitPolicy`. :func:`execute` takes
+the assets in groups that fit the memory budget (:func:`memory_groups`), so a batch's peak
+memory does not grow with its size, and runs every group through the same stages:
 
-1. :func:`read` -- read, validate and grid each window (stage ``read``);
-2. :func:`fit_candidates` or :func:`fit_baselines` -- one batched fit for a group of assets
-   (stages ``residual``, ``stationarize_ar``, ``network``, ``noise``);
-3. :func:`record_candidates` -- drift against the reference (``drift``), the physical
-   diagnosis of an alarmed window (``diagnosis``), the registry record (``registry``) and
-   the alerts of each window.
+1. one batched fit of the group: :func:`fit_candidates` against each reference's frozen
+   structure, or :func:`fit_baselines` (stages ``residual``, ``stationarize_ar``,
+   ``network``, ``noise``);
+2. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
+   physical diagnosis of an alarmed window (``diagnosis``);
+3. the flow's commit: :func:`record_candidates` (the registry record, stage ``registry``,
+   and the alerts of each window) and what the flow commits beyond it -- the watermarks
+   for the nightly run, the promotion for the baseline flow, nothing for a reanalysis.
 
-The flows differ only in what they select (which windows, against which version) and what
-they commit (alerts file and watermarks for the nightly run; a baseline version for the
-baseline flow; nothing beyond the runs for a reanalysis). :func:`memory_groups` reads the
-assets one after another and hands them over in groups that fit the memory budget, so a
-batch's peak memory does not grow with its size.
+The flows differ only in their plan (which windows, against which version) and their commit.
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Callable, ClassVar, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -64,6 +66,9 @@ class PendingWindow:
     fit: Signature | GrayBoxError | None = None
     earlier: tuple = ()                   #: TelemetryWindows of the earlier nights, in order
     night_start: pd.Timestamp | None = None   #: start of the last night (None: ``start``)
+    drift: Drift | None = None            #: against the reference (:func:`compare`)
+    diagnosis: Diagnosis | DiagnosisFailure | None = None   #: of an alarmed window
+    failure: Exception | None = None      #: what stopped its drift or diagnosis
 
     @property
     def night(self) -> pd.Timestamp:
@@ -104,6 +109,10 @@ class PendingAsset:
         Windows without any row (the asset was idle), skipped.
     stop, stop_start : exception and timestamp, optional
         The telemetry error that stopped the reading, and the window it is in.
+    stop_at_error : bool
+        The first failed window stops the asset (the later ones wait for the next run).
+    baseline_fit : tuple or GrayBoxError, optional
+        A new baseline's fit: (Signature, Calibration), or the error that stopped it.
     committed_end : timestamp, optional
         End of the last window recorded.
     changed_days : list of datetime.date
@@ -119,6 +128,8 @@ class PendingAsset:
     empty: int = 0
     stop: BaseException | None = None
     stop_start: pd.Timestamp | None = None
+    stop_at_error: bool = False
+    baseline_fit: tuple | GrayBoxError | None = None
     committed_end: pd.Timestamp | None = None
     changed_days: list = field(default_factory=list)
 
@@ -176,6 +187,7 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
     the window, as above.
     """
     model = asset.model
+    asset.stop_at_error = stop_at_error
     empty = []
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
@@ -258,25 +270,99 @@ def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
         return None
 
 
-def asset_done(result: AssetResult, describe: Callable[[AssetResult], str] | None = None
-               ) -> None:
-    """Report an asset's final result on the progress line (its failure counted)."""
-    text = describe(result) if describe else f"{result.asset_id} {result.status}"
-    progress.advance(1, text, failed=int(result.failed))
+@dataclass
+class CommitPolicy:
+    """What a flow commits of a group of assets that :func:`execute` has fitted and
+    compared: each flow's policy records them, and commits what else it owns (watermarks, a
+    promotion).
+
+    Attributes
+    ----------
+    config : FleetConfig
+    registry : registry.Registry
+    clock : StageClock, optional
+    fits_baselines : bool
+        The group is fitted as new baselines (:func:`fit_baselines`), not as candidates
+        against a reference; a baseline fit needs more memory per asset.
+    """
+
+    config: FleetConfig
+    registry: object
+    clock: StageClock | None = None
+    fits_baselines: ClassVar[bool] = False
+
+    def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
+        """Commit the group; yield each asset as soon as it is done (its result final)."""
+        raise NotImplementedError
+
+    def progress_text(self, result: AssetResult) -> str:
+        """An asset's final result on the progress line."""
+        return f"{result.asset_id} {result.status}"
 
 
-def loader(results: dict[str, AssetResult],
-           select: Callable[[AssetRef], tuple[AssetResult, PendingAsset | None]],
-           describe: Callable[[AssetResult], str] | None = None
-           ) -> Callable[[AssetRef], PendingAsset | None]:
-    """:func:`memory_groups`' ``load``: ``select`` an asset, keep its result in ``results``,
-    and report it at once when it has nothing to fit."""
-    def load(ref: AssetRef) -> PendingAsset | None:
-        results[ref.asset_id], pending = select(ref)
+@dataclass
+class BatchPlan:
+    """A flow's work on one batch.
+
+    Attributes
+    ----------
+    assets : iterable of (AssetResult, PendingAsset or None)
+        Per asset, in the batch's order: its result so far and, when it has windows to
+        fit, the asset with its windows read (None: its result is final). Planned lazily,
+        one asset after another as :func:`execute` asks, so that only a memory group's
+        telemetry is held at once.
+    commit : CommitPolicy
+    """
+
+    assets: Iterable[tuple[AssetResult, PendingAsset | None]]
+    commit: CommitPolicy
+
+
+def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = None
+            ) -> list[AssetResult]:
+    """Run a batch's plan: read its assets in groups within ``[nightly] memory_budget``
+    (:func:`memory_groups`), and per group fit (:func:`fit_candidates` or
+    :func:`fit_baselines`), compare (:func:`compare`) and commit (``plan.commit``); each
+    asset is reported on the progress line when its result is final.
+
+    Returns
+    -------
+    list of AssetResult
+        One per asset, in the plan's order.
+
+    Raises
+    ------
+    TransientError
+        When the registry or file system failed transiently (retry the batch: everything
+        committed so far is kept and not repeated).
+    """
+    commit = plan.commit
+    budget = MemoryBudget.for_batch(config.nightly.memory_budget,
+                                    baseline=commit.fits_baselines)
+    results: list[AssetResult] = []
+
+    def to_fit(planned: tuple[AssetResult, PendingAsset | None]) -> PendingAsset | None:
+        result, pending = planned
+        results.append(result)
         if pending is None:
-            asset_done(results[ref.asset_id], describe)
+            _report(result, commit)
         return pending
-    return load
+
+    for group in memory_groups(plan.assets, to_fit, budget):
+        if commit.fits_baselines:
+            fits = fit_baselines(group, config.classes, config.alerts.false_alarm_rate, clock)
+            for pending in group:
+                pending.baseline_fit = fits[pending.asset_id]
+        else:
+            fit_candidates(group, clock)
+            compare(group, clock)
+        for pending in commit.commit(group):
+            _report(pending.result, commit)
+    return results
+
+
+def _report(result: AssetResult, commit: CommitPolicy) -> None:
+    progress.advance(1, commit.progress_text(result), failed=int(result.failed))
 
 
 def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None],
@@ -300,29 +386,6 @@ def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None]
         used += need
     if group:
         yield group
-
-
-def process_in_groups(config: FleetConfig, refs: Sequence[AssetRef],
-                      select: Callable[[AssetRef], tuple[AssetResult, PendingAsset | None]],
-                      process: Callable[[list[PendingAsset]], Iterable[PendingAsset]], *,
-                      baseline: bool, describe: Callable[[AssetResult], str] | None = None
-                      ) -> list[AssetResult]:
-    """A batch of any flow: ``select`` each asset (see :func:`loader`), and ``process`` (fit
-    and commit) the selected ones group by group within ``[nightly] memory_budget`` (see
-    :func:`memory_groups`; ``baseline`` fits need more). ``process`` yields each asset of the
-    group as soon as it is done, which is then reported on the progress line.
-
-    Returns
-    -------
-    list of AssetResult
-        One per asset, in the order of ``refs``.
-    """
-    budget = MemoryBudget.for_batch(config.nightly.memory_budget, baseline=baseline)
-    results: dict[str, AssetResult] = {}
-    for group in memory_groups(refs, loader(results, select, describe), budget):
-        for pending in process(group):
-            asset_done(pending.result, describe)
-    return [results[ref.asset_id] for ref in refs]
 
 
 def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
@@ -386,15 +449,43 @@ def _fit_alone(request: FitRequest, settings, false_alarm_rate: float,
                             f"{type(error).__name__}: {error}")
 
 
-def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,
-                      stop_at_error: bool, clock: StageClock | None = None) -> list[Alert]:
-    """Drift, record and alert every fitted window of an asset, in time order; an alarmed
-    window is diagnosed first (:func:`diagnose_alarm`), its diagnosis recorded with the
-    candidate run and given to its alerts.
+def compare(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
+    """Each fitted window's drift against its asset's reference (stage ``drift``) and, when
+    it alarms, its physical diagnosis (:func:`diagnose_alarm`, stage ``diagnosis``); sets the
+    window's ``drift`` and ``diagnosis``, or the ``failure`` that stopped them.
 
-    A failed fit or recording fails the asset; with ``stop_at_error`` (the nightly run) the
-    later windows wait for the next run, otherwise they go on. Transient errors are raised
-    (the batch is retried; what was recorded is found again, not duplicated).
+    A window whose fit or comparison failed stops an asset that ``stop_at_error`` (its later
+    windows are not compared: they wait for the next run); otherwise the others go on.
+    """
+    for asset in assets:
+        reference = asset.reference
+        for window in asset.windows:
+            if isinstance(window.fit, GrayBoxError):
+                if asset.stop_at_error:
+                    break
+                continue
+            try:
+                with timed(clock, "drift"):
+                    window.drift = compute_drift(window.fit, reference.signature,
+                                                 reference.calibration)
+                if window.drift.alarmed:
+                    with timed(clock, "diagnosis"):
+                        window.diagnosis = diagnose_alarm(asset, window)
+            except Exception as error:  # noqa: BLE001 - reported when the window is recorded
+                window.failure = error
+                if asset.stop_at_error:
+                    break
+
+
+def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,
+                      clock: StageClock | None = None) -> list[Alert]:
+    """Record and alert every compared window of an asset (:func:`compare`), in time order:
+    the candidate run with its drift and diagnosis, whose alerts carry the diagnosis.
+
+    A failed fit, comparison or recording fails the asset; when the asset ``stop_at_error``
+    (the nightly run) the later windows wait for the next run, otherwise they go on.
+    Transient errors are raised (the batch is retried; what was recorded is found again,
+    not duplicated).
 
     Returns
     -------
@@ -402,6 +493,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
         The alerts of the recorded windows (also added to the asset's result).
     """
     reference = asset.reference
+    stop_at_error = asset.stop_at_error
     out: list[Alert] = []
     for window in asset.windows:
         if isinstance(window.fit, GrayBoxError):
@@ -409,21 +501,19 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             if stop_at_error:
                 break
             continue
-        try:
-            with timed(clock, "drift"):
-                drift = compute_drift(window.fit, reference.signature, reference.calibration)
-            diagnosis = None
-            if drift.alarmed:
-                with timed(clock, "diagnosis"):
-                    diagnosis = diagnose_alarm(asset, window)
-            with timed(clock, "registry"):
-                record = registry.record_fit(FitSubmission(
-                    asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
-                    drift=drift, window=window.recorded_data, window_start=window.start,
-                    window_end=window.end, baseline_version=reference.version,
-                    plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis,
-                    diagnosis=diagnosis))
-        except Exception as error:  # noqa: BLE001 - one window never stops the batch
+        drift, diagnosis, error = window.drift, window.diagnosis, window.failure
+        if error is None:
+            try:
+                with timed(clock, "registry"):
+                    record = registry.record_fit(FitSubmission(
+                        asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
+                        drift=drift, window=window.recorded_data, window_start=window.start,
+                        window_end=window.end, baseline_version=reference.version,
+                        plots=_plots(config.nightly.plots, drift.alarmed),
+                        reanalysis=reanalysis, diagnosis=diagnosis))
+            except Exception as failure:  # noqa: BLE001 - one window never stops the batch
+                error = failure
+        if error is not None:
             guard_asset_error(error, asset.ref, f"recording the window from "
                                                 f"{window.start.isoformat()}")
             asset.fail(error, window.night)

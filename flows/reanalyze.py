@@ -19,17 +19,19 @@ the version and the fix in its note.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Iterator, Sequence
 
 from prefect import flow
 
 from graybox.stage_clock import StageClock, timed
 
-from flows.batching import batch_task, batch_task_body, guard_asset_error, run_over_fleet
+from flows.batch_job import BatchJob
+from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
-from flows.pipeline import (PendingAsset, configured_models, fit_candidates, process_in_groups,
+from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_models, execute,
                             read_against, record_candidates)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
@@ -83,35 +85,44 @@ def _nights(config: FleetConfig, candidate_nights: int | None) -> int:
     return int(candidate_nights)
 
 
+def plan_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
+                          version=None, candidate_nights: int | None = None,
+                          registry=None, clock: StageClock | None = None) -> BatchPlan:
+    """The reanalysis of one batch of assets over ``[start, end)`` against ``version``, each
+    candidate on ``candidate_nights`` windows (default ``[nightly] candidate_nights``):
+    each asset's windows read (:func:`select`), committed by :class:`RecordOnly`."""
+    registry = registry or config.registry()
+    windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
+    nights = _nights(config, candidate_nights)
+    return BatchPlan((select(config, registry, ref, windows, version, clock, nights)
+                      for ref in refs), RecordOnly(config, registry, clock))
+
+
 def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
                              version=None, candidate_nights: int | None = None,
                              registry=None, clock: StageClock | None = None
                              ) -> list[AssetResult]:
-    """Reanalyse one batch of assets over ``[start, end)`` against ``version``, each
-    candidate on ``candidate_nights`` windows (default ``[nightly] candidate_nights``)."""
-    registry = registry or config.registry()
-    windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
-    nights = _nights(config, candidate_nights)
+    """Reanalyse one batch of assets (see :func:`plan_reanalysis_batch`).
 
-    def fit_and_record(group: list[PendingAsset]) -> Iterator[PendingAsset]:
-        fit_candidates(group, clock)
+    Returns
+    -------
+    list of AssetResult
+        One per asset, in the order given.
+    """
+    return execute(config, plan_reanalysis_batch(config, refs, start, end, version,
+                                                 candidate_nights, registry, clock), clock)
+
+
+@dataclass
+class RecordOnly(CommitPolicy):
+    """The reanalysis commit: each asset's windows recorded as reanalysis runs (no version,
+    no alias, no watermark moves)."""
+
+    def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
         for pending in group:
-            record_candidates(config, registry, pending, reanalysis=True, stop_at_error=False,
-                              clock=clock)
+            record_candidates(self.config, self.registry, pending, reanalysis=True,
+                              clock=self.clock)
             yield pending
-
-    return process_in_groups(
-        config, refs, lambda ref: select(config, registry, ref, windows, version, clock, nights),
-        fit_and_record, baseline=False)
-
-
-@batch_task("reanalysis-batch", "reanalyze {label}")
-def reanalysis_batch(config_path: str, tracking_uri: str | None, refs: list[dict], start: str,
-                     end: str, version: str | None, candidate_nights: int | None,
-                     label: str) -> dict:
-    """One batch of reanalyses (a Prefect task: retried on transient errors)."""
-    return batch_task_body(process_reanalysis_batch, config_path, tracking_uri, refs, start,
-                           end, version, candidate_nights)
 
 
 def run_reanalysis(config: FleetConfig, config_path: str, start, end,
@@ -126,10 +137,11 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
                          extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
                                 "version": str(_reference(version)),
                                 "candidate_nights": nights})
-    return run_over_fleet(summary, reanalysis_batch, config,
-                          (config_path, tracking_uri, utc(start).isoformat(),
-                           utc(end).isoformat(), None if version is None else str(version),
-                           nights),
+    job = BatchJob.for_fleet("reanalysis", config, tracking_uri, start=utc(start).isoformat(),
+                             end=utc(end).isoformat(),
+                             version=None if version is None else str(version),
+                             candidate_nights=nights)
+    return run_over_fleet(summary, job, config,
                           f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
                           assets, vehicle_class)
 

@@ -4,8 +4,9 @@
 Usage: nightly_worker.py CONFIG AS_OF GO_FILE ASSET...
 
 Imports everything, prints ``ready``, waits until GO_FILE exists (so that several workers
-start together), processes the assets as one batch (:func:`flows.nightly.process_batch`) and
-prints the batch output as JSON.
+start together), processes the assets as one batch (a nightly
+:class:`flows.batch_job.BatchJob`, as the batch task runs it) and prints the batch output as
+JSON.
 """
 from __future__ import annotations
 
@@ -14,8 +15,7 @@ import pathlib
 import sys
 import time
 
-from flows.batching import batch_task_body
-from flows.nightly import process_batch
+from flows.batch_job import BatchJob
 
 
 def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> int:
@@ -30,7 +30,9 @@ def main(config_path: str, as_of: str, go: pathlib.Path, assets: list[str]) -> i
         if time.monotonic() > deadline:
             raise TimeoutError(f"{go} never appeared")
         time.sleep(0.01)
-    print(json.dumps(batch_task_body(process_batch, config_path, None, refs, as_of)))
+    job = BatchJob.from_dict({"flow": "nightly", "config_path": config_path, "refs": refs,
+                              "options": {"as_of": as_of}})
+    print(json.dumps(job.run().to_dict()))
     return 0
 
 
