@@ -30,7 +30,7 @@ from flows import progress
 from flows.config import load_config, render_config
 from flows.errors import UsageError
 from flows.run_tables import alert_table, fleet_table
-from flows.results import RunSummary
+from flows.results import RunSummary, run_summary
 from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
 from graybox.telemetry import write_telemetry
 from registry.alert import Alert
@@ -294,7 +294,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
 
 
 def _summary(state):
-    data = state.result(raise_on_failure=False)
+    data = run_summary(state)
     if isinstance(data, BaseException):
         raise data
     return RunSummary.from_dict(data)

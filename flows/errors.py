@@ -31,3 +31,20 @@ class TransientError(RuntimeError):
 
 class FlowFailed(RuntimeError):
     """The flow itself failed (not an asset): the message says why."""
+
+
+class AssetsNotMonitored(RuntimeError):
+    """A run that went through, but left an asset it should have covered unmonitored (exit
+    status 1): the message is the coverage line, :attr:`summary` the run summary as a dict.
+
+    The data of the flow run's Failed state. Prefect's engine raises a failed state's data
+    when it runs a deployment (``fleet-health serve``, a worker), and only an exception can be
+    raised: a summary dict there ended the run with a TypeError of Prefect's own.
+    """
+
+    def __init__(self, message: str, summary: dict):
+        super().__init__(message)
+        self.summary = summary
+
+    def __reduce__(self):
+        return type(self), (str(self), self.summary)

@@ -19,6 +19,7 @@ import logging
 from prefect.blocks.core import Block
 
 from flows.config import load_config
+from flows.results import run_summary
 
 logger = logging.getLogger(__name__)
 
@@ -73,7 +74,7 @@ def notify_hook(flow, flow_run, state) -> None:
             return
         summary = None
         try:
-            result = state.result(raise_on_failure=False)
+            result = run_summary(state)
             summary = result if isinstance(result, dict) else None
         except Exception:  # noqa: BLE001 - no result (crash): use the state's message
             summary = None

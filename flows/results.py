@@ -31,7 +31,7 @@ from registry.alert import Alert
 from flows.terminal import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError
 from registry.retry import is_transient_store_error
-from flows.errors import TransientError
+from flows.errors import AssetsNotMonitored, TransientError
 
 logger = logging.getLogger(__name__)
 
@@ -287,3 +287,18 @@ class Coverage:
 
 def now_iso() -> str:
     return pd.Timestamp.now(tz="UTC").isoformat(timespec="seconds")
+
+
+def run_summary(state) -> dict | BaseException:
+    """What a finished flow state holds: the run summary as a dict (its result, or for a run
+    that left assets unmonitored, the summary its :class:`~flows.errors.AssetsNotMonitored`
+    carries), or the exception that failed the run.
+
+    Parameters
+    ----------
+    state : prefect.State
+        From a flow called with ``return_state=True``.
+    """
+    data = state.result(raise_on_failure=False)
+    return data.summary if isinstance(data, AssetsNotMonitored) else data
+

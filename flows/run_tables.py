@@ -8,6 +8,7 @@ import pandas as pd
 from rich.markup import escape
 from rich.table import Table
 
+from flows.errors import AssetsNotMonitored
 from flows.results import FAILED, UNUSABLE_BASELINE, RunSummary
 from registry.alert import Alert
 from registry.alert_diagnosis import NO_SINGLE_CAUSE
@@ -71,9 +72,11 @@ def likely_cause(alert: Alert) -> str:
 
 
 def flow_result(summary: RunSummary, config):
-    """A flow's return value: publish its artifacts, then the summary as a dict, wrapped in a
-    Failed state when an asset that should have been covered was not (exit status 1), whose
-    message is the coverage line (which assets, and why)."""
+    """A flow's return value: publish its artifacts, then the summary as a dict; when an asset
+    that should have been covered was not (exit status 1), a Failed state whose message is the
+    coverage line (which assets, and why) and whose data is an
+    :class:`~flows.errors.AssetsNotMonitored` carrying the summary
+    (:func:`flows.results.run_summary` reads either)."""
     # prefect loads only inside a flow: the command line prints these tables without it
     from prefect.runtime import flow_run
     from prefect.states import Failed
@@ -81,7 +84,10 @@ def flow_result(summary: RunSummary, config):
     summary.flow_run_id = str(flow_run.id) if flow_run.id else None
     publish_artifacts(summary, config)
     data = summary.to_dict()
-    return Failed(message=summary.coverage.line(), data=data) if summary.exit_status else data
+    if not summary.exit_status:
+        return data
+    line = summary.coverage.line()
+    return Failed(message=line, data=AssetsNotMonitored(line, data))
 
 
 def publish_artifacts(summary: RunSummary, config=None) -> None:

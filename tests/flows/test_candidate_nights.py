@@ -19,6 +19,7 @@ import pytest
 
 from flowtest_config import write_config
 from flowtest_fleet import day
+from flows.results import run_summary
 
 FITTED = ["T-001", "T-002", "T-003"]
 FAULTY = "T-003"
@@ -69,7 +70,7 @@ def _nightly(store, as_of):
 
     state = nightly(config_path=str(store.config), as_of=as_of.isoformat(), assets=FITTED,
                     return_state=True)
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert state.is_completed(), state.message
     return {a["asset_id"]: a for a in summary["assets"]}, summary
 

@@ -16,6 +16,7 @@ import shutil
 import pytest
 
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
+from flows.results import run_summary
 
 pytestmark = pytest.mark.slow
 
@@ -89,7 +90,7 @@ def _alert_lines(path):
 
 def _run_flow(flow, **kwargs):
     state = flow(return_state=True, **kwargs)
-    return state, state.result(raise_on_failure=False)
+    return state, run_summary(state)
 
 
 def test_the_flows_on_dask_equal_the_sequential_runs(tmp_path, harness, fleet, baselined,

@@ -24,7 +24,7 @@ import pytest
 
 from flows.cli import main
 from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
-                           UP_TO_DATE, AssetResult, RunSummary)
+                           UP_TO_DATE, AssetResult, RunSummary, run_summary)
 from flowtest_config import write_config
 from flows.run_lock import LOCK_WAIT_ENV, RunLock
 from flows.errors import RunLockTimeout
@@ -212,7 +212,7 @@ def test_fault_store_locked_by_another_writer_waits_and_loses_nothing(workspace,
         done.set()
         holder.join()
     assert held.is_set(), "the store was never locked during the run"
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert state.is_completed(), state.message
     assert summary["coverage"]["complete"]
     registry = workspace.registry()
@@ -236,7 +236,7 @@ def test_fault_store_read_only_fails_every_asset_and_the_rerun_commits_once(work
     connection.commit()
     as_of = day(BASELINE_DAYS + 1).isoformat()
     state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert state.is_failed()
     assert summary["coverage"]["failed"] == len(ASSETS) and summary["exit_status"] == 1
     for asset in summary["assets"]:
@@ -405,7 +405,7 @@ def test_fault_artifacts_unwritable_fail_the_assets_and_the_rerun_commits_once(w
     connection.close()
     as_of = day(BASELINE_DAYS + 1).isoformat()
     state = nightly(config_path=str(workspace.config), as_of=as_of, return_state=True)
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert state.is_failed()
     assert summary["coverage"]["failed"] == len(ASSETS)
     for asset in summary["assets"]:

@@ -13,6 +13,7 @@ from flows.changed_days import changed_windows, days_done_by
 from flows.cli import main
 from graybox.telemetry.changes import changed_days
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
+from flows.results import run_summary
 
 
 def test_changed_windows_are_the_marked_days_before_the_watermark():
@@ -31,7 +32,7 @@ def _run(config, as_of):
     from flows.nightly import nightly
 
     state = nightly(config_path=str(config), as_of=as_of.isoformat(), return_state=True)
-    return state.result(raise_on_failure=False)
+    return run_summary(state)
 
 
 def test_a_day_changed_by_an_import_is_reanalysed_once(workspace, fleet, tmp_path, capsys,

@@ -8,13 +8,14 @@ import shutil
 import pandas as pd
 
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
+from flows.results import run_summary
 
 
 def _run(config, as_of):
     from flows.nightly import nightly
 
     state = nightly(config_path=str(config), as_of=as_of.isoformat(), return_state=True)
-    return state.result(raise_on_failure=False)
+    return run_summary(state)
 
 
 def _jsonl(path):

@@ -8,13 +8,14 @@ import pandas as pd
 import pytest
 
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day
+from flows.results import run_summary
 
 
 def _run(config, **kwargs):
     from flows.nightly import nightly
 
     state = nightly(config_path=str(config), return_state=True, **kwargs)
-    return state, state.result(raise_on_failure=False)
+    return state, run_summary(state)
 
 
 def _jsonl(path):

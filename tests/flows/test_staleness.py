@@ -10,6 +10,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, day
+from flows.results import run_summary
 
 
 def _jsonl(path):
@@ -86,7 +87,7 @@ def test_fault_run_months_after_the_last_data_is_not_up_to_date(workspace):
     as_of = day(DAYS) + pd.Timedelta(days=300)
     state = nightly(config_path=str(workspace.config), as_of=as_of.isoformat(),
                     return_state=True)
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert summary["exit_status"] == 1
     assert {a["status"] for a in summary["assets"]} == {"stale"}
     assert sorted(a["asset_id"] for a in summary["alerts"] if a["kind"] == "stale") == \
@@ -95,10 +96,35 @@ def test_fault_run_months_after_the_last_data_is_not_up_to_date(workspace):
     _set_alerts_key(workspace.config, 'stale_after = "off"')
     state = nightly(config_path=str(workspace.config), as_of=as_of.isoformat(),
                     return_state=True)
-    summary = state.result(raise_on_failure=False)
+    summary = run_summary(state)
     assert summary["exit_status"] == 0
     assert {a["status"] for a in summary["assets"]} == {"up to date"}
     assert not summary["alerts"]
+
+
+def test_fault_a_deployment_run_that_leaves_assets_unmonitored_fails_with_their_summary(
+        workspace):
+    """The way Prefect's engine runs a deployment (``fleet-health serve``, a worker): it
+    demands the flow's result, and a Failed state's data is raised. It is the run's own error,
+    named after what happened and carrying the summary; it was a TypeError of Prefect's
+    ("Unexpected result for failed state") while the data was the summary dict."""
+    import pickle
+
+    from prefect.flow_engine import run_flow
+
+    from flows.errors import AssetsNotMonitored
+    from flows.nightly import nightly
+
+    as_of = day(DAYS) + pd.Timedelta(days=300)
+    with pytest.raises(AssetsNotMonitored, match="not monitored") as raised:
+        run_flow(nightly, parameters={"config_path": str(workspace.config),
+                                      "as_of": as_of.isoformat()})
+    summary = raised.value.summary
+    assert summary["exit_status"] == 1
+    assert {a["status"] for a in summary["assets"]} == {"stale"}
+    # a result store may persist it: it pickles with its summary
+    again = pickle.loads(pickle.dumps(raised.value))
+    assert str(again) == str(raised.value) and again.summary == summary
 
 
 @pytest.mark.parametrize("value, message", [

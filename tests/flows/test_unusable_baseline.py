@@ -12,6 +12,7 @@ import sys
 import pandas as pd
 
 from flowtest_fleet import BASELINE_DAYS, day
+from flows.results import run_summary
 
 ZEN = "Beautiful is better than ugly"
 
@@ -43,7 +44,7 @@ def _nightly(workspace, as_of, assets):
 
     state = nightly(config_path=str(workspace.config), as_of=as_of.isoformat(), assets=assets,
                     return_state=True)
-    return state, state.result(raise_on_failure=False)
+    return state, run_summary(state)
 
 
 def test_fault_baseline_alias_moved_to_an_uncalibrated_candidate(workspace, capsys):
