@@ -58,14 +58,20 @@ def test_remember_computes_once_per_data_and_details_while_storing():
 
 
 def test_a_calibration_reads_each_baseline_window_once_and_fits_what_it_fits_without(
-        monkeypatch):
-    model, frame, _, _ = _simulate_hidden(3 * 700, 4, q0=0.4, temp0=30.0)
-    days = [frame.iloc[i * 700:(i + 1) * 700] for i in range(3)]
-    request = FitRequest(model, days, asset_id="A-1")
+        monkeypatch, tmp_path):
+    import graybox as gb
+    from graybox.simulation import demo_fleet, write_fleet
+
+    write_fleet(demo_fleet(n_vehicles=1, days=3), tmp_path)
+    model = gb.load_model("graybox.models:GasTurbineShaft", columns={"omega": "shaft_speed"})
+    days = gb.read_window(tmp_path, "T-001", model.required_columns, start="2026-01-01",
+                          end="2026-01-04").split("1D")
+    request = FitRequest(model, days, asset_id="T-001")
+    days = [window.frame for window in days]
     calls = []
     original = signature_fit.residual_frame
-    monkeypatch.setattr(signature_fit, "residual_frame",
-                        lambda *a, **k: calls.append((a[1].index[0], len(a[1]))) or original(*a, **k))
+    monkeypatch.setattr(signature_fit, "residual_frame", lambda *a, **k: calls.append(
+        (a[1].index[0], len(a[1]))) or original(*a, **k))
     cached = fit_baselines([request])[0]
     # each whole window's residual once (the baseline's fit; without the cache also in two
     # left-out refits and as a whole-day candidate), each piece's once
