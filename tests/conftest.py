@@ -7,13 +7,7 @@ import os
 import subprocess
 import sys
 
-# Two test workers share two cores: a BLAS or OpenMP pool of two threads in each spins against
-# the other worker (a day's 86,400 x 67 Gram matrix took 0.6 s instead of 0.02 s). Set before
-# numpy is first imported, and inherited by the command-line runs the tests start.
-for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_variable, "1")
-
-import pytest  # noqa: E402
+import pytest
 
 from postgres_server import REPO, PostgresServer, find_initdb, subprocess_env
 
