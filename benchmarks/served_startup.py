@@ -35,6 +35,9 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.request
+
+from benchmarks.nightly_scale import say
 
 BIN = pathlib.Path(sys.executable).parent
 
@@ -57,10 +60,6 @@ def _free_port() -> int:
         return probe.getsockname()[1]
 
 
-def _say(text: str) -> None:
-    print(f"[{time.strftime('%H:%M:%S')}] {text}", file=sys.stderr, flush=True)
-
-
 def _wait(condition, what: str, timeout: float = 180.0) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -70,7 +69,7 @@ def _wait(condition, what: str, timeout: float = 180.0) -> None:
     raise RuntimeError(f"timed out after {timeout:g} s waiting for {what}")
 
 
-async def _measure(api_url: str, lead: float) -> dict:
+async def _measure(lead: float) -> dict:
     from prefect import get_client
     from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId
     from prefect.states import Scheduled
@@ -112,16 +111,14 @@ def main(argv=None) -> int:
                PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS="180")
     processes: list[subprocess.Popen] = []
     try:
-        _say(f"demo fleet in {demo} (about 40 s)")
+        say(f"demo fleet in {demo} (about 40 s)")
         subprocess.run([str(BIN / "fleet-health"), "demo", "--workdir", str(demo), "--vehicles",
                         "3", "--days", "6", "--baseline-days", "4"], check=True,
                        env=dict(env, PREFECT_API_URL=""), stdout=subprocess.DEVNULL)
-        _say(f"Prefect server on port {port}")
+        say(f"Prefect server on port {port}")
         processes.append(subprocess.Popen(
             [str(BIN / "prefect"), "server", "start", "--port", str(port)], env=env,
             stdout=(root / "server.log").open("w"), stderr=subprocess.STDOUT))
-        import urllib.request
-
         def healthy() -> bool:
             try:
                 with urllib.request.urlopen(f"{api_url}/health", timeout=2) as answer:
@@ -130,7 +127,7 @@ def main(argv=None) -> int:
                 return False
 
         _wait(healthy, "the Prefect server")
-        _say("fleet-health serve")
+        say("fleet-health serve")
         processes.append(subprocess.Popen(
             [str(BIN / "fleet-health"), "serve"], cwd=demo, env=env,
             stdout=(root / "serve.log").open("w"), stderr=subprocess.STDOUT))
@@ -138,9 +135,9 @@ def main(argv=None) -> int:
         os.environ.update(PREFECT_API_URL=api_url, PREFECT_HOME=env["PREFECT_HOME"])
         runs = []
         for index in range(args.runs):
-            run = asyncio.run(_measure(api_url, args.lead))
+            run = asyncio.run(_measure(args.lead))
             runs.append(run)
-            _say(f"run {index + 1}: due -> running {run['due_to_running']:.2f} s, running -> "
+            say(f"run {index + 1}: due -> running {run['due_to_running']:.2f} s, running -> "
                  f"batch task {run['running_to_task']:.2f} s, batch task {run['task']:.2f} s "
                  f"({run['state']})")
     finally:

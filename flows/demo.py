@@ -30,7 +30,7 @@ from flows import progress
 from flows.config import load_config, render_config
 from flows.errors import UsageError
 from flows.run_tables import alert_table, fleet_table
-from flows.results import RunSummary, run_summary
+from flows.results import state_summary
 from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
 from graybox.telemetry import write_telemetry
 from registry.alert import Alert
@@ -240,7 +240,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
                          config_path=str(config.path), vehicle_class=None,
                          promote=True, reason=f"demo: healthy days 1-{baseline_days}",
                          return_state=True)
-    summary = _summary(state)
+    summary = state_summary(state)
     failures += len(summary.failed)
     if summary.failed:
         console.print(fleet_table(summary, title="Baselines"))
@@ -251,7 +251,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
         with progress.reporting(progress.for_stream(sys.stderr)):
             state = nightly(config_path=str(config.path), as_of=as_of.isoformat(),
                             return_state=True)
-        last = _summary(state)
+        last = state_summary(state)
         failures += len(last.failed)
         nightly_alerts += last.alerts
         alarmed = sorted({a.asset_id for a in last.alerts})
@@ -291,10 +291,3 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
         console.print("[bold red]The demo did not go as expected: see the failures and "
                       "verdicts above.[/]")
     return 0 if ok else 1
-
-
-def _summary(state):
-    data = run_summary(state)
-    if isinstance(data, BaseException):
-        raise data
-    return RunSummary.from_dict(data)

@@ -302,3 +302,13 @@ def run_summary(state) -> dict | BaseException:
     data = state.result(raise_on_failure=False)
     return data.summary if isinstance(data, AssetsNotMonitored) else data
 
+
+def state_summary(state) -> RunSummary:
+    """The :class:`RunSummary` a finished flow state holds (see :func:`run_summary`), or raise
+    the error that failed the run."""
+    data = run_summary(state)
+    if isinstance(data, BaseException):
+        raise data
+    if not isinstance(data, dict):
+        raise RuntimeError(f"the flow run ended {state.name}: {state.message}")
+    return RunSummary.from_dict(data)

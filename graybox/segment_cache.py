@@ -14,7 +14,7 @@ integrator and the analysis interval, all the same in every one of those fits. S
   windows) are kept while :attr:`SegmentCache.storing` is on, and the later fits of the same
   segments read them. Calibration pieces are new data and are computed as before. Stiff,
   hidden-state and ProgPy white boxes spend most of a baseline there (a day's residual of the
-  traction drive was computed seven times in a five-day calibration).
+  traction drive was computed six times in a five-day calibration).
 
 What is kept is a window's decimated residual and its level data (a few arrays of the
 window's length at the analysis interval), for the asset's baseline windows, and only for one

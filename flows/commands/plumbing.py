@@ -12,7 +12,7 @@ from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
 from flows.errors import FlowFailed, StoreUnavailable, UsageError
 from flows.run_tables import alert_table, fleet_table
-from flows.results import MONITORED, RunSummary, run_summary
+from flows.results import MONITORED, RunSummary, state_summary
 from flows.store_probe import bound_mlflow_requests, require_store
 from graybox.exceptions import InvalidAssetIdError
 from flows.terminal import EXIT_FAILED, EXIT_USAGE, print_error, rich_console
@@ -102,16 +102,6 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
             return 130
     run.__name__ = function.__name__
     return run
-
-
-def state_summary(state) -> RunSummary:
-    """The run summary of a finished flow state, or raise its error."""
-    data = run_summary(state)
-    if isinstance(data, BaseException):
-        raise data
-    if not isinstance(data, dict):
-        raise RuntimeError(f"the flow run ended {state.name}: {state.message}")
-    return RunSummary.from_dict(data)
 
 
 #: said on stderr when a flow runs without a Prefect server (PREFECT_API_URL unset)
