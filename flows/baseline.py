@@ -29,7 +29,7 @@ from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
 from flows.batching import guard_asset_error, no_telemetry, run_over_fleet
-from flows.config import FleetConfig, load_config
+from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
 from flows.hooks import notify_hook
@@ -203,7 +203,7 @@ def run_baseline(config: FleetConfig, config_path: str, start, end,
 
 @flow(name="fleet-health-baseline", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
-def baseline(start: str, end: str, config_path: str = "fleet.toml",
+def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
              assets: list[str] | None = None, vehicle_class: str | None = None,
              promote: bool = False, reason: str | None = None,
              tracking_uri: str | None = None):

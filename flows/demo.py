@@ -27,7 +27,7 @@ from rich.console import Console
 from rich.table import Table
 
 from flows import progress
-from flows.config import load_config, render_config
+from flows.config import DEFAULT_CONFIG, load_config, render_config
 from flows.errors import UsageError
 from flows.run_tables import alert_table, fleet_table
 from flows.results import state_summary
@@ -37,7 +37,7 @@ from registry.alert import Alert
 
 MARKER = ".fleet-health-demo"
 _OURS = ("telemetry", "mlflow.db", "mlflow.db-wal", "mlflow.db-shm", "mlflow.db.init.lock",
-         "mlartifacts", ".fleet-health-locks", ".prefect", "fleet.toml", "alerts.jsonl",
+         "mlartifacts", ".fleet-health-locks", ".prefect", DEFAULT_CONFIG, "alerts.jsonl",
          "alerts.jsonl.lock", MARKER)
 
 
@@ -222,7 +222,7 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
                   f"{int(round(86400 / spec.sample_interval))} per day) ...")
     with progress.reporting(progress.for_stream(sys.stderr)):
         write_simulation(spec, workdir / "telemetry")
-    config_path = workdir / "fleet.toml"
+    config_path = workdir / DEFAULT_CONFIG
     config_path.write_text(render_config(telemetry_root="telemetry"))
     config = load_config(config_path)
 

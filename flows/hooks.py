@@ -18,7 +18,7 @@ import logging
 
 from prefect.blocks.core import Block
 
-from flows.config import load_config
+from flows.config import DEFAULT_CONFIG, load_config
 from flows.results import run_summary
 
 logger = logging.getLogger(__name__)
@@ -68,7 +68,7 @@ def compose_message(flow_name: str, summary: dict | None, state_name: str,
 def notify_hook(flow, flow_run, state) -> None:
     """Prefect state hook: notify the configured block (see the module docstring)."""
     try:
-        config_path = (flow_run.parameters or {}).get("config_path", "fleet.toml")
+        config_path = (flow_run.parameters or {}).get("config_path", DEFAULT_CONFIG)
         block_slug = load_config(config_path).notifications.block
         if not block_slug:
             return

@@ -91,7 +91,7 @@ from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
 from flows.batch_job import BatchJob
 from flows.batching import guard_asset_error, run_over_fleet
-from flows.config import FleetConfig, load_config
+from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
@@ -376,7 +376,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
 
 @flow(name="fleet-health-nightly", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
-def nightly(config_path: str = "fleet.toml", as_of: str | None = None,
+def nightly(config_path: str = DEFAULT_CONFIG, as_of: str | None = None,
             assets: list[str] | None = None, vehicle_class: str | None = None,
             tracking_uri: str | None = None):
     """Nightly fleet run: every asset's new whole windows against its baseline.

@@ -28,7 +28,7 @@ from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
 from flows.batching import guard_asset_error, run_over_fleet
-from flows.config import FleetConfig, load_config
+from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_models, execute,
@@ -149,7 +149,7 @@ def run_reanalysis(config: FleetConfig, config_path: str, start, end,
 @flow(name="fleet-health-reanalyze", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
 def reanalyze(start: str, end: str, assets: list[str] | None = None,
-              config_path: str = "fleet.toml", vehicle_class: str | None = None,
+              config_path: str = DEFAULT_CONFIG, vehicle_class: str | None = None,
               version: str | None = None, tracking_uri: str | None = None,
               candidate_nights: int | None = None):
     """Reanalyse assets over ``[start, end)`` against their baseline or a named version.

@@ -208,8 +208,13 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     return epsilon, mean, dof
 
 
+#: target false alarms per asset-night that sets epsilon, unless a caller gives another
+#: (``[alerts] false_alarm_rate``, ``GrayBox(false_alarm_rate=...)``)
+DEFAULT_FALSE_ALARM_RATE = 0.01
+
+
 def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
-                  false_alarm_rate: float = 0.01, chunk_size: int = 32,
+                  false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, chunk_size: int = 32,
                   clock: StageClock | None = None
                   ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).

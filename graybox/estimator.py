@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from graybox.calibration import fit_baselines
+from graybox.calibration import DEFAULT_FALSE_ALARM_RATE, fit_baselines
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError
 from graybox.signature_fit import FitRequest, fit_signatures
@@ -59,7 +59,8 @@ class GrayBox:
     """
 
     def __init__(self, model: WhiteBoxModel, baseline: Signature | None = None,
-                 settings: GrayBoxSettings | None = None, false_alarm_rate: float = 0.01,
+                 settings: GrayBoxSettings | None = None,
+                 false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE,
                  calibrate: bool = True, random_state: int = 0):
         self.model = model
         self.baseline = baseline

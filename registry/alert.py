@@ -25,8 +25,8 @@ NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
 DRIFT, STALE = "drift", "stale"
 KINDS = (DRIFT, STALE)    #: a drift over its threshold; an asset whose telemetry stopped
-MAJOR_RATIO = 2.0        #: default zeta/epsilon from which an alert is ``major``
-CRITICAL_RATIO = 5.0     #: default zeta/epsilon from which an alert is ``critical``
+MAJOR_RATIO = 2.0        #: default zeta/epsilon from which an alert is ``major`` (and of ``[alerts]``)
+CRITICAL_RATIO = 5.0     #: default zeta/epsilon from which an alert is ``critical`` (and of ``[alerts]``)
 
 
 def severity(ratio: float | None, major_ratio: float = MAJOR_RATIO,

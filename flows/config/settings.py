@@ -10,7 +10,9 @@ from typing import Any
 
 import pandas as pd
 
+from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from graybox.models import load_model
+from registry.alert import CRITICAL_RATIO, MAJOR_RATIO
 from registry.store import resolve_store
 from flows.errors import ConfigError
 
@@ -74,10 +76,10 @@ class VehicleClass:
 
 @dataclass(frozen=True)
 class AlertSettings:
-    false_alarm_rate: float = 0.01
+    false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE
     jsonl: pathlib.Path = pathlib.Path("alerts.jsonl")
-    major_ratio: float = 2.0
-    critical_ratio: float = 5.0
+    major_ratio: float = MAJOR_RATIO
+    critical_ratio: float = CRITICAL_RATIO
     #: an asset whose newest telemetry is older than as-of minus this is stale (None: off)
     stale_after: str | None = "2D"
 
