@@ -71,8 +71,8 @@ def check(args: argparse.Namespace) -> int:
         config = load(args)
     except USAGE_ERRORS as error:
         finding = Finding("config", str(args.config), PROBLEM, str(error),
-                          "fix the named key of the configuration (see README.md, "
-                          "'Configuration')")
+                          "fix the named key of the configuration (see "
+                          "docs/configuration.md)")
         return _report(args, [finding], EXIT_USAGE)
     prefect_environment(args)
     findings = [Finding("config", str(config.path), OK, "parses")]

@@ -1,60 +1,25 @@
 """``fleet.toml``: the fleet's configuration, loaded and checked with errors that name the key.
 
-Layout (every key and its default: docs/design.md section 3.3; every table but
-``[classes.*]`` is optional)::
+Every table but ``[classes.*]`` is optional; a key left out takes its default from the
+settings' dataclasses. docs/configuration.md lists every key with its default and meaning,
+generated from those dataclasses (``python -m flows.config.reference``)::
 
-    [telemetry]
-    root = "telemetry"                     # hive-partitioned Parquet (relative to this file)
-
-    [mlflow]
-    tracking_uri = "sqlite:///mlflow.db"   # relative SQLite paths resolve against this file
-
-    [alerts]
-    false_alarm_rate = 0.01                # per asset-night; sets epsilon at baseline fitting
-    jsonl = "alerts.jsonl"                 # every alert, one JSON object per line
-    major_ratio = 2.0                      # zeta/epsilon from which an alert is "major"
-    critical_ratio = 5.0                   # ... and "critical" (above 1: "minor")
-
-    [nightly]
-    batch_size = 64                        # assets per Prefect task (one batched network fit)
-    window = "1D"                          # nightly window; must divide a day
-    plots = "alarms"                       # candidates' plots: "alarms", "all" or "none"
-    retries = 2                            # retries of a batch after a transient error
-    retry_delay_seconds = 30
-    memory_budget = "4GB"                  # peak memory of a batch: assets fitted in groups
-    task_runner = "sequential"             # or "dask": batches at once on a Dask cluster
-    candidate_nights = 2                   # candidate fitted on the night and the N - 1 before
-
-    [schedule]
-    cron = "30 2 * * *"                    # the nightly deployment's schedule
-    timezone = "UTC"
-
-    [notifications]
-    block = "slack-webhook/fleet-health"   # optional Prefect notification block
-
-    [dask]                                 # with [nightly] task_runner = "dask":
-    address = "tcp://scheduler:8786"       # an existing cluster, or (without address)
-    # workers = 4                          # a LocalCluster per run: worker processes
-    threads_per_worker = 1                 # (default one per core) of this many threads
-
-    [classes.turbine]                      # one table per vehicle class
-    model = "graybox.models:GasTurbineShaft"
-    parameters = { inertia = 45.0 }        # overrides of the model's default_parameters
-    assets = ["T-*"]                       # ids or glob patterns
-    columns = { omega = "shaft_speed" }    # model variable -> telemetry column
-    settings = { hidden_units = 8 }        # overrides of graybox GrayBoxSettings
-    grid = { max_gap = "4min", stuck_after = "10min", min_duration = "1h" }
-                                           # overrides of graybox GridPolicy: durations
-    estimate = ["turbine_gain"]            # white-box parameters each baseline fits to
-                                           # its asset first (default none)
+    [telemetry] root                       hive-partitioned Parquet (relative to this file)
+    [mlflow] tracking_uri                  relative SQLite paths resolve against this file
+    [alerts]                               false-alarm rate, alerts file, severities, staleness
+    [nightly]                              windows, batches, plots, retries, memory, runner
+    [schedule], [notifications], [dask]    the served deployment, messages, a Dask cluster
+    [classes.<name>]                       one per vehicle class: model, assets, columns,
+                                           parameters, settings, grid, estimate
 
 Every error is a :class:`ConfigError` whose message starts with the file and the dotted key,
 e.g. ``fleet.toml: classes.turbine.model: ...``.
 
-Modules: :mod:`~flows.config.settings` (the dataclasses; their defaults are the defaults
-above, written once), :mod:`~flows.config.parse` (loading and checking),
-:mod:`~flows.config.checker` (typed checks naming the key) and :mod:`~flows.config.template`
-(the commented ``fleet.toml`` that ``demo`` writes). Import from :mod:`flows.config`.
+Modules: :mod:`~flows.config.settings` (the dataclasses; their defaults are the defaults,
+written once), :mod:`~flows.config.parse` (loading and checking),
+:mod:`~flows.config.checker` (typed checks naming the key), :mod:`~flows.config.template`
+(the commented ``fleet.toml`` that ``demo`` writes) and :mod:`~flows.config.reference` (the
+reference tables of docs/configuration.md). Import from :mod:`flows.config`.
 """
 from flows.config.checker import Checker
 from flows.config.parse import RENAMED_SETTINGS, load_config, parse_config

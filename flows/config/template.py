@@ -32,7 +32,7 @@ def render_config(*, telemetry_root: str = DEFAULT_TELEMETRY_ROOT,
     column_text = ", ".join(f'{k} = "{v}"' for k, v in columns.items())
     asset_text = ", ".join(f'"{a}"' for a in assets)
     alerts, nightly, schedule = AlertSettings(), NightlySettings(), ScheduleSettings()
-    return f'''# fleet-health configuration (see README "Configuration reference")
+    return f'''# fleet-health configuration (every key: docs/configuration.md)
 
 [telemetry]
 root = "{telemetry_root}"                  # <root>/asset_id=<id>/date=<YYYY-MM-DD>/*.parquet

@@ -1,64 +1,152 @@
-"""Every default of the fleet.toml sections is written down where users read it, with its
-value: docs/design.md's reference table has a row for each settings field, and the README's
-reference file shows each one of [alerts], [nightly] and [schedule] at its default."""
+"""Every key of fleet.toml is documented once, in docs/configuration.md, with the default the
+parser applies.
+
+The page's tables are generated from the settings' dataclasses (``python -m
+flows.config.reference``); these tests check the committed page against the generator, and
+check the page on its own terms, read back as a user reads it: its keys are exactly the keys
+the parser accepts in every table (top level, each section, a class, its ``settings``,
+``settings.network`` and ``grid``), a file written from its documented defaults loads to the
+same configuration as a file that leaves them all out, a key documented "none" is None or
+empty when left out, and a "required" one is refused when missing.
+"""
 from __future__ import annotations
 
-import dataclasses
 import pathlib
 import re
 import tomllib
 
 import pytest
 
-from flows.config.settings import (AlertSettings, DaskSettings, NightlySettings,
-                                   NotificationSettings, ScheduleSettings)
-from flows.memory import parse_bytes
+from flows.config import ConfigError, parse_config
+from flows.config.reference import PAGE, generate, page_section, write
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SECTIONS = {"alerts": AlertSettings, "nightly": NightlySettings, "dask": DaskSettings,
-            "schedule": ScheduleSettings, "notifications": NotificationSettings}
-#: README sections whose reference file shows the defaults (dask and notifications show examples)
-README_SECTIONS = ("alerts", "nightly", "schedule")
+CLASS = "classes.<name>"
+MODEL = "graybox.models:GasTurbineShaft"
+MINIMAL = {"classes": {"turbine": {"model": MODEL, "assets": ["T-*"]}}}
 
 
-def _comparable(section: str, name: str, value):
-    if name == "memory_budget" and isinstance(value, str):
-        return parse_bytes(value)
-    if isinstance(value, pathlib.Path):
-        return str(value)
-    return value
+def _rows() -> dict[str, str]:
+    """Documented key -> its default cell, from the page's tables."""
+    text = PAGE.read_text()
+    rows = re.findall(r"^\| `([a-z_.<>]+)` \| ([^|]+) \|", page_section(text), re.MULTILINE)
+    keys = [key for key, _ in rows]
+    assert len(keys) == len(set(keys)), "a key is documented twice"
+    return {key: cell.strip() for key, cell in rows}
 
 
-def _defaults(section: str) -> dict:
-    return {f.name: _comparable(section, f.name, f.default)
-            for f in dataclasses.fields(SECTIONS[section])}
+def _value(cell: str):
+    """A documented default as TOML reads it (None for "none" and "required")."""
+    if cell in ("none", "required"):
+        return None
+    literal = re.fullmatch(r"`([^`]+)`", cell)
+    assert literal, f"a default must be `<toml value>`, none or required, got {cell!r}"
+    return tomllib.loads(f"v = {literal.group(1)}")["v"]
 
 
-def _design_rows() -> dict[str, object]:
-    rows = {}
-    text = (ROOT / "docs" / "design.md").read_text()
-    for key, cell in re.findall(r"^\| `([a-z_]+\.[a-z_]+)` \| ([^|]+) \|", text, re.MULTILINE):
-        literal = re.match(r"`([^`]+)`", cell.strip())
-        rows[key] = (tomllib.loads(f"v = {literal.group(1)}")["v"] if literal
-                     else None if cell.strip().startswith("none") else cell.strip())
-    return rows
+def _parse(data: dict, tmp_path: pathlib.Path):
+    return parse_config(data, tmp_path / "fleet.toml")
 
 
-@pytest.mark.parametrize("section", sorted(SECTIONS))
-def test_design_md_has_every_default_with_its_value(section):
-    rows = _design_rows()
-    for name, default in _defaults(section).items():
-        key = f"{section}.{name}"
-        assert key in rows, f"docs/design.md's fleet.toml table has no row for {key}"
-        assert _comparable(section, name, rows[key]) == default, key
+def _nest(data: dict, key: str, value) -> None:
+    *tables, name = key.replace(CLASS, "classes.turbine").split(".")
+    for table in tables:
+        data = data.setdefault(table, {})
+    data[name] = value
 
 
-@pytest.mark.parametrize("section", README_SECTIONS)
-def test_readme_reference_file_shows_every_default(section):
-    text = (ROOT / "README.md").read_text()
-    block = text[text.index("## Configuration reference"):]
-    block = block[block.index("```toml") + len("```toml"):]
-    reference = tomllib.loads(block[:block.index("```")])
-    shown = {name: _comparable(section, name, value)
-             for name, value in reference[section].items()}
-    assert shown == _defaults(section)
+def _accepted(where: str, tmp_path) -> list[str]:
+    """The keys the parser accepts at a dotted table, from its refusal of an unknown one."""
+    data = {"classes": {"turbine": {"model": MODEL, "assets": ["T-*"]}}}
+    _nest(data, f"{where}.not_a_key" if where else "not_a_key", 1)
+    with pytest.raises(ConfigError) as error:
+        _parse(data, tmp_path)
+    known = re.search(r"(?:expected one of|known:) (.*)$", str(error.value)).group(1)
+    return known.split(", ")
+
+
+def test_the_page_holds_the_generated_reference():
+    assert page_section(PAGE.read_text()) == generate(), \
+        "docs/configuration.md is out of date: run python -m flows.config.reference --write"
+
+
+def test_write_puts_the_generated_reference_between_the_markers(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE.read_text().replace(page_section(PAGE.read_text()),
+                                             page_section(PAGE.read_text()).replace("`2`", "`1`")))
+    assert write(page) and page_section(page.read_text()) == generate()
+    assert not write(page)
+
+
+TABLES = ("", "telemetry", "mlflow", "alerts", "nightly", "dask", "schedule", "notifications",
+          CLASS, f"{CLASS}.settings", f"{CLASS}.settings.network", f"{CLASS}.grid")
+
+
+@pytest.mark.parametrize("table", TABLES)
+def test_every_key_the_parser_accepts_is_documented_and_no_other(table, tmp_path):
+    rows = _rows()
+    accepted = _accepted(table.replace(CLASS, "classes.turbine"), tmp_path)
+    if table == "":
+        documented = {key.split(".")[0] for key in rows}
+    else:
+        prefix = f"{table}."
+        documented = {key[len(prefix):].split(".")[0] for key in rows if key.startswith(prefix)}
+    assert documented == set(accepted)
+
+
+def test_the_documented_defaults_are_the_ones_the_parser_applies(tmp_path):
+    explicit = {"classes": {"turbine": {"model": MODEL, "assets": ["T-*"]}}}
+    for key, cell in _rows().items():
+        value = _value(cell)
+        if value is not None:
+            _nest(explicit, key, value)
+    assert _parse(explicit, tmp_path) == _parse(MINIMAL, tmp_path)
+
+
+def _applied(config, key: str):
+    section, *rest = key.replace(CLASS, "classes.turbine").split(".")
+    if section == "classes":
+        target = config.classes["turbine"]
+        rest = rest[1:]
+        if rest[0] == "settings" and len(rest) > 1:
+            target, rest = target.settings, rest[1:]
+            if rest[0] == "network" and len(rest) > 1:
+                target, rest = target.network, rest[1:]
+        elif rest[0] == "grid" and len(rest) > 1:
+            target, rest = target.grid, rest[1:]
+    else:
+        target = getattr(config, section)
+    return getattr(target, rest[0])
+
+
+def test_a_key_documented_none_is_none_or_empty_when_left_out(tmp_path):
+    config = _parse(MINIMAL, tmp_path)
+    nones = [key for key, cell in _rows().items() if cell == "none"]
+    assert nones
+    for key in nones:
+        assert _applied(config, key) in (None, ()), key
+
+
+@pytest.mark.parametrize("key", [key for key, cell in _rows().items() if cell == "required"])
+def test_a_key_documented_required_is_refused_when_missing(key, tmp_path):
+    data = {"classes": {"turbine": {"model": MODEL, "assets": ["T-*"]}}}
+    name = key.rsplit(".", 1)[1]
+    del data["classes"]["turbine"][name]
+    with pytest.raises(ConfigError, match=rf"classes\.turbine\.{name}: missing"):
+        _parse(data, tmp_path)
+
+
+def test_the_pages_example_file_loads(tmp_path):
+    text = PAGE.read_text().split("## An example", 1)[1]
+    example = re.search(r"```toml\n(.*?)```", text, re.S).group(1)
+    config = _parse(tomllib.loads(example), tmp_path)
+    assert config.nightly.task_runner == "dask" and config.classes["turbine"].estimate
+
+
+def test_readme_and_design_point_to_the_reference_and_restate_no_default_table():
+    for name in ("README.md", "docs/design.md"):
+        text = (ROOT / name).read_text()
+        assert "configuration.md" in text, name
+        assert not re.search(r"^\| `(alerts|nightly|dask|schedule)\.[a-z_]+` \|", text,
+                             re.MULTILINE), f"{name} restates the reference table"
+        assert not re.search(r"^candidate_nights = \d", text, re.MULTILINE), name
