@@ -44,7 +44,7 @@ __all__ = [
     "WhiteBoxModel", "load_model", "residual_frame",
     "estimate_parameters", "ParameterEstimate", "diagnose", "Diagnosis", "Hypothesis",
     "read_window", "GridPolicy", "TelemetryWindow",
-    # the tiers by hand, on a residual (README "Using the tiers by hand")
+    # the tiers by hand, on a residual (docs/python-api.md, "Using the tiers by hand")
     "choose_differencing", "Differencing", "DifferencingChoice", "fit_ar", "LinearTier",
     "choose_delay", "choose_dimension", "lagged", "fit_networks", "NonlinearTier",
     "describe_noise", "NoiseTier", "fit_level", "LevelTier",

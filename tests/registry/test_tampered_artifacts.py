@@ -120,7 +120,7 @@ def test_fault_pickle(fleet, fits, tmp_path, file_name, refusal):
 
 def test_fault_pickled_python_model_mlflow_unpickles_the_registry_refuses(fleet, fits,
                                                                           tmp_path):
-    """What the README says: MLflow's own loader runs a pickled model a tampered store holds;
+    """What docs/baselines.md says: MLflow's own loader runs a pickled model a tampered store holds;
     the registry's loader refuses it before MLflow sees it."""
     import cloudpickle
     import yaml
