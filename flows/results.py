@@ -29,7 +29,7 @@ import pandas as pd
 from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
 from flows.terminal import EXIT_FAILED, EXIT_OK
-from registry.exceptions import RegistryError
+from registry.exceptions import RegistryError, TransientStoreError
 from registry.retry import is_transient_store_error
 from flows.errors import AssetsNotMonitored, TransientError
 
@@ -80,7 +80,7 @@ def is_transient(error: BaseException) -> bool:
     never transient; neither are missing files or permissions. Whether the tracking store's
     error is a passing one, the registry says (:func:`registry.retry.is_transient_store_error`).
     """
-    if isinstance(error, TransientError):
+    if isinstance(error, (TransientError, TransientStoreError)):
         return True
     if isinstance(error, (GrayBoxError, RegistryError, ValueError, TypeError, KeyError)):
         return False
