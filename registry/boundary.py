@@ -16,6 +16,7 @@ line call, and :func:`facade` every public method of a class (:class:`registry.R
 from __future__ import annotations
 
 import functools
+import inspect
 from typing import Callable, TypeVar
 
 from mlflow.exceptions import MlflowException
@@ -61,8 +62,9 @@ def raises_registry_errors(function: F) -> F:
 
 def facade(cls: C) -> C:
     """Class decorator: the constructor and every public method of ``cls`` raise the
-    registry's errors (:func:`raises_registry_errors`); properties are left as they are."""
+    registry's errors (:func:`raises_registry_errors`); properties, static and class methods
+    are left as they are."""
     for name, member in list(vars(cls).items()):
-        if callable(member) and (name == "__init__" or not name.startswith("_")):
+        if inspect.isfunction(member) and (name == "__init__" or not name.startswith("_")):
             setattr(cls, name, raises_registry_errors(member))
     return cls
