@@ -119,8 +119,7 @@ def _promotion(registry, asset: str, version: int, promote: bool,
     if promote:
         info = registry.promote(asset, version, reason=reason)
         return info.version, f"v{info.version} promoted to baseline"
-    model = registry.backend.registered_model(asset)
-    aliases = {k: int(v) for k, v in ((model.aliases or {}) if model else {}).items()}
+    aliases = registry.aliases(asset)
     command = f"`fleet-health baseline promote {asset} --version {version} --reason ...`"
     if aliases.get("baseline") == version:
         return version, f"v{version} (recorded before) is already the baseline"

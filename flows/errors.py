@@ -2,8 +2,10 @@
 
 The command line maps them to its exit status (``flows.cli``): a bad request or configuration
 is 2, a store or lock that keeps a run from starting is 1 (nothing was run), a flow that
-failed as a whole is 1. Errors of the registry are the registry's (:mod:`registry.exceptions`);
-bad telemetry and models raise :mod:`graybox.exceptions`.
+failed as a whole is 1. Errors of the registry are the registry's (:mod:`registry.exceptions`),
+the tracking store's failures among them (a passing one is a
+:class:`~registry.exceptions.TransientStoreError`: flows never read MLflow's errors); bad
+telemetry and models raise :mod:`graybox.exceptions`.
 """
 from __future__ import annotations
 

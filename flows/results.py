@@ -29,8 +29,7 @@ import pandas as pd
 from graybox.exceptions import GrayBoxError, TelemetryError
 from registry.alert import Alert
 from flows.terminal import EXIT_FAILED, EXIT_OK
-from registry.exceptions import RegistryError
-from registry.retry import is_transient_store_error
+from registry.exceptions import RegistryError, TransientStoreError
 from flows.errors import AssetsNotMonitored, TransientError
 
 logger = logging.getLogger(__name__)
@@ -78,14 +77,13 @@ def is_transient(error: BaseException) -> bool:
 
     Data and configuration errors (GrayBoxError, RegistryError, ConfigError, ValueError) are
     never transient; neither are missing files or permissions. Whether the tracking store's
-    error is a passing one, the registry says (:func:`registry.retry.is_transient_store_error`).
+    failure is a passing one, the registry says: it raises
+    :class:`~registry.exceptions.TransientStoreError` for those (:mod:`registry.boundary`).
     """
-    if isinstance(error, TransientError):
+    if isinstance(error, (TransientError, TransientStoreError)):
         return True
     if isinstance(error, (GrayBoxError, RegistryError, ValueError, TypeError, KeyError)):
         return False
-    if is_transient_store_error(error):
-        return True
     if isinstance(error, (ConnectionError, TimeoutError)):
         return True
     if isinstance(error, OSError):

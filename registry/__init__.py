@@ -5,6 +5,8 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``naming``      experiment, registered-model and tag names (asset ids validated first)
 ``store``       tracking URIs, SQLite WAL set-up, "database is locked" retries, asset locks
 ``backend``     the MLflow client bound to one store, shared look-ups
+``exceptions``  the registry's errors, the store's failures among them
+``boundary``    MLflow's errors leave the registry as the registry's (``TransientStoreError``)
 ``model_headers`` registered models' tags and aliases, read without their versions
 ``artifacts``   the signature bundle: JSON + safetensors + manifest, verified on read
 ``submission``  what is submitted for recording (FitSubmission), its key and data hash
@@ -28,7 +30,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 __all__ = ["Registry", "Alert", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
-           "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "RetryPolicy"]
+           "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "StoreError",
+           "TransientStoreError", "RetryPolicy"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
@@ -41,13 +44,16 @@ _LOCATIONS = {
     "RegistryError": "registry.exceptions",
     "NotFoundError": "registry.exceptions",
     "PromotionError": "registry.exceptions",
+    "StoreError": "registry.exceptions",
+    "TransientStoreError": "registry.exceptions",
     "RetryPolicy": "registry.store",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
     from registry.alert import Alert
     from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
-    from registry.exceptions import NotFoundError, PromotionError, RegistryError
+    from registry.exceptions import (NotFoundError, PromotionError, RegistryError, StoreError,
+                                     TransientStoreError)
     from registry.registry import Registry
     from registry.retry import RetryPolicy
     from registry.submission import FitSubmission

@@ -22,6 +22,7 @@ import pandas as pd
 
 from registry import naming
 from registry.backend import Backend
+from registry.boundary import raises_registry_errors
 from registry.history import _asset_runs
 
 _DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
@@ -37,6 +38,7 @@ class NightRatio:
     ratio: float | None
 
 
+@raises_registry_errors
 def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
     """The worst ratio per asset and night, for the nights given (``YYYY-MM-DD``).
 
@@ -77,6 +79,7 @@ def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
     return [worst[key] for key in sorted(worst)]
 
 
+@raises_registry_errors
 def latest_candidate_night(backend: Backend) -> str | None:
     """The night of the most recent recorded candidate window (None if there is none)."""
     experiment_ids = backend.experiment_ids()

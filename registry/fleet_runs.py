@@ -17,6 +17,7 @@ from mlflow.exceptions import MlflowException
 
 from registry import naming
 from registry.backend import Backend, is_already_exists, is_not_found
+from registry.boundary import raises_registry_errors
 
 STATUSES_FILE = "night_statuses.json"    #: the night's per-asset statuses and counts
 
@@ -40,6 +41,7 @@ def fleet_experiment_id(backend: Backend, create: bool = False) -> str | None:
         return backend.client.get_experiment_by_name(name).experiment_id
 
 
+@raises_registry_errors
 def fleet_runs(backend: Backend) -> dict[str, object]:
     """Every night's fleet-level run (night ``YYYY-MM-DD`` -> run), one search.
 
@@ -57,6 +59,7 @@ def fleet_runs(backend: Backend) -> dict[str, object]:
     return out
 
 
+@raises_registry_errors
 def publish_night(backend: Backend, night: str, files: Mapping[str, bytes],
                   metrics: Mapping[str, float] | None = None) -> str:
     """Write ``files`` (name -> content) as artifacts of the night's fleet run; return its id.
@@ -84,6 +87,7 @@ def publish_night(backend: Backend, night: str, files: Mapping[str, bytes],
     return run_id
 
 
+@raises_registry_errors
 def night_statuses(backend: Backend, runs: Mapping[str, object]) -> dict[str, dict]:
     """The :data:`STATUSES_FILE` document of each run given (night -> document); nights
     whose run has none (published by an older version, or half-way) are left out."""
@@ -95,6 +99,7 @@ def night_statuses(backend: Backend, runs: Mapping[str, object]) -> dict[str, di
     return out
 
 
+@raises_registry_errors
 def run_document(backend: Backend, run_id: str, name: str) -> dict | None:
     """The JSON artifact ``name`` of a fleet-level run (None if the run has none)."""
     with tempfile.TemporaryDirectory(prefix="fleet-health-night-") as scratch:

@@ -1,4 +1,9 @@
-"""The registry facade: what the flows and the command line call."""
+"""The registry facade: what the flows and the command line call.
+
+Its constructor and methods raise the registry's errors, never MLflow's
+(:mod:`registry.boundary`): a passing failure of the store is a
+:class:`~registry.exceptions.TransientStoreError`.
+"""
 from __future__ import annotations
 
 import os
@@ -9,12 +14,14 @@ import pandas as pd
 from registry import baselines, history, loading, recording, watermarks
 from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
 from registry.backend import Backend
+from registry.boundary import facade
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
 from registry.model_files import PyfuncTemplate
 from registry.retry import RetryPolicy
 from registry.submission import FitSubmission
 
 
+@facade
 class Registry:
     """Healthy baselines and nightly candidates in MLflow, the system of record.
 
@@ -32,6 +39,14 @@ class Registry:
         the login name).
     retry : RetryPolicy, optional
         Backoff for "database is locked" errors.
+
+    Raises
+    ------
+    registry.exceptions.TransientStoreError
+        From the constructor and any method, when the store failed in a passing way (locked
+        after the retries, unreachable, temporarily unavailable): a later try may succeed.
+    registry.exceptions.StoreError
+        When the store failed otherwise (MLflow's error, message kept).
 
     Examples
     --------
@@ -134,6 +149,12 @@ class Registry:
         """Advance the asset's watermark to ``end`` once its results are committed (never
         backwards); returns the watermark in place."""
         return watermarks.commit_watermark(self._backend, asset_id, end)
+
+    def aliases(self, asset_id: str) -> dict[str, int]:
+        """The asset's aliases (``baseline``, ``candidate``) and the version each names;
+        empty when nothing is recorded. One read of its registered model, not its versions."""
+        model = self._backend.registered_model(asset_id)
+        return {} if model is None else {alias: int(v) for alias, v in model.aliases.items()}
 
     def load_version(self, asset_id: str, version: int | str | None = None, *,
                      models: Collection[str] | None = None) -> LoadedVersion:

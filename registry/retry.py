@@ -69,7 +69,8 @@ def is_transient_store_error(error: BaseException) -> bool:
     whose code says the server was temporarily unavailable, failed internally, limited the
     request rate or had an I/O error.
 
-    The one place that reads MLflow's error codes: callers above the registry ask this.
+    The one place that reads MLflow's error codes: the registry's boundary asks this and
+    raises :class:`~registry.exceptions.TransientStoreError` (:mod:`registry.boundary`).
     """
     if is_locked_error(error):
         return True

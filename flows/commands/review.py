@@ -92,8 +92,6 @@ def _positive(text: str) -> int:
 def _guarded(function: Callable[[argparse.Namespace], int], *,
              needs_existing_store: bool = False) -> Callable[[argparse.Namespace], int]:
     def run(args: argparse.Namespace) -> int:
-        from mlflow.exceptions import MlflowException
-
         from registry.store import resolve_store
 
         try:
@@ -106,7 +104,7 @@ def _guarded(function: Callable[[argparse.Namespace], int], *,
         except (InvalidAssetIdError, ValueError) as error:
             print_error(str(error))
             return EXIT_USAGE
-        except (RegistryError, ArtifactError, MlflowException) as error:
+        except (RegistryError, ArtifactError) as error:   # the store's failures too
             print_error(str(error))
             return EXIT_FAILED
     return run

@@ -220,6 +220,40 @@ def test_transient_error_is_retried(workspace, monkeypatch):
     assert workspace.registry().watermark("T-001") == day(BASELINE_DAYS + 1)
 
 
+def test_a_store_briefly_away_is_a_transient_error_and_is_retried(workspace, monkeypatch):
+    """A genuine store failure, not a mock of MLflow: while the batch reads T-001's watermark
+    the store's directory is away (an unmounted share). The registry raises its
+    TransientStoreError, the flows treat it as transient as they treated MLflow's error, and
+    the batch's retry finds the store back."""
+    from registry.exceptions import TransientStoreError
+    from registry.registry import Registry
+
+    monkeypatch.setenv("MLFLOW_SQLALCHEMYSTORE_POOLCLASS", "NullPool")  # a connection a call
+    original = Registry.watermark
+    store, away = workspace.db.parent, workspace.path / "store-away"
+    failures = []
+
+    def away_once(self, asset_id):
+        if failures:
+            return original(self, asset_id)
+        store.rename(away)
+        try:
+            return original(self, asset_id)
+        except Exception as error:
+            failures.append(error)
+            raise
+        finally:
+            away.rename(store)
+
+    monkeypatch.setattr(Registry, "watermark", away_once)
+    state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
+                          assets=["T-001"])
+    assert [type(error) for error in failures] == [TransientStoreError]
+    assert state.is_completed(), state.message
+    (asset,) = summary["assets"]
+    assert asset["status"] == "ok"
+    assert workspace.registry().watermark("T-001") == day(BASELINE_DAYS + 1)
+
 def test_batch_failing_after_its_retries_does_not_stop_the_others(workspace, monkeypatch):
     from registry.registry import Registry
 
