@@ -168,29 +168,6 @@ class RecordAndPromote(CommitPolicy):
             yield pending
 
 
-def run_baseline(config: FleetConfig, config_path: str, start, end,
-                 tracking_uri: str | None = None, assets: Sequence[str] | None = None,
-                 vehicle_class: str | None = None, promote: bool = False,
-                 reason: str | None = None) -> RunSummary:
-    """The baseline flow's body (plain Python running the batch task)."""
-    if promote and not (reason and reason.strip()):
-        raise UsageError("--promote needs --reason (it is recorded with the promotion)")
-    baseline_windows(config, start, end)   # fail early on a too-short range
-    summary = RunSummary("baseline", now_iso(), config=str(config.path),
-                         tracking_uri=config.tracking_uri,
-                         extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
-                                "promote": promote})
-    # an asset asked for by name without telemetry cannot get its baseline: a failure
-    missing = no_telemetry if not assets else (lambda ref: AssetResult(
-        ref.asset_id, ref.vehicle_class, FAILED,
-        error=describe_error(RuntimeError("no telemetry in the store"))))
-    job = BatchJob.for_fleet("baseline", config, tracking_uri, start=utc(start).isoformat(),
-                             end=utc(end).isoformat(), promote=promote, reason=reason)
-    return run_over_fleet(summary, job, config,
-                          f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
-                          assets, vehicle_class, missing)
-
-
 @flow(name="fleet-health-baseline", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
 def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
@@ -220,6 +197,22 @@ def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "baseline") as guarded:
-        summary = guarded.annotate(run_baseline(config, config_path, start, end, tracking_uri,
-                                                assets, vehicle_class, promote, reason))
+        if promote and not (reason and reason.strip()):
+            raise UsageError("--promote needs --reason (it is recorded with the promotion)")
+        baseline_windows(config, start, end)   # fail early on a too-short range
+        summary = RunSummary("baseline", now_iso(), config=str(config.path),
+                             tracking_uri=config.tracking_uri,
+                             extra={"start": utc(start).isoformat(),
+                                    "end": utc(end).isoformat(), "promote": promote})
+        # an asset asked for by name without telemetry cannot get its baseline: a failure
+        missing = no_telemetry if not assets else (lambda ref: AssetResult(
+            ref.asset_id, ref.vehicle_class, FAILED,
+            error=describe_error(RuntimeError("no telemetry in the store"))))
+        job = BatchJob.for_fleet("baseline", config, tracking_uri,
+                                 start=utc(start).isoformat(), end=utc(end).isoformat(),
+                                 promote=promote, reason=reason)
+        summary = guarded.annotate(run_over_fleet(
+            summary, job, config,
+            f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})", assets,
+            vehicle_class, missing))
     return flow_result(summary, config)

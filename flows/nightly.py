@@ -310,22 +310,6 @@ def _starts(bounds) -> str:
 
 # -- Prefect ---------------------------------------------------------------------------------
 
-def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
-                as_of=None, assets: Sequence[str] | None = None,
-                vehicle_class: str | None = None) -> RunSummary:
-    """The nightly pass as plain Python running the batch task (the flow's body)."""
-    as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
-                else pd.Timestamp.now(tz="UTC"))
-    summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
-                         config=str(config.path), tracking_uri=config.tracking_uri)
-    job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
-    summary = run_over_fleet(summary, job, config,
-                             f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
-                             vehicle_class)
-    export_night_alerts(config, summary)
-    return summary
-
-
 def export_since(summary: RunSummary, lookback: pd.Timedelta) -> pd.Timestamp | None:
     """Where the export starts: the earliest of the run's windows' starts and of the assets'
     watermarks minus ``lookback`` (None when no asset has either). Reaching back over the
@@ -398,7 +382,15 @@ def nightly(config_path: str = DEFAULT_CONFIG, as_of: str | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "nightly") as guarded:
-        summary = guarded.annotate(run_nightly(config, config_path, tracking_uri, as_of,
-                                               assets, vehicle_class))
+        as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
+                    else pd.Timestamp.now(tz="UTC"))
+        summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
+                             config=str(config.path), tracking_uri=config.tracking_uri)
+        job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
+        summary = run_over_fleet(summary, job, config,
+                                 f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+                                 vehicle_class)
+        export_night_alerts(config, summary)
+        guarded.annotate(summary)
         publish_or_note(summary, config)      # the fleet heat map; never fails the night
     return flow_result(summary, config)

@@ -123,27 +123,6 @@ class RecordOnly(CommitPolicy):
             yield pending
 
 
-def run_reanalysis(config: FleetConfig, config_path: str, start, end,
-                   tracking_uri: str | None = None, assets: Sequence[str] | None = None,
-                   vehicle_class: str | None = None, version=None,
-                   candidate_nights: int | None = None) -> RunSummary:
-    """The reanalysis flow's body."""
-    range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
-    nights = _nights(config, candidate_nights)
-    summary = RunSummary("reanalyze", now_iso(), config=str(config.path),
-                         tracking_uri=config.tracking_uri,
-                         extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
-                                "version": str(_reference(version)),
-                                "candidate_nights": nights})
-    job = BatchJob.for_fleet("reanalysis", config, tracking_uri, start=utc(start).isoformat(),
-                             end=utc(end).isoformat(),
-                             version=None if version is None else str(version),
-                             candidate_nights=nights)
-    return run_over_fleet(summary, job, config,
-                          f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
-                          assets, vehicle_class)
-
-
 @flow(name="fleet-health-reanalyze", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
 def reanalyze(start: str, end: str, assets: list[str] | None = None,
@@ -174,7 +153,20 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "reanalyze") as guarded:
-        summary = guarded.annotate(run_reanalysis(config, config_path, start, end,
-                                                  tracking_uri, assets, vehicle_class, version,
-                                                  candidate_nights))
+        range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
+        nights = _nights(config, candidate_nights)
+        summary = RunSummary("reanalyze", now_iso(), config=str(config.path),
+                             tracking_uri=config.tracking_uri,
+                             extra={"start": utc(start).isoformat(),
+                                    "end": utc(end).isoformat(),
+                                    "version": str(_reference(version)),
+                                    "candidate_nights": nights})
+        job = BatchJob.for_fleet("reanalysis", config, tracking_uri,
+                                 start=utc(start).isoformat(), end=utc(end).isoformat(),
+                                 version=None if version is None else str(version),
+                                 candidate_nights=nights)
+        summary = guarded.annotate(run_over_fleet(
+            summary, job, config,
+            f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})", assets,
+            vehicle_class))
     return flow_result(summary, config)
