@@ -24,7 +24,7 @@ from typing import ClassVar, Iterator, Sequence
 import pandas as pd
 from prefect import flow
 
-from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
@@ -33,14 +33,14 @@ from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
 from flows.hooks import notify_hook
-from flows.pipeline import BatchPlan, CommitPolicy, PendingAsset, execute, read
+from flows.pipeline import (MIN_WINDOWS, AssetJob, BatchPlan, CommitPolicy, PendingAsset,
+                            WindowJob, execute)
 from flows.run_tables import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)
 from registry.submission import FitSubmission
 
-MIN_WINDOWS = 3
 
 
 def baseline_windows(config: FleetConfig, start, end) -> list[tuple[pd.Timestamp, pd.Timestamp]]:
@@ -59,30 +59,20 @@ def baseline_windows(config: FleetConfig, start, end) -> list[tuple[pd.Timestamp
     return windows
 
 
-def select(config: FleetConfig, ref: AssetRef, windows, clock: StageClock | None = None
-           ) -> tuple[AssetResult, PendingAsset | None]:
-    """An asset's healthy windows, read; None when it cannot have a baseline (bad telemetry
-    never enters a baseline, and calibration needs at least :data:`MIN_WINDOWS` windows)."""
-    asset = ref.asset_id
+def plan_asset(config: FleetConfig, ref: AssetRef, windows) -> AssetJob:
+    """An asset's baseline job: its healthy windows, each one night, with its class's white
+    box and grid (nothing to do, and the asset failed, when the white box cannot be loaded).
+    Reading them decides whether it can have a baseline (:func:`flows.pipeline.read`)."""
     vehicle_class = config.classes[ref.vehicle_class]
-    result = AssetResult(asset, ref.vehicle_class, OK)
+    result = AssetResult(ref.asset_id, ref.vehicle_class, OK)
     try:
-        pending = PendingAsset(ref, result, vehicle_class.load_model())
-        read(config, pending, vehicle_class.grid, windows, stop_at_error=True, clock=clock)
+        model = vehicle_class.load_model()
     except Exception as error:  # noqa: BLE001
-        guard_asset_error(error, ref, "reading its telemetry")
+        guard_asset_error(error, ref, "loading its white box")
         result.status, result.error = FAILED, describe_error(error)
-        return result, None
-    if pending.stop is not None:
-        pending.fail(pending.stop, pending.stop_start)
-        result.note = "bad telemetry never enters a baseline"
-        return result, None
-    if len(pending.windows) < MIN_WINDOWS:
-        pending.fail(InsufficientDataError(
-            f"asset {asset!r}: only {len(pending.windows)} window(s) with telemetry in the "
-            f"range; a baseline needs at least {MIN_WINDOWS}"))
-        return result, None
-    return result, pending
+        return AssetJob(ref, result)
+    return AssetJob(ref, result, model, grid=vehicle_class.grid, stop_at_error=True,
+                    windows=tuple(WindowJob(((start, end),)) for start, end in windows))
 
 
 def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, promote: bool,
@@ -131,8 +121,8 @@ def _promotion(registry, asset: str, version: int, promote: bool,
 def plan_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
                         promote: bool = False, reason: str | None = None,
                         registry=None, clock: StageClock | None = None) -> BatchPlan:
-    """The baselines of one batch of assets from ``[start, end)``: each asset's healthy
-    windows read (:func:`select`), committed by :class:`RecordAndPromote`.
+    """The baselines of one batch of assets from ``[start, end)``: each asset's job
+    (:func:`plan_asset`), committed by :class:`RecordAndPromote`.
 
     Raises
     ------
@@ -141,7 +131,7 @@ def plan_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, en
     """
     registry = registry or config.registry()
     windows = baseline_windows(config, start, end)
-    return BatchPlan((select(config, ref, windows, clock) for ref in refs),
+    return BatchPlan([plan_asset(config, ref, windows) for ref in refs],
                      RecordAndPromote(config, registry, clock, promote, reason))
 
 
@@ -177,29 +167,6 @@ class RecordAndPromote(CommitPolicy):
             yield pending
 
 
-def run_baseline(config: FleetConfig, config_path: str, start, end,
-                 tracking_uri: str | None = None, assets: Sequence[str] | None = None,
-                 vehicle_class: str | None = None, promote: bool = False,
-                 reason: str | None = None) -> RunSummary:
-    """The baseline flow's body (plain Python running the batch task)."""
-    if promote and not (reason and reason.strip()):
-        raise UsageError("--promote needs --reason (it is recorded with the promotion)")
-    baseline_windows(config, start, end)   # fail early on a too-short range
-    summary = RunSummary("baseline", now_iso(), config=str(config.path),
-                         tracking_uri=config.tracking_uri,
-                         extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
-                                "promote": promote})
-    # an asset asked for by name without telemetry cannot get its baseline: a failure
-    missing = no_telemetry if not assets else (lambda ref: AssetResult(
-        ref.asset_id, ref.vehicle_class, FAILED,
-        error=describe_error(RuntimeError("no telemetry in the store"))))
-    job = BatchJob.for_fleet("baseline", config, tracking_uri, start=utc(start).isoformat(),
-                             end=utc(end).isoformat(), promote=promote, reason=reason)
-    return run_over_fleet(summary, job, config,
-                          f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})",
-                          assets, vehicle_class, missing)
-
-
 @flow(name="fleet-health-baseline", on_completion=[notify_hook], on_failure=[notify_hook],
       on_crashed=[notify_hook])
 def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
@@ -229,6 +196,22 @@ def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "baseline") as guarded:
-        summary = guarded.annotate(run_baseline(config, config_path, start, end, tracking_uri,
-                                                assets, vehicle_class, promote, reason))
+        if promote and not (reason and reason.strip()):
+            raise UsageError("--promote needs --reason (it is recorded with the promotion)")
+        baseline_windows(config, start, end)   # fail early on a too-short range
+        summary = RunSummary("baseline", now_iso(), config=str(config.path),
+                             tracking_uri=config.tracking_uri,
+                             extra={"start": utc(start).isoformat(),
+                                    "end": utc(end).isoformat(), "promote": promote})
+        # an asset asked for by name without telemetry cannot get its baseline: a failure
+        missing = no_telemetry if not assets else (lambda ref: AssetResult(
+            ref.asset_id, ref.vehicle_class, FAILED,
+            error=describe_error(RuntimeError("no telemetry in the store"))))
+        job = BatchJob.for_fleet("baseline", config, tracking_uri,
+                                 start=utc(start).isoformat(), end=utc(end).isoformat(),
+                                 promote=promote, reason=reason)
+        summary = guarded.annotate(run_over_fleet(
+            summary, job, config,
+            f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})", assets,
+            vehicle_class, missing))
     return flow_result(summary, config)

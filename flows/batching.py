@@ -62,7 +62,7 @@ def batch_task(flow: str) -> Task:
     """The Prefect task of ``flow``'s batches (:data:`flows.batch_job.BATCH_FLOWS` names it
     and its runs): it runs the :class:`~flows.batch_job.BatchJob` it is given (as a dict)
     and returns its :class:`~flows.batch_job.BatchOutput` as a dict. Never cached, retried
-    only after a transient error (:func:`retry_transient`; :func:`run_batches` sets the
+    only after a transient error (:func:`retry_transient`; :func:`run_over_fleet` sets the
     counts of ``[nightly] retries``)."""
     names = BATCH_FLOWS[flow]
 
@@ -111,43 +111,25 @@ def batch_failed(refs: Sequence[AssetRef], error: BaseException | str,
     return out
 
 
-def run_batches(job: BatchJob, config: FleetConfig, refs: Sequence[AssetRef],
-                clock: StageClock | None = None,
-                on_failure: Callable = batch_failed) -> list[AssetResult]:
-    """Run ``job`` on each batch of ``[nightly] batch_size`` assets of ``refs``, each as a
-    task of :func:`batch_task`, with the runner of ``[nightly] task_runner``
-    (:mod:`flows.task_runner`): one after another in this process, or all at once on Dask.
-    Returns the assets' results in the order of ``refs`` whatever order the batches finish
-    in; the batches' stage seconds are added to ``clock``."""
-    configured = batch_task(job.flow).with_options(
-        retries=config.nightly.retries, retry_delay_seconds=config.nightly.retry_delay_seconds)
-    parts = batches(list(refs), config.nightly.batch_size)
-    outputs: list[list[AssetResult]] = [[] for _ in parts]
-    with batch_runner(config) as runner:
-        for batch in parts:
-            label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
-                     if len(batch) > 1 else batch[0].asset_id)
-            runner.submit(configured, {"job": job.for_batch(batch).to_dict(), "label": label})
-        for index, outcome in runner.completed():
-            batch = parts[index]
-            if not isinstance(outcome, BaseException) and outcome.is_completed():
-                output = BatchOutput.from_dict(outcome.result())
-                outputs[index] = output.assets
-                if clock is not None:
-                    clock.add(output.stages)
-                if not runner.in_process:   # the worker's progress did not reach us
-                    failed = sum(1 for a in output.assets if a.status == FAILED)
-                    progress.advance(len(batch), f"batch {batch[0].asset_id}.."
-                                                 f"{batch[-1].asset_id} done", failed=failed)
-            elif isinstance(outcome, BaseException):     # its Dask worker was lost
-                outputs[index] = on_failure(batch, outcome, config.nightly.retries + 1)
-            else:                                          # a Failed state
-                error = outcome.result(raise_on_failure=False)
-                reason = error if isinstance(error, BaseException) else (
-                    outcome.message or outcome.name)
-                outputs[index] = on_failure(batch, reason, task_attempts(
-                    outcome, reason, config.nightly.retries))
-    return [result for output in outputs for result in output]
+def batch_results(outcome, batch: Sequence[AssetRef], config: FleetConfig,
+                  clock: StageClock, in_process: bool) -> list[AssetResult]:
+    """The results of a batch whose task ended with ``outcome``: its final Prefect state, or
+    the error that kept it from reporting one (its Dask worker was lost); its stage seconds
+    are added to ``clock``. The progress is advanced here for a batch that ran out of this
+    process (``in_process`` False: its worker's progress did not reach us) or failed."""
+    if not isinstance(outcome, BaseException) and outcome.is_completed():
+        output = BatchOutput.from_dict(outcome.result())
+        clock.add(output.stages)
+        if not in_process:
+            failed = sum(1 for a in output.assets if a.status == FAILED)
+            progress.advance(len(batch), f"batch {batch[0].asset_id}.."
+                                         f"{batch[-1].asset_id} done", failed=failed)
+        return output.assets
+    if isinstance(outcome, BaseException):     # its Dask worker was lost
+        return batch_failed(batch, outcome, config.nightly.retries + 1)
+    error = outcome.result(raise_on_failure=False)           # a Failed state
+    reason = error if isinstance(error, BaseException) else (outcome.message or outcome.name)
+    return batch_failed(batch, reason, task_attempts(outcome, reason, config.nightly.retries))
 
 
 def no_telemetry(ref: AssetRef) -> AssetResult:
@@ -161,14 +143,29 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
                    vehicle_class: str | None = None,
                    without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
                    ) -> RunSummary:
-    """A flow's body: discover the assets, run ``job`` on their batches (see
-    :func:`run_batches`) with progress, and complete ``summary`` (assets, stage seconds)."""
+    """A flow's body: discover the assets, run ``job`` on each batch of ``[nightly]
+    batch_size`` of them as a task of :func:`batch_task` with the runner of ``[nightly]
+    task_runner`` (:mod:`flows.task_runner`: one after another in this process, or all at
+    once on Dask), with progress, and complete ``summary``: the assets' results in the
+    fleet's order whatever order the batches finish in, and the stages' seconds."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
     summary.skipped = [s.to_dict() for s in fleet.skipped]
     progress.start(description, len(fleet.assets))
+    configured = batch_task(job.flow).with_options(
+        retries=config.nightly.retries, retry_delay_seconds=config.nightly.retry_delay_seconds)
+    parts = batches(list(fleet.assets), config.nightly.batch_size)
+    outputs: list[list[AssetResult]] = [[] for _ in parts]
     clock = StageClock()
-    summary.assets = run_batches(job, config, fleet.assets, clock)
+    with batch_runner(config) as runner:
+        for batch in parts:
+            label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
+                     if len(batch) > 1 else batch[0].asset_id)
+            runner.submit(configured, {"job": job.for_batch(batch).to_dict(), "label": label})
+        for index, outcome in runner.completed():
+            outputs[index] = batch_results(outcome, parts[index], config, clock,
+                                           runner.in_process)
+    summary.assets = [result for output in outputs for result in output]
     summary.assets += [without_telemetry(ref) for ref in fleet.without_telemetry]
     summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()

@@ -95,8 +95,8 @@ from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
-from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_models, execute,
-                            read_against, record_candidates)
+from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
+                            configured_models, execute, record_candidates)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
@@ -104,10 +104,11 @@ from registry.exceptions import UnusableBaselineError
 from flows.run_guard import exclusive_run
 
 
-def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
-           clock: StageClock | None = None) -> tuple[AssetResult, PendingAsset | None]:
-    """An asset's result so far and, when it has windows to process, those windows read
-    against its baseline (None when there is nothing to fit).
+def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
+               clock: StageClock | None = None) -> AssetJob:
+    """An asset's nightly job: its result so far and, when it has windows to process, those
+    windows against its baseline (nothing to do when it is up to date or cannot be
+    monitored). No telemetry is read: the windows come from its date partitions.
 
     The windows are the whole windows past its watermark and the late ones (see
     :func:`late_windows`); an asset whose newest telemetry is older than ``stale_after`` gets
@@ -130,24 +131,26 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
         if watermark is not None and not late and not pending_windows(dates, watermark, as_of,
                                                                       window):
             # nothing new: no need to load the baseline
-            return _stale(AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
-                                      watermark_before=before, watermark_after=before),
-                          stale), None
+            return AssetJob(ref, _stale(AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
+                                                    watermark_before=before,
+                                                    watermark_after=before), stale))
         with timed(clock, "registry"):
             loaded = registry.reference(asset, models=configured_models(config, ref))
     except UnusableBaselineError as error:
-        return AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE, watermark_before=before,
-                           watermark_after=before, note=str(error)), None
+        return AssetJob(ref, AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE,
+                                         watermark_before=before, watermark_after=before,
+                                         note=str(error)))
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
         guard_asset_error(error, ref, "looking up its watermark, telemetry and baseline")
-        return AssetResult(asset, ref.vehicle_class, FAILED, watermark_before=before,
-                           watermark_after=before, error=describe_error(error)), None
+        return AssetJob(ref, AssetResult(asset, ref.vehicle_class, FAILED,
+                                         watermark_before=before, watermark_after=before,
+                                         error=describe_error(error)))
     if loaded is None:
-        return _stale(AssetResult(asset, ref.vehicle_class, NO_BASELINE,
-                                  watermark_before=before, watermark_after=before,
-                                  note="no baseline: fit and promote one "
-                                       "(fleet-health baseline fit ... --promote)"),
-                      stale), None
+        return AssetJob(ref, _stale(AssetResult(asset, ref.vehicle_class, NO_BASELINE,
+                                                watermark_before=before, watermark_after=before,
+                                                note="no baseline: fit and promote one "
+                                                     "(fleet-health baseline fit ... --promote)"),
+                                    stale))
     result = AssetResult(asset, ref.vehicle_class, OK, watermark_before=before,
                          watermark_after=before, baseline_version=loaded.version)
     _stale(result, stale)
@@ -169,18 +172,11 @@ def select(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
     result.note = "; ".join([*notes, *([result.note] if result.note else [])]) or None
     start_after = watermark if watermark is not None else baseline_end
     bounds = late + pending_windows(dates, start_after, as_of, window)
-    pending = read_against(config, ref, result, loaded, bounds, stop_at_error=True, clock=clock,
-                           nights=config.nightly.candidate_nights)
-    if pending is None:
-        return result, None
-    pending.changed_days = days_done_by(set(marked) - set(in_baseline), as_of)
-    if not pending.windows:
-        if pending.stop is not None:
-            pending.fail(pending.stop, pending.stop_start)
-        else:
-            result.status = STALE if stale else UP_TO_DATE
-        return result, None
-    return result, pending
+    return candidate_job(config, ref, result, loaded, bounds,
+                         config.nightly.candidate_nights, stop_at_error=True,
+                         idle_status=STALE if stale else UP_TO_DATE,
+                         changed_days=tuple(days_done_by(set(marked) - set(in_baseline),
+                                                         as_of)))
 
 
 def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark: pd.Timestamp,
@@ -242,11 +238,11 @@ def _stale(result: AssetResult, alert: Alert | None) -> AssetResult:
 
 def plan_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
                clock: StageClock | None = None) -> BatchPlan:
-    """The nightly work of one batch of assets up to ``as_of``: each asset's windows
-    selected and read (:func:`select`), committed by :class:`RecordThenAdvance`."""
+    """The nightly work of one batch of assets up to ``as_of``: each asset's job
+    (:func:`plan_asset`), committed by :class:`RecordThenAdvance`."""
     registry = registry or config.registry()
     as_of = utc(as_of)
-    return BatchPlan((select(config, registry, ref, as_of, clock) for ref in refs),
+    return BatchPlan([plan_asset(config, registry, ref, as_of, clock) for ref in refs],
                      RecordThenAdvance(config, registry, clock))
 
 
@@ -313,22 +309,6 @@ def _starts(bounds) -> str:
 
 
 # -- Prefect ---------------------------------------------------------------------------------
-
-def run_nightly(config: FleetConfig, config_path: str, tracking_uri: str | None = None,
-                as_of=None, assets: Sequence[str] | None = None,
-                vehicle_class: str | None = None) -> RunSummary:
-    """The nightly pass as plain Python running the batch task (the flow's body)."""
-    as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
-                else pd.Timestamp.now(tz="UTC"))
-    summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
-                         config=str(config.path), tracking_uri=config.tracking_uri)
-    job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
-    summary = run_over_fleet(summary, job, config,
-                             f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
-                             vehicle_class)
-    export_night_alerts(config, summary)
-    return summary
-
 
 def export_since(summary: RunSummary, lookback: pd.Timedelta) -> pd.Timestamp | None:
     """Where the export starts: the earliest of the run's windows' starts and of the assets'
@@ -402,7 +382,15 @@ def nightly(config_path: str = DEFAULT_CONFIG, as_of: str | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "nightly") as guarded:
-        summary = guarded.annotate(run_nightly(config, config_path, tracking_uri, as_of,
-                                               assets, vehicle_class))
+        as_of_ts = (not_in_future(utc(as_of), "as_of") if as_of is not None
+                    else pd.Timestamp.now(tz="UTC"))
+        summary = RunSummary("nightly", now_iso(), as_of=as_of_ts.isoformat(),
+                             config=str(config.path), tracking_uri=config.tracking_uri)
+        job = BatchJob.for_fleet("nightly", config, tracking_uri, as_of=as_of_ts.isoformat())
+        summary = run_over_fleet(summary, job, config,
+                                 f"nightly run (as of {as_of_ts:%Y-%m-%d %H:%M} UTC)", assets,
+                                 vehicle_class)
+        export_night_alerts(config, summary)
+        guarded.annotate(summary)
         publish_or_note(summary, config)      # the fleet heat map; never fails the night
     return flow_result(summary, config)

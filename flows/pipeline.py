@@ -1,20 +1,25 @@
 """The pipeline the three flows share: plan -> execute -> commit.
 
-A flow's batch is a :class:`BatchPlan`: its assets planned one after another (an asset's
-result so far and, when it has work, a :class:`PendingAsset`: the asset, its reference
-version and the :class:`PendingWindow` s it has to process, read, validated and gridded by
-:func:`read`, stage ``read``), and the flow's :class:`CommitPolicy`. :func:`execute` takes
-the assets in groups that fit the memory budget (:func:`memory_groups`), so a batch's peak
-memory does not grow with its size, and runs every group through the same stages:
+1. **Plan.** A flow plans a batch without reading any telemetry: a :class:`BatchPlan` is
+   its list of :class:`AssetJob` s, one per asset in the batch's order (the asset, its white
+   box and grid, its reference version or None for a new baseline, the
+   :class:`WindowJob` s to fit with the nights each covers, and what the flow decided
+   already: its result so far, e.g. a watermark, late windows, or a status that leaves
+   nothing to do), and the flow's :class:`CommitPolicy`.
+2. **Execute.** :func:`execute` reads the jobs one after another (:func:`read`, stage
+   ``read``: validated and gridded :class:`PendingWindow` s of a :class:`PendingAsset`) in
+   groups that fit the memory budget (:func:`memory_groups`), so a batch's peak memory does
+   not grow with its size, and runs every group through the same stages:
 
-1. one batched fit of the group: :func:`fit_candidates` against each reference's frozen
-   structure, or :func:`fit_baselines` (stages ``residual``, ``stationarize_ar``,
-   ``network``, ``noise``);
-2. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
-   physical diagnosis of an alarmed window (``diagnosis``);
-3. the flow's commit: :func:`record_candidates` (the registry record, stage ``registry``,
-   and the alerts of each window) and what the flow commits beyond it -- the watermarks
-   for the nightly run, the promotion for the baseline flow, nothing for a reanalysis.
+   a. one batched fit of the group: :func:`fit_candidates` against each reference's frozen
+      structure, or :func:`fit_baselines` (stages ``residual``, ``stationarize_ar``,
+      ``network``, ``noise``);
+   b. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
+      physical diagnosis of an alarmed window (``diagnosis``);
+3. **Commit.** The flow's policy: :func:`record_candidates` (the registry record, stage
+   ``registry``, and the alerts of each window) and what the flow commits beyond it -- the
+   watermarks for the nightly run, the promotion for the baseline flow, nothing for a
+   reanalysis.
 
 The flows differ only in their plan (which windows, against which version) and their commit.
 """
@@ -22,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar, Iterable, Iterator, Mapping, Sequence
+from typing import ClassVar, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -30,7 +35,7 @@ import pandas as pd
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.diagnosis import Diagnosis, diagnose
 from graybox.drift import Drift, compute_drift
-from graybox.exceptions import GrayBoxError, TelemetryError
+from graybox.exceptions import GrayBoxError, InsufficientDataError, TelemetryError
 from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
@@ -50,6 +55,105 @@ from registry.entities import LoadedVersion
 from registry.submission import FitSubmission
 
 DAY = pd.Timedelta(days=1)
+#: windows a new baseline needs at least (epsilon is calibrated from them)
+MIN_WINDOWS = 3
+
+
+@dataclass(frozen=True)
+class WindowJob:
+    """One window to fit, as planned: the nights its telemetry comes from.
+
+    Attributes
+    ----------
+    nights : tuple of (Timestamp, Timestamp)
+        ``[start, end)`` of each night read for it, oldest first; the last is the window's
+        own night, the ones before it the earlier nights of a multi-night candidate
+        (:func:`flows.discovery.trailing_nights`; those without rows are left out when read).
+    """
+
+    nights: tuple[tuple[pd.Timestamp, pd.Timestamp], ...]
+
+    @property
+    def start(self) -> pd.Timestamp:
+        """Start of the window: of its first night."""
+        return self.nights[0][0]
+
+    @property
+    def end(self) -> pd.Timestamp:
+        return self.nights[-1][1]
+
+    @property
+    def night(self) -> tuple[pd.Timestamp, pd.Timestamp]:
+        """The window's own night (the last)."""
+        return self.nights[-1]
+
+
+@dataclass
+class AssetJob:
+    """An asset's planned work in a batch: what to read and against what, decided without
+    reading any telemetry.
+
+    Attributes
+    ----------
+    ref : AssetRef
+    result : AssetResult
+        Its entry in the run summary as planned (status, watermark, notes, alerts), updated
+        by every later stage.
+    model : WhiteBoxModel or None
+        The white box its windows are fitted with; None when there is nothing to do (the
+        result is final: up to date, no or an unusable baseline, a failed look-up).
+    reference : LoadedVersion or None
+        The version its candidates are compared with; None for a new baseline, which takes
+        all of its windows or none (bad telemetry never enters a baseline) and needs at least
+        :data:`MIN_WINDOWS` of them.
+    grid : GridPolicy or None
+        How its telemetry is gridded (a candidate's: at its reference's sample interval).
+    windows : tuple of WindowJob
+        In time order.
+    stop_at_error : bool
+        The first failed window stops the asset (the later ones wait for the next run).
+    idle_status, idle_note : str, optional
+        The status and note of a candidate asset none of whose windows has rows.
+    changed_days : tuple of datetime.date
+        Days marked changed by an import whose windows are planned: cleared once everything
+        is committed (:mod:`flows.changed_days`).
+    """
+
+    ref: AssetRef
+    result: AssetResult
+    model: WhiteBoxModel | None = None
+    reference: LoadedVersion | None = None
+    grid: GridPolicy | None = None
+    windows: tuple[WindowJob, ...] = ()
+    stop_at_error: bool = False
+    idle_status: str | None = None
+    idle_note: str | None = None
+    changed_days: tuple = ()
+
+
+def candidate_job(config: FleetConfig, ref: AssetRef, result: AssetResult,
+                  reference: LoadedVersion, bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]],
+                  nights: int = 1, **decided) -> AssetJob:
+    """The job of an asset's candidates of the nights ``bounds`` against ``reference``: its
+    white box (whose spec must be one its class configures) and grid, and each night's
+    candidate on ``nights`` windows, none before the reference's window end.
+
+    ``decided``: the other :class:`AssetJob` fields the flow decided (``stop_at_error``,
+    ``idle_status``, ...). When the white box cannot be loaded, the job has nothing to do and
+    ``result`` is failed.
+    """
+    try:
+        model = reference_model(reference, configured_models(config, ref))
+        grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
+    except Exception as error:  # noqa: BLE001 - one asset never stops the batch
+        guard_asset_error(error, ref, "loading the white box of its reference")
+        result.status, result.error = FAILED, describe_error(error)
+        return AssetJob(ref, result)
+    earliest = None if reference.info.window_end is None else utc(reference.info.window_end)
+    window = config.nightly.window_delta
+    return AssetJob(ref, result, model, reference, grid,
+                    tuple(WindowJob(tuple(trailing_nights(start, end, nights, window, earliest)))
+                          for start, end in bounds), **decided)
 
 
 @dataclass
@@ -171,48 +275,85 @@ def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:
     return dataclasses.replace(grid, sample_interval=reference.signature.sample_interval)
 
 
-def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
-         bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]], stop_at_error: bool,
-         clock: StageClock | None = None, nights: int = 1,
-         earliest: pd.Timestamp | None = None) -> PendingAsset:
-    """Read, validate and grid each window ``bounds`` of the asset (stage ``read``).
+def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
+         ) -> PendingAsset | None:
+    """Read, validate and grid each planned window of the asset (stage ``read``); the asset
+    ready to fit, or None when its result is final (nothing to fit).
 
     A window without any row is counted in ``empty`` and skipped; when a date partition is
-    there without rows, the window is named in the result's note. Another telemetry error stops the reading when ``stop_at_error`` (the windows
-    before it are kept: ``stop``); otherwise it fails the asset and the other windows go on.
+    there without rows, the window is named in the result's note. Another telemetry error
+    stops the reading when ``job.stop_at_error`` (the windows before it are kept: ``stop``);
+    otherwise it fails the asset and the other windows go on. Each night is read once; a bad
+    earlier night of a multi-night candidate is an error of its window, as above, and an idle
+    one is left out.
 
-    With ``nights`` > 1 each window's candidate also holds the ``nights - 1`` windows before
-    it that have rows, not before ``earliest`` (:func:`flows.discovery.trailing_nights`); its
-    window is the whole span. Each night is read once; a bad earlier night is an error of
-    the window, as above.
+    A new baseline (no reference) is fitted on all of its windows or not at all: bad
+    telemetry fails it (its note says why), and so do fewer than :data:`MIN_WINDOWS` windows
+    with rows. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
+    ``job.idle_note``. Anything but bad telemetry that stops the reading fails the asset.
     """
-    model = asset.model
-    asset.stop_at_error = stop_at_error
+    if job.model is None:
+        return None
+    asset = PendingAsset(job.ref, job.result, job.model, job.reference,
+                         stop_at_error=job.stop_at_error, changed_days=list(job.changed_days))
+    try:
+        _read_windows(config, job, asset, clock)
+    except Exception as error:  # noqa: BLE001 - one asset never stops the batch
+        guard_asset_error(error, job.ref, "reading its telemetry")
+        job.result.status, job.result.error = FAILED, describe_error(error)
+        return None
+    result = job.result
+    if job.reference is None:            # a new baseline: all of its windows or none
+        if asset.stop is not None:
+            asset.fail(asset.stop, asset.stop_start)
+            result.note = "bad telemetry never enters a baseline"
+            return None
+        if len(asset.windows) < MIN_WINDOWS:
+            asset.fail(InsufficientDataError(
+                f"asset {asset.asset_id!r}: only {len(asset.windows)} window(s) with telemetry "
+                f"in the range; a baseline needs at least {MIN_WINDOWS}"))
+            return None
+    elif not asset.windows:
+        if asset.stop is not None:
+            asset.fail(asset.stop, asset.stop_start)
+        elif not result.failed:
+            result.status = job.idle_status or result.status
+            if job.idle_note:
+                result.note = (job.idle_note if not result.note
+                               else f"{result.note}; {job.idle_note}")
+        return None
+    return asset
+
+
+def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
+                  clock: StageClock | None) -> None:
+    """:func:`read`'s reading: the windows of ``job`` into ``asset``, and the notes."""
     empty = []
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
+    spans = []          # the nights of the windows taken (the telemetry's days)
 
     def night(start, end):
         if (start, end) not in found:
             try:
                 found[start, end] = read_window(config.telemetry_root, asset.asset_id,
-                                                model.required_columns, start=start, end=end,
-                                                policy=grid, inputs=model.input_columns)
+                                                job.model.required_columns, start=start,
+                                                end=end, policy=job.grid,
+                                                inputs=job.model.input_columns)
             except TelemetryError as error:
                 found[start, end] = error
         if isinstance(found[start, end], TelemetryError):
             raise found[start, end]
         return found[start, end]
 
-    spans = []
     with timed(clock, "read"):
-        for start, end in bounds:
-            span = trailing_nights(start, end, nights, config.nightly.window_delta, earliest)
-            spans += span
+        for window in job.windows:
+            start, end = window.night
+            spans += window.nights
             try:
                 telemetry = night(start, end)
                 earlier = []
-                for s, e in span[:-1]:
+                for s, e in window.nights[:-1]:
                     try:
                         earlier.append(night(s, e))
                     except TelemetryError as error:
@@ -227,12 +368,12 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                     if any(start < d + DAY and d < end for d in dates):
                         empty.append(start)      # a partition is there, without rows
                     continue
-                if stop_at_error:
+                if job.stop_at_error:
                     asset.stop, asset.stop_start = error, start
                     break
                 asset.fail(error, start)
                 continue
-            asset.windows.append(PendingWindow(span[0][0], end, telemetry,
+            asset.windows.append(PendingWindow(window.start, end, telemetry,
                                                earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
                               {day.date() for start, end in spans
@@ -246,28 +387,6 @@ def read(config: FleetConfig, asset: PendingAsset, grid: GridPolicy,
                      f"{', '.join(links)}")
     for note in notes:
         asset.result.note = note if not asset.result.note else f"{asset.result.note}; {note}"
-    return asset
-
-
-def read_against(config: FleetConfig, ref: AssetRef, result: AssetResult,
-                 reference: LoadedVersion, bounds: Sequence[tuple[pd.Timestamp, pd.Timestamp]],
-                 stop_at_error: bool, clock: StageClock | None = None,
-                 nights: int = 1) -> PendingAsset | None:
-    """The asset's windows read with ``reference``'s white box and grid (see :func:`read`;
-    ``nights`` per candidate, none before the reference's window end); None, with
-    ``result`` failed, when reading raised something other than bad telemetry."""
-    try:
-        pending = PendingAsset(ref, result,
-                               reference_model(reference, configured_models(config, ref)),
-                               reference)
-        grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
-        earliest = reference.info.window_end
-        return read(config, pending, grid, bounds, stop_at_error, clock, nights,
-                    None if earliest is None else utc(earliest))
-    except Exception as error:  # noqa: BLE001 - one asset never stops the batch
-        guard_asset_error(error, ref, "reading its telemetry")
-        result.status, result.error = FAILED, describe_error(error)
-        return None
 
 
 @dataclass
@@ -302,26 +421,23 @@ class CommitPolicy:
 
 @dataclass
 class BatchPlan:
-    """A flow's work on one batch.
+    """A flow's work on one batch, as planned (no telemetry read yet).
 
     Attributes
     ----------
-    assets : iterable of (AssetResult, PendingAsset or None)
-        Per asset, in the batch's order: its result so far and, when it has windows to
-        fit, the asset with its windows read (None: its result is final). Planned lazily,
-        one asset after another as :func:`execute` asks, so that only a memory group's
-        telemetry is held at once.
+    jobs : list of AssetJob
+        One per asset, in the batch's order.
     commit : CommitPolicy
     """
 
-    assets: Iterable[tuple[AssetResult, PendingAsset | None]]
+    jobs: list[AssetJob]
     commit: CommitPolicy
 
 
 def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = None
             ) -> list[AssetResult]:
-    """Run a batch's plan: read its assets in groups within ``[nightly] memory_budget``
-    (:func:`memory_groups`), and per group fit (:func:`fit_candidates` or
+    """Run a batch's plan: read its jobs (:func:`read`) in groups within ``[nightly]
+    memory_budget`` (:func:`memory_groups`), and per group fit (:func:`fit_candidates` or
     :func:`fit_baselines`), compare (:func:`compare`) and commit (``plan.commit``); each
     asset is reported on the progress line when its result is final.
 
@@ -339,16 +455,7 @@ def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = Non
     commit = plan.commit
     budget = MemoryBudget.for_batch(config.nightly.memory_budget,
                                     baseline=commit.fits_baselines)
-    results: list[AssetResult] = []
-
-    def to_fit(planned: tuple[AssetResult, PendingAsset | None]) -> PendingAsset | None:
-        result, pending = planned
-        results.append(result)
-        if pending is None:
-            _report(result, commit)
-        return pending
-
-    for group in memory_groups(plan.assets, to_fit, budget):
+    for group in memory_groups(_read_each(config, plan, clock), budget):
         if commit.fits_baselines:
             fits = fit_baselines(group, config.classes, config.alerts.false_alarm_rate, clock)
             for pending in group:
@@ -358,24 +465,36 @@ def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = Non
             compare(group, clock)
         for pending in commit.commit(group):
             _report(pending.result, commit)
-    return results
+    return [job.result for job in plan.jobs]
+
+
+def _read_each(config: FleetConfig, plan: BatchPlan, clock: StageClock | None
+               ) -> Iterator[PendingAsset]:
+    """The plan's assets read one after another, as :func:`memory_groups` takes them; an
+    asset whose result is final without a fit is reported on the progress line instead."""
+    for job in plan.jobs:
+        pending = read(config, job, clock)
+        if pending is None:
+            _report(job.result, plan.commit)
+        else:
+            yield pending
 
 
 def _report(result: AssetResult, commit: CommitPolicy) -> None:
     progress.advance(1, commit.progress_text(result), failed=int(result.failed))
 
 
-def memory_groups(items: Iterable, load: Callable[[object], PendingAsset | None],
-                  budget: MemoryBudget) -> Iterator[list[PendingAsset]]:
-    """Load items one after another; yield groups of loaded assets that fit ``budget``.
+def memory_groups(assets: Iterable[PendingAsset | None], budget: MemoryBudget
+                  ) -> Iterator[list[PendingAsset]]:
+    """Take assets one after another (read lazily: each is read when taken); yield groups
+    of them that fit ``budget``.
 
-    ``load`` returns the asset ready to fit, or None when it has nothing to fit (its result
-    is final). Every asset is in exactly one group, in the order given.
+    None (an asset with nothing to fit) is passed over. Every asset is in exactly one group,
+    in the order given.
     """
     group: list[PendingAsset] = []
     used = 0
-    for item in items:
-        asset = load(item)
+    for asset in assets:
         if asset is None:
             continue
         need = budget.need(asset.nbytes)

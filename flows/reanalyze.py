@@ -31,8 +31,8 @@ from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
-from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_models, execute,
-                            read_against, record_candidates)
+from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
+                            configured_models, execute, record_candidates)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
@@ -48,11 +48,11 @@ def _reference(version):
     return int(text) if text.isdigit() else text
 
 
-def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
-           clock: StageClock | None = None, nights: int = 1
-           ) -> tuple[AssetResult, PendingAsset | None]:
-    """An asset's windows of the range, read against the reference version (bad windows are
-    reported and skipped; the others go on)."""
+def plan_asset(config: FleetConfig, registry, ref: AssetRef, windows, version,
+               clock: StageClock | None = None, nights: int = 1) -> AssetJob:
+    """An asset's reanalysis job: the windows of the range against the reference version
+    (nothing to do when the version cannot be loaded or used). When read, bad windows are
+    reported and skipped, and the others go on."""
     asset = ref.asset_id
     try:
         with timed(clock, "registry"):
@@ -61,18 +61,16 @@ def select(config: FleetConfig, registry, ref: AssetRef, windows, version,
         if loaded is None:
             raise NotFoundError(f"asset {asset!r} has no baseline version")
     except UnusableBaselineError as error:
-        return AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE, note=str(error)), None
+        return AssetJob(ref, AssetResult(asset, ref.vehicle_class, UNUSABLE_BASELINE,
+                                         note=str(error)))
     except Exception as error:  # noqa: BLE001
         guard_asset_error(error, ref, f"loading version {version}")
-        return AssetResult(asset, ref.vehicle_class, FAILED, error=describe_error(error)), None
+        return AssetJob(ref, AssetResult(asset, ref.vehicle_class, FAILED,
+                                         error=describe_error(error)))
     result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
-    pending = read_against(config, ref, result, loaded, windows, stop_at_error=False,
-                           clock=clock, nights=nights)
-    if pending is not None and not pending.windows and not result.failed:
-        note = (f"0 windows: no telemetry in [{windows[0][0]:%Y-%m-%d %H:%M}, "
-                f"{windows[-1][1]:%Y-%m-%d %H:%M}) UTC")
-        result.note = note if not result.note else f"{result.note}; {note}"
-    return result, (pending if pending is not None and pending.windows else None)
+    return candidate_job(config, ref, result, loaded, windows, nights, stop_at_error=False,
+                         idle_note=f"0 windows: no telemetry in [{windows[0][0]:%Y-%m-%d %H:%M}, "
+                                   f"{windows[-1][1]:%Y-%m-%d %H:%M}) UTC")
 
 
 def _nights(config: FleetConfig, candidate_nights: int | None) -> int:
@@ -90,12 +88,12 @@ def plan_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, 
                           registry=None, clock: StageClock | None = None) -> BatchPlan:
     """The reanalysis of one batch of assets over ``[start, end)`` against ``version``, each
     candidate on ``candidate_nights`` windows (default ``[nightly] candidate_nights``):
-    each asset's windows read (:func:`select`), committed by :class:`RecordOnly`."""
+    each asset's job (:func:`plan_asset`), committed by :class:`RecordOnly`."""
     registry = registry or config.registry()
     windows = range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
     nights = _nights(config, candidate_nights)
-    return BatchPlan((select(config, registry, ref, windows, version, clock, nights)
-                      for ref in refs), RecordOnly(config, registry, clock))
+    return BatchPlan([plan_asset(config, registry, ref, windows, version, clock, nights)
+                      for ref in refs], RecordOnly(config, registry, clock))
 
 
 def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
@@ -123,27 +121,6 @@ class RecordOnly(CommitPolicy):
             record_candidates(self.config, self.registry, pending, reanalysis=True,
                               clock=self.clock)
             yield pending
-
-
-def run_reanalysis(config: FleetConfig, config_path: str, start, end,
-                   tracking_uri: str | None = None, assets: Sequence[str] | None = None,
-                   vehicle_class: str | None = None, version=None,
-                   candidate_nights: int | None = None) -> RunSummary:
-    """The reanalysis flow's body."""
-    range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
-    nights = _nights(config, candidate_nights)
-    summary = RunSummary("reanalyze", now_iso(), config=str(config.path),
-                         tracking_uri=config.tracking_uri,
-                         extra={"start": utc(start).isoformat(), "end": utc(end).isoformat(),
-                                "version": str(_reference(version)),
-                                "candidate_nights": nights})
-    job = BatchJob.for_fleet("reanalysis", config, tracking_uri, start=utc(start).isoformat(),
-                             end=utc(end).isoformat(),
-                             version=None if version is None else str(version),
-                             candidate_nights=nights)
-    return run_over_fleet(summary, job, config,
-                          f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})",
-                          assets, vehicle_class)
 
 
 @flow(name="fleet-health-reanalyze", on_completion=[notify_hook], on_failure=[notify_hook],
@@ -176,7 +153,20 @@ def reanalyze(start: str, end: str, assets: list[str] | None = None,
     """
     config = load_config(config_path).with_tracking_uri(tracking_uri)
     with exclusive_run(config, "reanalyze") as guarded:
-        summary = guarded.annotate(run_reanalysis(config, config_path, start, end,
-                                                  tracking_uri, assets, vehicle_class, version,
-                                                  candidate_nights))
+        range_windows(utc(start), utc(end), config.nightly.window_delta, whole_only=False)
+        nights = _nights(config, candidate_nights)
+        summary = RunSummary("reanalyze", now_iso(), config=str(config.path),
+                             tracking_uri=config.tracking_uri,
+                             extra={"start": utc(start).isoformat(),
+                                    "end": utc(end).isoformat(),
+                                    "version": str(_reference(version)),
+                                    "candidate_nights": nights})
+        job = BatchJob.for_fleet("reanalysis", config, tracking_uri,
+                                 start=utc(start).isoformat(), end=utc(end).isoformat(),
+                                 version=None if version is None else str(version),
+                                 candidate_nights=nights)
+        summary = guarded.annotate(run_over_fleet(
+            summary, job, config,
+            f"reanalysis ({utc(start):%Y-%m-%d %H:%M} → {utc(end):%Y-%m-%d %H:%M})", assets,
+            vehicle_class))
     return flow_result(summary, config)

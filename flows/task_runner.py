@@ -9,7 +9,7 @@ Dask starts its worker processes with one BLAS/OpenMP thread each (its
 ``distributed.nanny.pre-spawn-environ``), so one thread per worker and one worker per core
 keep the cores busy without oversubscribing them.
 
-Both are used the same way by :func:`flows.batching.run_batches`: :meth:`submit` every
+Both are used the same way by :func:`flows.batching.run_over_fleet`: :meth:`submit` every
 batch, then take the outcomes from :meth:`completed`, which yields ``(index, outcome)`` in
 the order the batches finish; an outcome is the task's final Prefect state, or the error
 that kept the task from reporting one (a Dask worker that died).

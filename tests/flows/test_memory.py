@@ -45,14 +45,14 @@ def test_groups_keep_room_for_the_next_asset_and_take_every_asset_once():
         return SimpleNamespace(index=i, nbytes=sizes[i]) if i != 3 else None   # 3: nothing to do
 
     budget = MemoryBudget(available=100, factor=2.0)      # needs 20, 20, 20, -, 60, 10
-    groups = [[a.index for a in g] for g in memory_groups(range(6), load, budget)]
+    groups = [[a.index for a in g] for g in memory_groups(map(load, range(6)), budget)]
     # 1 joins 0 (20 + 2 * 20 <= 100), 2 joins (40 + 40); 4 needs 60: 60 + 120 > 100, so the
     # group is fitted first; 5 joins 4 (60 + 2 * 10 <= 100)
     assert groups == [[0, 1, 2], [4, 5]]
     assert loaded == list(range(6))
     # a single asset larger than the budget still gets its own group
     assert [[a.index for a in g] for g in memory_groups(
-        [0], lambda i: SimpleNamespace(index=i, nbytes=10 ** 9), budget)] == [[0]]
+        map(lambda i: SimpleNamespace(index=i, nbytes=10 ** 9), [0]), budget)] == [[0]]
 
 
 def run_worker(telemetry, workdir, above_mb: float, assets) -> dict:
