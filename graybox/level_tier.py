@@ -78,6 +78,10 @@ class LevelTier:
         A baseline's features that set the operating condition in :func:`correction`: the
         positions of the inputs that no controller sets. None (candidates, records stored
         before it): every input.
+    window_points : tuple of tuple of float, optional
+        A candidate's feature means per telemetry window (a candidate of several nights has
+        one per night): :func:`extrapolation` takes the farthest. None for baselines and
+        records stored before it (the ``operating_point`` stands for the whole fit).
     """
 
     level: float
@@ -89,9 +93,10 @@ class LevelTier:
     operating_point: tuple[float, ...] | None = None
     reach: float | None = None
     operating: tuple[int, ...] | None = None
+    window_points: tuple[tuple[float, ...], ...] | None = None
 
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach",
-                                                             "operating"})
+                                                             "operating", "window_points"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -228,8 +233,9 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         refitted, so both are levels at the same operating point. None fits centre (the
         features' means), slopes and level.
     groups : ndarray of shape (N,), optional
-        A new baseline's window of each sample: its ``reach`` is the largest correction of a
-        window's operating point (none without).
+        The telemetry window of each sample: a new baseline's ``reach`` is the largest
+        correction of a window's operating point, a candidate keeps each window's
+        ``window_points`` (none without).
     operating : sequence of int, optional
         A new baseline's features that set the operating condition (:func:`correction`);
         None: every input.
@@ -259,15 +265,18 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         center, slopes = np.asarray(baseline.center, float), np.asarray(baseline.slopes, float)
         level = float(np.mean(errors - (features - center) @ slopes))
     residual = errors - level - (features - center) @ slopes
-    reach = None
+    reach, points = None, None
     operating = None if baseline is not None or operating is None else tuple(
         int(i) for i in operating)
-    if baseline is None and groups is not None:
-        reach = max(correction(features[groups == g].mean(axis=0), center, slopes, operating)
-                    for g in np.unique(groups))
+    if groups is not None:
+        means = [features[groups == g].mean(axis=0) for g in np.unique(groups)]
+        if baseline is None:
+            reach = max(correction(point, center, slopes, operating) for point in means)
+        else:
+            points = tuple(tuple(float(c) for c in point) for point in means)
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
                      float(residual.std()), int(horizon), int(len(errors)),
-                     tuple(float(c) for c in features.mean(axis=0)), reach, operating)
+                     tuple(float(c) for c in features.mean(axis=0)), reach, operating, points)
 
 
 def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float],
@@ -295,11 +304,15 @@ def operating_features(model: WhiteBoxModel) -> tuple[int, ...]:
 
 
 def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:
-    """How far outside its baseline's operating range a candidate lies: its correction
-    (:func:`correction` of its operating point) over the baseline's ``reach``, the largest
-    of a baseline window's. Above 1, the night lies where the baseline's slopes were never
-    checked by a day of its own; 0 where either record lacks the figures."""
+    """How far outside its baseline's operating range a candidate lies: the correction
+    (:func:`correction`) of its farthest window's operating point over the baseline's
+    ``reach``, the largest of a baseline window's. Above 1, a night lies where the baseline's
+    slopes were never checked by a day of its own; 0 where either record lacks the figures.
+    A candidate of several nights is as far outside as its farthest night: the correction is
+    linear in the operating point, the model error it stands for is not, so the average of a
+    night far outside and one inside would understate it."""
     if candidate.operating_point is None or not baseline.reach:
         return 0.0
-    return correction(candidate.operating_point, baseline.center, baseline.slopes,
-                      baseline.operating) / baseline.reach
+    points = candidate.window_points or (candidate.operating_point,)
+    return max(correction(point, baseline.center, baseline.slopes, baseline.operating)
+               for point in points) / baseline.reach

@@ -23,8 +23,10 @@ times of day's, at :data:`VARYING_LEVEL`. A daily cycle every window shares (the
 load, a mast's afternoon gusts) is the pieces' effect and does not hide the windows'; a plant
 driven the same way every day has windows that differ by chance alone, and a night a little
 beyond the reach of five such days is not outside anything. A candidate lies :func:`outside` by the
-largest ratio, over the counted figures, of its distance from the centre to the reach: above
-1, it was driven beyond any baseline day. :class:`graybox.tiers.Tier` divides the AR, network
+largest ratio, over the counted figures and over its own windows, of a window's distance from
+the centre to the reach: above 1, it was driven beyond any baseline day. A candidate of
+several nights is as far outside as its farthest night: their average would put a night far
+beyond the range together with one inside it back near the centre. :class:`graybox.tiers.Tier` divides the AR, network
 and noise tiers' changes by that ratio where it exceeds 1 (zeta by its square), as the level
 tier's change is divided by its own extrapolation: a tier's healthy change grows with the
 distance, and calibration measured it only up to the reach. Calibration divides each left-out
@@ -75,10 +77,6 @@ class OperatingConditions:
     def figures(self) -> np.ndarray:
         """Array of shape (windows, 2 * inputs): each window's means, then its spreads."""
         return np.hstack([_array(self.means), _array(self.spreads)])
-
-    def point(self) -> np.ndarray:
-        """The figures averaged over the windows: where the fit as a whole was driven."""
-        return self.figures().mean(axis=0)
 
     def reach(self) -> np.ndarray:
         """Per figure, the largest distance of a window from the windows' centre."""
@@ -171,8 +169,9 @@ def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
 
 def outside(candidate: OperatingConditions | None, baseline: OperatingConditions | None) -> float:
     """How far outside its baseline's conditions a candidate was driven: the largest ratio,
-    over the figures whose baseline windows differ (:meth:`OperatingConditions.varying`), of
-    the candidate's distance from the baseline's centre to the baseline's reach. Above 1:
+    over the figures whose baseline windows differ (:meth:`OperatingConditions.varying`) and
+    over the candidate's windows, of a window's distance from the baseline's centre to the
+    baseline's reach. Above 1:
     beyond every baseline window. 0 where either lacks the record, their inputs differ, or no
     figure of the baseline varies."""
     return farthest(candidate, baseline)[0]
@@ -195,11 +194,15 @@ def farthest(candidate: OperatingConditions | None, baseline: OperatingCondition
     if not counted.any():
         return 0.0, None
     figures = baseline.figures()
-    point = candidate.point()
-    ratios = np.where(counted, np.abs(point - figures.mean(axis=0)) / np.where(counted, reach, 1.0),
+    center = figures.mean(axis=0)
+    # each of the candidate's windows on its own: a night far outside the range must not
+    # hide behind a night inside it in their average (a two-night candidate)
+    windows = candidate.figures()
+    ratios = np.where(counted, np.abs(windows - center) / np.where(counted, reach, 1.0),
                       -np.inf)
-    index = int(np.argmax(ratios))
+    window, index = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
     inputs = len(baseline.inputs)
     name = f"{baseline.inputs[index % inputs]} {'mean' if index < inputs else 'spread'}"
-    return float(ratios[index]), (f"{name} {point[index]:.4g} (baseline days "
-                                  f"{figures[:, index].min():.4g} to {figures[:, index].max():.4g})")
+    return float(ratios[window, index]), (
+        f"{name} {windows[window, index]:.4g} (baseline days "
+        f"{figures[:, index].min():.4g} to {figures[:, index].max():.4g})")

@@ -240,6 +240,28 @@ def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distanc
     entry = compute_drift(candidate, baseline).get("omega", "level")
     assert entry.zeta == pytest.approx(9.0) and entry.outside is None
     assert Signature.from_json(baseline.to_json()) == baseline
+    # a candidate of two nights, one inside (1.5) and one at 6.0: as far outside as the
+    # farthest, where their mean (3.75, a correction of 0.55) would read as inside
+    pair = dataclasses.replace(inside, window_points=((130.0, 1.5), (130.0, 6.0)))
+    candidate = make_signature((dataclasses.replace(make_channel(), level=pair),))
+    entry = compute_drift(candidate, baseline).get("omega", "level")
+    assert entry.zeta == pytest.approx(2.25) and entry.outside == pytest.approx(2.0)
+    assert Signature.from_json(candidate.to_json()) == candidate
+
+
+def test_a_candidate_keeps_the_operating_point_of_each_of_its_windows():
+    rng = np.random.default_rng(5)
+    features = np.column_stack([rng.normal(0.0, 1.0, 300), np.repeat([1.0, 2.0, 3.0], 100)])
+    errors = 0.5 * features[:, 1] + rng.normal(0.0, 0.1, 300)
+    baseline = fit_level(errors, features, 4, groups=np.repeat([0, 1, 2], 100))
+    assert baseline.window_points is None and baseline.reach == pytest.approx(0.5, rel=0.05)
+    night = np.column_stack([rng.normal(0.0, 1.0, 200), np.repeat([2.0, 6.0], 100)])
+    candidate = fit_level(0.5 * night[:, 1], night, 4, baseline, groups=np.repeat([7, 8], 100))
+    np.testing.assert_allclose([p[1] for p in candidate.window_points], [2.0, 6.0])
+    assert candidate.operating_point[1] == pytest.approx(4.0)
+    # the night at 6.0 lies 4 from the centre, a correction of 2.0: four times the reach of
+    # the baseline's days (their mean, 4.0, would say twice)
+    assert extrapolation(candidate, baseline) == pytest.approx(4.0, rel=0.05)
 
 def _turbine_days(model_error, faults, days, vehicles=1):
     specs = []

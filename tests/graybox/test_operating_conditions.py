@@ -77,8 +77,11 @@ def test_outside_is_the_farthest_figure_over_the_baselines_reach():
     assert outside(_conditions([8.0], [3.0]), baseline) == pytest.approx(3.0)
     assert farthest(_conditions([8.0], [3.0]), baseline) == \
         (pytest.approx(3.0), "outdoor spread 3 (baseline days 1 to 2)")
-    # a night over two windows is placed at their average
-    assert outside(_conditions([8.0, 8.0], [2.5, 3.5]), baseline) == pytest.approx(3.0)
+    # a candidate of two nights is as far outside as its farthest: one inside the range
+    # (spread 1.5) and one far gustier (3.5) give 4.0 where their average (2.5) would give 2.0
+    assert outside(_conditions([8.0, 8.0], [1.5, 3.5]), baseline) == pytest.approx(4.0)
+    assert farthest(_conditions([8.0, 8.0], [1.5, 3.5]), baseline)[1] == \
+        "outdoor spread 3.5 (baseline days 1 to 2)"
     # no record, a single baseline window, other inputs or a figure no window moved: 0
     assert outside(None, baseline) == outside(_conditions([8.0]), None) == 0.0
     assert outside(_conditions([30.0]), _conditions([5.0])) == 0.0
