@@ -62,7 +62,9 @@ class Compressor(Family):
                "demand": "demand_flow", "ambient": "ambient_temp"}
     sample_interval = DT
     grid = GRID
-    held_out = True
+    # held out until 2026-11-26: its healthy alarms were read to find that a two-night
+    # candidate's average hid a night beyond the baseline's range (docs/design.md 4.14)
+    held_out = False
     channels = ("pressure", "discharge_temp", "motor_power", "demand_flow", "ambient_temp")
     faults = (
         FaultKind("valve_wear", "volumetric efficiency down by m (relative: worn inlet valve)",
