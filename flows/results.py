@@ -27,7 +27,7 @@ from dataclasses import asdict, dataclass, field
 import pandas as pd
 
 from graybox.exceptions import GrayBoxError, TelemetryError
-from registry.alert import Alert
+from graybox.alert import Alert
 from flows.terminal import EXIT_FAILED, EXIT_OK
 from registry.exceptions import RegistryError, TransientStoreError
 from flows.errors import AssetsNotMonitored, TransientError

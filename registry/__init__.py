@@ -14,8 +14,7 @@ Start with :class:`registry.Registry`. Layout, one concept per module:
 ``model_files`` the pyfunc model of a fit (logged model or the run's model/)
 ``runs``        logging one fit as a complete run, in few round trips
 ``recording``   recording fits idempotently (runs, versions, alias), one or a batch
-``alert``       Alert, the one alert record (made from a drift, read back, in JSON lines)
-``history``     the zeta history and the recorded alerts
+``history``     the zeta history and the recorded alerts (made again from the stored drifts)
 ``loading``     safe loading of a version (verified, never unpickled)
 ``baselines``   promote, reject, rollback, list, history
 ``watermarks``  per-asset watermark on the registered model
@@ -29,13 +28,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-__all__ = ["Registry", "Alert", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
+__all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
            "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "StoreError",
            "TransientStoreError", "RetryPolicy"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
-    "Alert": "registry.alert",
     "FitSubmission": "registry.submission",
     "FitRecord": "registry.entities",
     "VersionInfo": "registry.entities",
@@ -50,7 +48,6 @@ _LOCATIONS = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from registry.alert import Alert
     from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
     from registry.exceptions import (NotFoundError, PromotionError, RegistryError, StoreError,
                                      TransientStoreError)

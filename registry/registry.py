@@ -12,7 +12,7 @@ from typing import Collection, Sequence
 import pandas as pd
 
 from registry import baselines, history, loading, recording, watermarks
-from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
+from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
 from registry.backend import Backend
 from registry.boundary import facade
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
@@ -203,7 +203,7 @@ class Registry:
                critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.
 
-        One :class:`registry.alert.Alert` per asset, window, channel and tier whose zeta
+        One :class:`graybox.alert.Alert` per asset, window, channel and tier whose zeta
         exceeded epsilon: the same records the nightly run wrote to its alerts file.
         ``major_ratio`` and ``critical_ratio`` grade their severity (``[alerts]`` of
         fleet.toml). Reanalyses are left out.

@@ -1,6 +1,6 @@
 """What a recorded fit says about itself: tags, params, metrics, ``drift.json``, description.
 
-(A candidate's ``diagnosis.json`` and its tags are written by :mod:`registry.alert_diagnosis`.)
+(A candidate's ``diagnosis.json`` and its tags are written by :mod:`graybox.alert_diagnosis`.)
 
 Pure functions of a :class:`registry.submission.ResolvedFit` (no MLflow call), so every
 record of a fit says the same whichever path wrote it. Each writer has its reader here:
@@ -23,7 +23,7 @@ from graybox.calibration import Calibration
 from graybox.drift import Drift
 from graybox.signature import TIERS, Signature
 from registry import naming
-from registry.alert_diagnosis import diagnosis_document
+from graybox.alert_diagnosis import diagnosis_document
 from registry.submission import ResolvedFit
 
 _KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")

@@ -29,7 +29,7 @@ from mlflow.entities import Metric, Param, RunTag
 from graybox.decompose import decompose
 from graybox.diagnosis import Diagnosis
 from registry import naming
-from registry.alert_diagnosis import diagnosis_document
+from graybox.alert_diagnosis import diagnosis_document
 from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE, write_bundle
 from registry.backend import Backend
 from registry.history import zeta_history

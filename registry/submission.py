@@ -21,7 +21,7 @@ from graybox.drift import Drift
 from graybox.signature import Signature
 from graybox.timestamps import utc
 from registry import naming
-from registry.alert_diagnosis import DiagnosisFailure
+from graybox.alert_diagnosis import DiagnosisFailure
 
 
 def frames(window) -> list[pd.DataFrame]:
@@ -89,7 +89,7 @@ class FitSubmission:
     diagnosis : Diagnosis or DiagnosisFailure, optional
         Candidate fits only (an alarmed window's): ``diagnosis.json`` and the tags
         ``fleet_health.diagnosis`` (explained, unexplained or failed) and
-        ``fleet_health.likely_cause`` (see :mod:`registry.alert_diagnosis`).
+        ``fleet_health.likely_cause`` (see :mod:`graybox.alert_diagnosis`).
 
     Raises
     ------

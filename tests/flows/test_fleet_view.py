@@ -137,7 +137,7 @@ def test_heat_map_png_draws_alarms_marks_and_the_band():
 def test_html_page_holds_the_image_the_alerts_and_the_coverage():
     from flows.fleet_plot import heatmap_png
     from flows.html_report import render_page
-    from registry.alert import Alert
+    from graybox.alert import Alert
 
     view = _small_view()
     png = heatmap_png(view, top=2)

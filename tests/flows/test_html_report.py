@@ -6,8 +6,8 @@ import html
 
 from flows.fleet_view import build_view
 from graybox.diagnosis import Diagnosis, Hypothesis
-from registry.alert import Alert
-from registry.alert_diagnosis import DiagnosisFailure, alert_entries
+from graybox.alert import Alert
+from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry.fleet_ratios import NightRatio
 
 NIGHT = "2026-02-02"

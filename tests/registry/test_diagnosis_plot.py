@@ -9,7 +9,7 @@ import pytest
 
 from graybox.diagnosis import Diagnosis, Hypothesis
 from graybox.diagnosis_evidence import ChannelResidual, DiagnosisEvidence, HypothesisFit
-from registry.alert_diagnosis import DiagnosisFailure
+from graybox.alert_diagnosis import DiagnosisFailure
 
 N = 3000            # k-step errors of the window: drawn thinned to PLOT_POINTS
 SIGMA = 0.1
