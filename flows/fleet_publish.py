@@ -45,17 +45,14 @@ def publish_fleet_view(summary: RunSummary, config, nights: int = DEFAULT_NIGHTS
     from prefect.artifacts import create_markdown_artifact
 
     from flows.fleet_plot import heatmap_png
-    from registry.fleet_runs import STATUSES_FILE, publish_night
 
     registry = config.registry()
     tonight = night_document(summary)
     view = collect_view(registry, tonight["night"], nights, tonight)
     png = heatmap_png(view, top)
-    run_id = publish_night(
-        registry.backend, tonight["night"],
-        {HEATMAP_FILE: png,
-         VIEW_FILE: json.dumps(view.to_dict(), indent=1).encode(),
-         STATUSES_FILE: json.dumps(tonight, indent=1).encode()},
+    run_id = registry.publish_night(
+        tonight["night"], tonight,
+        {HEATMAP_FILE: png, VIEW_FILE: json.dumps(view.to_dict(), indent=1).encode()},
         metrics={key.replace(" ", "_"): value for key, value in tonight["coverage"].items()})
     flagged = sum(row.flagged for row in view.rows)
     coverage = ", ".join(f"{value} {key}" for key, value in tonight["coverage"].items() if value)

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 __all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
            "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "StoreError",
-           "TransientStoreError", "RetryPolicy"]
+           "TransientStoreError", "RetryPolicy", "NightRatio", "night_of_window"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
@@ -44,7 +44,9 @@ _LOCATIONS = {
     "PromotionError": "registry.exceptions",
     "StoreError": "registry.exceptions",
     "TransientStoreError": "registry.exceptions",
-    "RetryPolicy": "registry.store",
+    "RetryPolicy": "registry.retry",
+    "NightRatio": "registry.fleet_ratios",
+    "night_of_window": "registry.fleet_ratios",
 }
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -23,6 +23,7 @@ import pandas as pd
 from registry import naming
 from registry.backend import Backend
 from registry.boundary import raises_registry_errors
+from registry.fleet_runs import published_nights
 from registry.history import _asset_runs
 
 _DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
@@ -93,6 +94,15 @@ def latest_candidate_night(backend: Backend) -> str | None:
         if run.data.tags.get(naming.TAG_REANALYSIS) != "true":
             return night_of_window(run.data.tags[naming.TAG_WINDOW_END])
     return None
+
+
+@raises_registry_errors
+def latest_night(backend: Backend) -> str | None:
+    """The latest night with a recorded candidate window or a published fleet-level run
+    (None if there is neither)."""
+    known = [night for night in (latest_candidate_night(backend),
+                                 max(published_nights(backend), default=None)) if night]
+    return max(known, default=None)
 
 
 def night_of_window(window_end) -> str:

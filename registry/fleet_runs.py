@@ -42,31 +42,35 @@ def fleet_experiment_id(backend: Backend, create: bool = False) -> str | None:
 
 
 @raises_registry_errors
-def fleet_runs(backend: Backend) -> dict[str, object]:
-    """Every night's fleet-level run (night ``YYYY-MM-DD`` -> run), one search.
+def published_nights(backend: Backend) -> dict[str, str]:
+    """Every published night and the id of its fleet-level run (night ``YYYY-MM-DD`` ->
+    run id), one search.
 
     When two runs hold the same night (two reruns racing), the first created is the night's.
     """
     experiment_id = fleet_experiment_id(backend)
     if experiment_id is None:
         return {}
-    out: dict[str, object] = {}
+    first: dict[str, object] = {}
     for run in backend.paged(backend.client.search_runs, [experiment_id],
                              f"tags.`{naming.TAG_NIGHT}` LIKE '%'"):
         night = run.data.tags[naming.TAG_NIGHT]
-        if night not in out or run.info.start_time < out[night].info.start_time:
-            out[night] = run
-    return out
+        if night not in first or run.info.start_time < first[night].info.start_time:
+            first[night] = run
+    return {night: run.info.run_id for night, run in first.items()}
 
 
 @raises_registry_errors
-def publish_night(backend: Backend, night: str, files: Mapping[str, bytes],
+def publish_night(backend: Backend, night: str, statuses: Mapping, files: Mapping[str, bytes],
                   metrics: Mapping[str, float] | None = None) -> str:
-    """Write ``files`` (name -> content) as artifacts of the night's fleet run; return its id.
+    """Write the night's ``statuses`` (as :data:`STATUSES_FILE`, read back by
+    :func:`night_statuses`) and ``files`` (name -> content) as artifacts of the night's fleet
+    run; return its id.
 
     The night's run is created once (tagged with the night) and reused by later calls,
     whose files replace those of the same name.
     """
+    files = {**files, STATUSES_FILE: json.dumps(statuses, indent=1).encode()}
     experiment_id = fleet_experiment_id(backend, create=True)
     found = backend.client.search_runs(
         [experiment_id], f"tags.`{naming.TAG_NIGHT}` = {naming.quote(night)}",
@@ -88,12 +92,13 @@ def publish_night(backend: Backend, night: str, files: Mapping[str, bytes],
 
 
 @raises_registry_errors
-def night_statuses(backend: Backend, runs: Mapping[str, object]) -> dict[str, dict]:
-    """The :data:`STATUSES_FILE` document of each run given (night -> document); nights
-    whose run has none (published by an older version, or half-way) are left out."""
+def night_statuses(backend: Backend, run_ids: Mapping[str, str]) -> dict[str, dict]:
+    """The :data:`STATUSES_FILE` document of each night's fleet run given (night -> run id,
+    as :func:`published_nights`; night -> document); nights whose run has none (published by
+    an older version, or half-way) are left out."""
     out = {}
-    for night, run in runs.items():
-        document = run_document(backend, run.info.run_id, STATUSES_FILE)
+    for night, run_id in run_ids.items():
+        document = run_document(backend, run_id, STATUSES_FILE)
         if document is not None:
             out[night] = document
     return out

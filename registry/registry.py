@@ -7,15 +7,17 @@ Its constructor and methods raise the registry's errors, never MLflow's
 from __future__ import annotations
 
 import os
-from typing import Collection, Sequence
+from typing import Collection, Mapping, Sequence
 
 import pandas as pd
 
-from registry import baselines, history, loading, recording, watermarks
+from registry import (baselines, fleet_ratios, fleet_runs, history, loading, probe, recording,
+                      watermarks)
 from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
 from registry.backend import Backend
 from registry.boundary import facade
 from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
+from registry.fleet_ratios import NightRatio
 from registry.model_files import PyfuncTemplate
 from registry.retry import RetryPolicy
 from registry.submission import FitSubmission
@@ -210,3 +212,45 @@ class Registry:
         """
         return history.alerts(self._backend, since, major_ratio=major_ratio,
                               critical_ratio=critical_ratio)
+
+    # -- the fleet's nights --------------------------------------------------------------------
+    def night_ratios(self, nights: Sequence[str]) -> list[NightRatio]:
+        """The worst recorded zeta/epsilon per asset and night, for the nights given
+        (``YYYY-MM-DD``; see :func:`registry.fleet_ratios.night_ratios`)."""
+        return fleet_ratios.night_ratios(self._backend, nights)
+
+    def latest_night(self) -> str | None:
+        """The latest night (``YYYY-MM-DD``) with a recorded candidate window or a published
+        fleet-level run; None when there is neither."""
+        return fleet_ratios.latest_night(self._backend)
+
+    def published_nights(self) -> dict[str, str]:
+        """Every night published with :meth:`publish_night`: night -> its fleet-level run."""
+        return fleet_runs.published_nights(self._backend)
+
+    def night_statuses(self, runs: Mapping[str, str]) -> dict[str, dict]:
+        """The statuses published with each night's fleet-level run given (night -> run, as
+        :meth:`published_nights` returns; night -> document); nights without are left out."""
+        return fleet_runs.night_statuses(self._backend, runs)
+
+    def night_file(self, run_id: str, name: str) -> dict | None:
+        """The JSON file ``name`` published with a night's fleet-level run (None if absent)."""
+        return fleet_runs.run_document(self._backend, run_id, name)
+
+    def publish_night(self, night: str, statuses: Mapping, files: Mapping[str, bytes],
+                      metrics: Mapping[str, float] | None = None) -> str:
+        """Publish the night's ``statuses`` (a JSON document), ``files`` (name -> content)
+        and ``metrics`` with its fleet-level run, created once per night (a rerun replaces
+        the files); returns the run's id."""
+        return fleet_runs.publish_night(self._backend, night, statuses, files, metrics)
+
+    # -- the store -----------------------------------------------------------------------------
+    def probe_read(self) -> None:
+        """Read the store once (``fleet-health check``); the registry's error if it cannot."""
+        probe.probe_read(self._backend)
+
+    def probe_write(self) -> str:
+        """Write a probe run (a tag and an artifact), read it back and delete it; returns the
+        probe's experiment (see :mod:`registry.probe`). Raises ``OSError`` when what was
+        written does not read back."""
+        return probe.probe_write(self._backend)
