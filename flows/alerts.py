@@ -29,7 +29,7 @@ from typing import Iterable, Iterator
 
 from graybox.timestamps import utc
 from graybox.alert import Alert
-from registry.locks import file_lock
+from registry import file_lock
 
 #: seconds an append waits for the alerts file's lock before the run fails (never hangs)
 LOCK_TIMEOUT = 120.0

@@ -8,7 +8,7 @@ After the night's summary is built, the view of the last :data:`DEFAULT_NIGHTS` 
   inline as a ``data:`` URI (Prefect's UI renders it; ``create_image_artifact`` needs a
   URL the UI can reach);
 * as artifacts of the night's fleet-level MLflow run in ``fleet-health/fleet``
-  (:mod:`registry.fleet_runs`: ``fleet_heatmap.png``, ``fleet_view.json`` and
+  (:mod:`registry.fleet_nights`: ``fleet_heatmap.png``, ``fleet_view.json`` and
   ``night_statuses.json``, the coverage counts as metrics); a rerun of the night replaces
   them in the same run.
 

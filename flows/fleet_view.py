@@ -10,7 +10,7 @@ ratio; :meth:`FleetView.fold` keeps the top rows and folds the rest into one ban
 
 The night of a run is the last UTC day ended by its ``as_of`` (:func:`night_of`). Each
 night's statuses (:func:`night_document`) are kept with the night's fleet-level run
-(:mod:`registry.fleet_runs`), so a view of past nights gets their marks back
+(:mod:`registry.fleet_nights`), so a view of past nights gets their marks back
 (:func:`collect_view`).
 """
 from __future__ import annotations
@@ -184,7 +184,7 @@ def build_view(nights: Sequence[str], ratios: Iterable, marks: Iterable[Mark] = 
         ``YYYY-MM-DD``, oldest first.
     ratios : iterable
         Records with ``asset_id``, ``vehicle_class``, ``night`` and ``ratio``
-        (:class:`registry.fleet_ratios.NightRatio`); those of other nights are ignored.
+        (:class:`registry.fleet_nights.NightRatio`); those of other nights are ignored.
     marks : iterable of Mark
         Later marks of the same asset-night replace earlier ones; marks of nights before
         the first are drawn on the first, those after the last are ignored.
@@ -271,7 +271,7 @@ def collect_view(registry, last_night: str, count: int = DEFAULT_NIGHTS,
     """The view of the ``count`` nights ending with ``last_night``, from the registry.
 
     Without ``tonight`` (the report), every night's ratios are read from the candidates
-    recorded (:func:`registry.fleet_ratios.night_ratios`) and the marks and coverage from
+    recorded (:func:`registry.fleet_nights.night_ratios`) and the marks and coverage from
     the nights' fleet-level runs. With ``tonight`` (a :func:`night_document` being
     published by the nightly run), the latest view published up to that night
     (``fleet_view.json`` of its fleet-level run) gives the cells and marks of its nights,

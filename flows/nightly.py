@@ -100,7 +100,7 @@ from flows.pipeline import (BatchPlan, CommitPolicy, PendingAsset, configured_mo
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
-from registry.exceptions import UnusableBaselineError
+from registry import UnusableBaselineError
 from flows.run_guard import exclusive_run
 
 

@@ -46,8 +46,7 @@ from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
-from registry.entities import LoadedVersion
-from registry.submission import FitSubmission
+from registry import FitSubmission, LoadedVersion
 
 DAY = pd.Timedelta(days=1)
 

@@ -131,7 +131,7 @@ def check_store(config: FleetConfig):
     """(registry or None, findings): the store reachable, readable and writable."""
     from flows.store_probe import require_store
     from flows.errors import StoreUnavailable
-    from registry.store import resolve_store
+    from registry import resolve_store
 
     uri = config.tracking_uri
     store = resolve_store(uri)
@@ -191,8 +191,7 @@ def check_runs(config: FleetConfig) -> list[Finding]:
     """A run of the fleet in progress (noted), orphaned flow runs (marked Crashed)."""
     from flows.orphans import crash_orphans
     from flows.run_lock import RunLock
-    from registry.exceptions import RegistryError
-    from registry.locks import file_lock
+    from registry import RegistryError, file_lock
 
     lock = RunLock.of(config.tracking_uri)
     findings = []

@@ -13,7 +13,7 @@ from flows.discovery import parse_time
 from flows.fleet_view import DEFAULT_NIGHTS, DEFAULT_TOP, collect_view
 from graybox.exceptions import ArtifactError
 from flows.terminal import EXIT_FAILED, EXIT_OK, print_error
-from registry.exceptions import RegistryError
+from registry import RegistryError
 
 PAGE_FILE = "index.html"
 

@@ -95,7 +95,7 @@ def test_a_stuck_lock_holder_fails_the_append_instead_of_hanging_it(tmp_path):
     import time
 
     from registry.exceptions import RegistryError
-    from registry.locks import file_lock
+    from registry.store.locks import file_lock
 
     log = AlertLog(tmp_path / "alerts.jsonl")
     with file_lock(tmp_path / "alerts.jsonl.lock"):          # another run holds the file

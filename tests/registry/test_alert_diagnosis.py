@@ -10,7 +10,7 @@ import urllib.parse
 import pytest
 
 from graybox.diagnosis import Diagnosis, Hypothesis
-from registry import naming
+from registry.store import naming
 from graybox.alert import Alert, alerts_from_drift
 from graybox.alert_diagnosis import (ALERT_HYPOTHESES, NO_SINGLE_CAUSE, DiagnosisFailure,
                                       alert_entries, cause_text, diagnosis_document,

@@ -10,7 +10,7 @@ import pytest
 
 from benchmarks.langevin_fits import DAY0
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
-from registry import naming
+from registry.store import naming
 from graybox.alert import Alert, alerts_from_drift
 from registry.exceptions import NotFoundError
 

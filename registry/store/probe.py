@@ -1,7 +1,7 @@
 """Whether the store can be read and written: what ``fleet-health check`` asks of it.
 
 The write probe leaves nothing of the fleet's records changed: a run of its own
-experiment (:data:`registry.naming.PROBE_EXPERIMENT`) gets a tag and a small artifact, both
+experiment (:data:`registry.store.naming.PROBE_EXPERIMENT`) gets a tag and a small artifact, both
 are read back, and the run is deleted.
 """
 from __future__ import annotations
@@ -9,8 +9,8 @@ from __future__ import annotations
 import pathlib
 import tempfile
 
-from registry import naming
-from registry.backend import Backend
+from registry.store import naming
+from registry.store.backend import Backend
 
 PROBE_TAG = "fleet-health.check"
 PROBE_TEXT = "fleet-health check\n"
@@ -23,7 +23,7 @@ def probe_read(backend: Backend) -> None:
 
 
 def probe_write(backend: Backend) -> str:
-    """A probe run in :data:`registry.naming.PROBE_EXPERIMENT`: a tag and an artifact
+    """A probe run in :data:`registry.store.naming.PROBE_EXPERIMENT`: a tag and an artifact
     written, read back, then the run deleted; returns the experiment's name.
 
     Raises

@@ -21,13 +21,13 @@ from mlflow.exceptions import MlflowException
 from graybox.drift import Drift
 from graybox.exceptions import ArtifactError
 from graybox.signature import TIERS
-from registry import naming
+from registry.store import naming
 from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
 from graybox.alert_diagnosis import entries_from_document, failure_entry
-from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
-from registry.backend import Backend, is_not_found
-from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
-from registry.retry import call_with_retry
+from registry.write.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
+from registry.store.backend import Backend, is_not_found
+from registry.write.run_content import drift_from_document, entry_metric, parse_entry_metric
+from registry.store.retry import call_with_retry
 
 VERSION_QUERY_RUNS = 50         # run ids per model-version search (``run_id IN (...)``)
 HISTORY_COLUMNS = ("window_start", "window_end", "channel", "tier", "zeta", "epsilon", "ratio",
