@@ -5,7 +5,7 @@
 Writes ``--assets`` x ``--nights`` complete candidate runs into a fresh SQLite store in a
 temporary directory, shaped like the nightly's (the registry's tags, 25 metrics and 10
 params per run, as a one-channel gas turbine's), then times
-:func:`registry.fleet_ratios.night_ratios` over the nights (one search per calendar month)
+:func:`registry.fleet_nights.night_ratios` over the nights (one search per calendar month)
 and checks it found every asset-night. Writing the store is not timed.
 """
 from __future__ import annotations
@@ -20,10 +20,10 @@ import pandas as pd
 from mlflow.entities import Metric, Param
 
 from flows.fleet_view import window_nights
-from registry import naming
-from registry.backend import Backend
-from registry.fleet_ratios import night_ratios
-from registry.run_content import entry_metric
+from registry.store import naming
+from registry.store.backend import Backend
+from registry.fleet_nights import night_ratios
+from registry.write.run_content import entry_metric
 
 TIERS = ("linear", "nonlinear", "noise")
 

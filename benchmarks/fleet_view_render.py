@@ -21,7 +21,7 @@ import numpy as np
 from flows.fleet_plot import heatmap_png
 from flows.fleet_view import DEFAULT_TOP, Mark, build_view, window_nights
 from flows.html_report import render_page
-from registry.fleet_ratios import NightRatio
+from registry.fleet_nights import NightRatio
 
 
 def synthetic_fleet(assets: int, nights: int, seed: int = 1):

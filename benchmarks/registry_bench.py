@@ -13,7 +13,7 @@ model version tagged with its idempotence key), then real fits are recorded and 
   model, version, alias), without and with the PNG plots;
 * ``re-record``: the same fit again (idempotent: one key look-up, nothing written);
 * ``watermark``: :meth:`Registry.watermark` (one read of the registered model's tags,
-  without its versions: :mod:`registry.model_headers`);
+  without its versions: :mod:`registry.store.model_headers`);
 * ``baseline``: :meth:`Registry.baseline` (alias look-up, download, verification);
 * ``zeta history``: :meth:`Registry.zeta_history` of one asset.
 
@@ -66,8 +66,8 @@ class Filler:
     def __init__(self, registry, signature, drift, assets: int, prefix: str = "B"):
         from mlflow.entities import Metric, Param
 
-        from registry import naming
-        from registry.run_content import code_version, fit_metrics, structure_params
+        from registry.store import naming
+        from registry.write.run_content import code_version, fit_metrics, structure_params
 
         self.registry, self.assets, self.naming, self.prefix = registry, assets, naming, prefix
         self.client = registry.backend.client

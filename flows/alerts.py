@@ -1,9 +1,9 @@
-"""The JSON-lines alert file: :class:`registry.alert.Alert` records, one object per line.
+"""The JSON-lines alert file: :class:`graybox.alert.Alert` records, one object per line.
 
-An alert (:class:`registry.alert.Alert`, re-exported here with :func:`alerts_from_drift` and
-:func:`severity`) carries zeta, epsilon, their ratio, a severity from the ratio, the window,
-and the parameters that moved most (the root-cause hint). Alerts are stored twice, as the
-same records:
+An alert (:class:`graybox.alert.Alert`, made from a drift by
+:func:`graybox.alert.alerts_from_drift`) carries zeta, epsilon, their ratio, a severity from
+the ratio, the window, and the parameters that moved most (the root-cause hint). Alerts are
+stored twice, as the same records:
 
 * in the registry, the system of record (the candidate's MLflow run: the
   ``fleet_health.alarm`` tag, zeta/epsilon/ratio metrics for the MLflow UI, and
@@ -28,13 +28,13 @@ import pathlib
 from typing import Iterable, Iterator
 
 from graybox.timestamps import utc
-from registry.alert import Alert, alerts_from_drift, severity
-from registry.locks import file_lock
+from graybox.alert import Alert
+from registry import file_lock
 
 #: seconds an append waits for the alerts file's lock before the run fails (never hangs)
 LOCK_TIMEOUT = 120.0
 
-__all__ = ["Alert", "AlertLog", "alerts_from_drift", "export_alerts", "severity"]
+__all__ = ["AlertLog", "export_alerts"]
 
 
 class AlertLog:

@@ -39,7 +39,7 @@ from flows.run_tables import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
                            describe_error, now_iso)
-from registry.submission import FitSubmission
+from registry import FitSubmission
 
 
 

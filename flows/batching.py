@@ -31,7 +31,7 @@ from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, descri
                            is_transient, now_iso)
 from flows.errors import TransientError
 from flows.task_runner import batch_runner
-from registry.exceptions import RegistryError
+from registry import RegistryError
 
 logger = logging.getLogger(__name__)
 

@@ -33,7 +33,7 @@ from flows.run_tables import alert_table, fleet_table
 from flows.results import state_summary
 from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
 from graybox.telemetry import write_telemetry
-from registry.alert import Alert
+from graybox.alert import Alert
 
 MARKER = ".fleet-health-demo"
 _OURS = ("telemetry", "mlflow.db", "mlflow.db-wal", "mlflow.db-shm", "mlflow.db.init.lock",

@@ -6,7 +6,7 @@ left to right. Colours follow the alert severities (below 0.8 green, up to 1 yel
 1 orange, from 2 red, from 5 dark red: ``[alerts]`` defaults); a failed asset-night is
 black (``F``), stale grey (``S``), an unusable baseline purple (``U``); a night without a
 recorded window is hatched. Plain :class:`matplotlib.figure.Figure` on the Agg canvas, as
-in :mod:`registry.plots`.
+in :mod:`registry.write.plots`.
 """
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ After the night's summary is built, the view of the last :data:`DEFAULT_NIGHTS` 
   inline as a ``data:`` URI (Prefect's UI renders it; ``create_image_artifact`` needs a
   URL the UI can reach);
 * as artifacts of the night's fleet-level MLflow run in ``fleet-health/fleet``
-  (:mod:`registry.fleet_runs`: ``fleet_heatmap.png``, ``fleet_view.json`` and
+  (:mod:`registry.fleet_nights`: ``fleet_heatmap.png``, ``fleet_view.json`` and
   ``night_statuses.json``, the coverage counts as metrics); a rerun of the night replaces
   them in the same run.
 
@@ -45,17 +45,14 @@ def publish_fleet_view(summary: RunSummary, config, nights: int = DEFAULT_NIGHTS
     from prefect.artifacts import create_markdown_artifact
 
     from flows.fleet_plot import heatmap_png
-    from registry.fleet_runs import STATUSES_FILE, publish_night
 
     registry = config.registry()
     tonight = night_document(summary)
     view = collect_view(registry, tonight["night"], nights, tonight)
     png = heatmap_png(view, top)
-    run_id = publish_night(
-        registry.backend, tonight["night"],
-        {HEATMAP_FILE: png,
-         VIEW_FILE: json.dumps(view.to_dict(), indent=1).encode(),
-         STATUSES_FILE: json.dumps(tonight, indent=1).encode()},
+    run_id = registry.publish_night(
+        tonight["night"], tonight,
+        {HEATMAP_FILE: png, VIEW_FILE: json.dumps(view.to_dict(), indent=1).encode()},
         metrics={key.replace(" ", "_"): value for key, value in tonight["coverage"].items()})
     flagged = sum(row.flagged for row in view.rows)
     coverage = ", ".join(f"{value} {key}" for key, value in tonight["coverage"].items() if value)

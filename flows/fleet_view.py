@@ -10,7 +10,7 @@ ratio; :meth:`FleetView.fold` keeps the top rows and folds the rest into one ban
 
 The night of a run is the last UTC day ended by its ``as_of`` (:func:`night_of`). Each
 night's statuses (:func:`night_document`) are kept with the night's fleet-level run
-(:mod:`registry.fleet_runs`), so a view of past nights gets their marks back
+(:mod:`registry.fleet_nights`), so a view of past nights gets their marks back
 (:func:`collect_view`).
 """
 from __future__ import annotations
@@ -184,7 +184,7 @@ def build_view(nights: Sequence[str], ratios: Iterable, marks: Iterable[Mark] = 
         ``YYYY-MM-DD``, oldest first.
     ratios : iterable
         Records with ``asset_id``, ``vehicle_class``, ``night`` and ``ratio``
-        (:class:`registry.fleet_ratios.NightRatio`); those of other nights are ignored.
+        (:class:`registry.fleet_nights.NightRatio`); those of other nights are ignored.
     marks : iterable of Mark
         Later marks of the same asset-night replace earlier ones; marks of nights before
         the first are drawn on the first, those after the last are ignored.
@@ -256,7 +256,7 @@ def night_document(summary: RunSummary) -> dict:
     """What a nightly run keeps of its night with the fleet-level run: the night, its marks,
     its coverage counts and the nights it recorded windows in (JSON types)."""
     night = night_of(summary.as_of)
-    from registry.fleet_ratios import night_of_window
+    from registry import night_of_window
 
     recorded = sorted({night_of_window(w.window_end) for a in summary.assets for w in a.windows})
     return {"night": night, "as_of": summary.as_of, "flow_run_id": summary.flow_run_id,
@@ -271,7 +271,7 @@ def collect_view(registry, last_night: str, count: int = DEFAULT_NIGHTS,
     """The view of the ``count`` nights ending with ``last_night``, from the registry.
 
     Without ``tonight`` (the report), every night's ratios are read from the candidates
-    recorded (:func:`registry.fleet_ratios.night_ratios`) and the marks and coverage from
+    recorded (:func:`registry.fleet_nights.night_ratios`) and the marks and coverage from
     the nights' fleet-level runs. With ``tonight`` (a :func:`night_document` being
     published by the nightly run), the latest view published up to that night
     (``fleet_view.json`` of its fleet-level run) gives the cells and marks of its nights,
@@ -279,29 +279,27 @@ def collect_view(registry, last_night: str, count: int = DEFAULT_NIGHTS,
     it does not cover are read; tonight's marks and coverage are added. A nightly view
     thus reads about one night of runs, not ``count``.
     """
-    from registry.fleet_ratios import NightRatio, night_ratios
-    from registry.fleet_runs import fleet_runs, night_statuses, run_document
+    from registry import NightRatio
 
     nights = window_nights(last_night, count)
-    backend = registry.backend
-    runs = {night: run for night, run in fleet_runs(backend).items() if night in nights}
+    runs = {night: run for night, run in registry.published_nights().items() if night in nights}
     if tonight is None:
-        documents = night_statuses(backend, runs)
+        documents = registry.night_statuses(runs)
         marks = [Mark.from_dict(m) for night in sorted(documents)
                  for m in documents[night].get("marks", [])]
         latest = max(documents) if documents else None
         coverage = documents[latest].get("coverage", {}) if latest else {}
-        return build_view(nights, night_ratios(backend, nights), marks, coverage, latest)
+        return build_view(nights, registry.night_ratios(nights), marks, coverage, latest)
 
     previous = None
     for night in sorted(runs, reverse=True):
-        document = run_document(backend, runs[night].info.run_id, VIEW_FILE)
+        document = registry.night_file(runs[night], VIEW_FILE)
         if document is not None:
             previous = FleetView.from_dict(document)
             break
     recorded = set(tonight.get("nights_recorded", ()))
     covered = set() if previous is None else set(previous.nights) - recorded
-    ratios: list = night_ratios(backend, [n for n in nights if n not in covered])
+    ratios: list = registry.night_ratios([n for n in nights if n not in covered])
     marks: list[Mark] = []
     for row in () if previous is None else previous.rows:
         for night, ratio, mark in zip(previous.nights, row.ratios, row.marks):

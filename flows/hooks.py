@@ -34,7 +34,7 @@ def compose_message(flow_name: str, summary: dict | None, state_name: str,
     summary : dict or None
         The flow run's result as Prefect hands it over: the run summary serialised
         (:meth:`flows.results.RunSummary.to_dict`, alerts as
-        :meth:`registry.alert.Alert.to_dict`), or None when the run left none. Only the
+        :meth:`graybox.alert.Alert.to_dict`), or None when the run left none. Only the
         fields the message shows are read, so a partial summary is enough.
     state_name, state_message : str
         The final state's name and message.

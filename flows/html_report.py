@@ -13,7 +13,7 @@ from typing import Sequence
 
 from flows.fleet_view import FleetView
 from flows.run_tables import alert_rows
-from registry.alert import Alert
+from graybox.alert import Alert
 
 NUMBER_CELL = '<td class="n">'
 ALERT_COLUMNS = ("asset", "night", "tier", "channel", "zeta/epsilon", "severity", "moved most",

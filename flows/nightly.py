@@ -84,8 +84,8 @@ from prefect import flow
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates, newest_timestamp
 from graybox.telemetry.changes import changed_days, clear_changed
-from registry.alert import STALE as STALE_KIND
-from registry.alert import Alert, stale_alert
+from graybox.alert import STALE as STALE_KIND
+from graybox.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
@@ -100,7 +100,7 @@ from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, can
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
-from registry.exceptions import UnusableBaselineError
+from registry import UnusableBaselineError
 from flows.run_guard import exclusive_run
 
 

@@ -49,10 +49,9 @@ from flows.config import FleetConfig, VehicleClass
 from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
-from registry.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
-from registry.alert_diagnosis import DiagnosisFailure, alert_entries
-from registry.entities import LoadedVersion
-from registry.submission import FitSubmission
+from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
+from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
+from registry import FitSubmission, LoadedVersion
 
 DAY = pd.Timedelta(days=1)
 #: windows a new baseline needs at least (epsilon is calibrated from them)

@@ -36,7 +36,7 @@ from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, can
 from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
-from registry.exceptions import NotFoundError, UnusableBaselineError
+from registry import NotFoundError, UnusableBaselineError
 from flows.run_guard import exclusive_run
 
 

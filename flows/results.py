@@ -27,9 +27,9 @@ from dataclasses import asdict, dataclass, field
 import pandas as pd
 
 from graybox.exceptions import GrayBoxError, TelemetryError
-from registry.alert import Alert
+from graybox.alert import Alert
 from flows.terminal import EXIT_FAILED, EXIT_OK
-from registry.exceptions import RegistryError, TransientStoreError
+from registry import RegistryError, TransientStoreError
 from flows.errors import AssetsNotMonitored, TransientError
 
 logger = logging.getLogger(__name__)
@@ -78,7 +78,7 @@ def is_transient(error: BaseException) -> bool:
     Data and configuration errors (GrayBoxError, RegistryError, ConfigError, ValueError) are
     never transient; neither are missing files or permissions. Whether the tracking store's
     failure is a passing one, the registry says: it raises
-    :class:`~registry.exceptions.TransientStoreError` for those (:mod:`registry.boundary`).
+    :class:`~registry.exceptions.TransientStoreError` for those (:mod:`registry.store.boundary`).
     """
     if isinstance(error, (TransientError, TransientStoreError)):
         return True

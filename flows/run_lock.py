@@ -2,7 +2,7 @@
 
 Every flow (``nightly``, ``baseline``, ``reanalyze``) holds an exclusive lock on the fleet's
 tracking store for its whole body: ``fleet-run.lock`` in the store's lock directory
-(:func:`registry.locks.file_lock`; beside the SQLite file, or in the user's cache for a
+(:func:`registry.store.locks.file_lock`; beside the SQLite file, or in the user's cache for a
 server). A second run of the same fleet started meanwhile (a manual ``run`` while the
 scheduled one works) waits for it, at most ``$FLEET_HEALTH_RUN_LOCK_WAIT`` seconds (default
 :data:`DEFAULT_LOCK_WAIT`), saying whom it waits for; then it finds the windows the first
@@ -29,9 +29,7 @@ from typing import Iterator
 
 from flows.env_seconds import env_seconds
 from flows.results import now_iso
-from registry.exceptions import RegistryError
-from registry.locks import file_lock
-from registry.store import resolve_store
+from registry import RegistryError, file_lock, resolve_store
 from flows.errors import RunLockTimeout
 
 logger = logging.getLogger(__name__)

@@ -10,8 +10,8 @@ from rich.table import Table
 
 from flows.errors import AssetsNotMonitored
 from flows.results import FAILED, UNUSABLE_BASELINE, RunSummary
-from registry.alert import Alert
-from registry.alert_diagnosis import NO_SINGLE_CAUSE
+from graybox.alert import Alert
+from graybox.alert_diagnosis import NO_SINGLE_CAUSE
 
 
 def _when(value: str | None, fmt: str = "%Y-%m-%d %H:%M") -> str:

@@ -1,27 +1,23 @@
 """registry: healthy baselines and nightly candidates in MLflow (the system of record).
 
-Start with :class:`registry.Registry`. Layout, one concept per module:
+Start with :class:`registry.Registry`, the facade: the flows and the command line call its
+methods and the public names below, nothing else of the registry. Layout, by concept:
 
-``naming``      experiment, registered-model and tag names (asset ids validated first)
-``store``       tracking URIs, SQLite WAL set-up, "database is locked" retries, asset locks
-``backend``     the MLflow client bound to one store, shared look-ups
-``exceptions``  the registry's errors, the store's failures among them
-``boundary``    MLflow's errors leave the registry as the registry's (``TransientStoreError``)
-``model_headers`` registered models' tags and aliases, read without their versions
-``artifacts``   the signature bundle: JSON + safetensors + manifest, verified on read
-``submission``  what is submitted for recording (FitSubmission), its key and data hash
-``run_content`` a recorded fit's tags, params, metrics, drift.json and description
-``model_files`` the pyfunc model of a fit (logged model or the run's model/)
-``runs``        logging one fit as a complete run, in few round trips
-``recording``   recording fits idempotently (runs, versions, alias), one or a batch
-``alert``       Alert, the one alert record (made from a drift, read back, in JSON lines)
-``history``     the zeta history and the recorded alerts
-``loading``     safe loading of a version (verified, never unpickled)
-``baselines``   promote, reject, rollback, list, history
-``watermarks``  per-asset watermark on the registered model
-``plots``       residual/ACF, tier fits, zeta trend (matplotlib, Agg)
-``pyfunc``      loader module of the pyfunc model (no pickle)
-``cli``         ``fleet-health baseline ...`` subcommands
+``registry``      the facade, :class:`Registry`
+``records``       the typed records it returns (FitRecord, VersionInfo, AssetSummary, LoadedVersion)
+``exceptions``    the registry's errors, the store's failures among them
+``store/``        where the registry lives and how it talks to MLflow: naming, tracking_store,
+                  retry, locks, boundary, backend, model_headers, probe
+``write/``        recording a fit: submission, run_content, artifacts, model_files, plots,
+                  runs, recording, watermarks
+``read/``         reading back: loading (a version, verified), history (zetas and alerts)
+``review``        promote, reject, rollback, list, history, the reference of a run
+``fleet_nights``  the fleet's nights: worst ratios per asset and night, fleet-level runs
+``pyfunc``        loader module of the pyfunc model (no pickle; its name is recorded in
+                  every model, so it stays ``registry.pyfunc``)
+
+Alerts are made in :mod:`graybox.alert`, beside the drift they come from; the registry stores
+them (with the candidate's run) and returns them (:meth:`Registry.alerts`).
 
 Importing :mod:`registry` does not import MLflow; the names below load on first use.
 """
@@ -29,34 +25,41 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-__all__ = ["Registry", "Alert", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
-           "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError", "StoreError",
-           "TransientStoreError", "RetryPolicy"]
+__all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
+           "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError",
+           "UnusableBaselineError", "StoreError", "TransientStoreError", "RetryPolicy",
+           "NightRatio", "night_of_window", "resolve_store", "file_lock"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
-    "Alert": "registry.alert",
-    "FitSubmission": "registry.submission",
-    "FitRecord": "registry.entities",
-    "VersionInfo": "registry.entities",
-    "AssetSummary": "registry.entities",
-    "LoadedVersion": "registry.entities",
+    "FitSubmission": "registry.write.submission",
+    "FitRecord": "registry.records",
+    "VersionInfo": "registry.records",
+    "AssetSummary": "registry.records",
+    "LoadedVersion": "registry.records",
     "RegistryError": "registry.exceptions",
     "NotFoundError": "registry.exceptions",
     "PromotionError": "registry.exceptions",
+    "UnusableBaselineError": "registry.exceptions",
     "StoreError": "registry.exceptions",
     "TransientStoreError": "registry.exceptions",
-    "RetryPolicy": "registry.store",
+    "RetryPolicy": "registry.store.retry",
+    "NightRatio": "registry.fleet_nights",
+    "night_of_window": "registry.fleet_nights",
+    "resolve_store": "registry.store.tracking_store",
+    "file_lock": "registry.store.locks",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from registry.alert import Alert
-    from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
     from registry.exceptions import (NotFoundError, PromotionError, RegistryError, StoreError,
-                                     TransientStoreError)
+                                     TransientStoreError, UnusableBaselineError)
+    from registry.fleet_nights import NightRatio, night_of_window
+    from registry.records import AssetSummary, FitRecord, LoadedVersion, VersionInfo
     from registry.registry import Registry
-    from registry.retry import RetryPolicy
-    from registry.submission import FitSubmission
+    from registry.store.locks import file_lock
+    from registry.store.retry import RetryPolicy
+    from registry.store.tracking_store import resolve_store
+    from registry.write.submission import FitSubmission
 
 
 def __getattr__(name: str):

@@ -3,7 +3,7 @@
 Bad or tampered artifacts raise :class:`graybox.exceptions.ArtifactError` and bad asset ids
 :class:`graybox.exceptions.InvalidAssetIdError`, as everywhere else in the project; the
 classes here cover what only the registry can get wrong, and the tracking store's own
-failures as the registry raises them (:mod:`registry.boundary`): nothing above the registry
+failures as the registry raises them (:mod:`registry.store.boundary`): nothing above the registry
 reads MLflow's errors or their codes.
 """
 from __future__ import annotations
@@ -35,5 +35,5 @@ class StoreError(RegistryError):
 class TransientStoreError(StoreError):
     """The tracking store failed in a passing way, so a later try may succeed: locked or
     asking for the transaction again after the registry's own retries, unreachable,
-    temporarily unavailable, rate-limited (:func:`registry.retry.is_transient_store_error`
+    temporarily unavailable, rate-limited (:func:`registry.store.retry.is_transient_store_error`
     says which). The message is the store's, its ``__cause__`` the store's own error."""

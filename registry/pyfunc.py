@@ -39,7 +39,7 @@ from graybox.drift import compute_drift
 from graybox.estimator import GrayBox
 from graybox.signature import Signature
 from graybox.timestamps import utc
-from registry.artifacts import read_bundle
+from registry.write.artifacts import read_bundle
 
 OUTPUT_COLUMNS = ("channel", "tier", "zeta", "epsilon", "ratio", "exceeded")
 

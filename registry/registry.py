@@ -1,25 +1,28 @@
 """The registry facade: what the flows and the command line call.
 
 Its constructor and methods raise the registry's errors, never MLflow's
-(:mod:`registry.boundary`): a passing failure of the store is a
+(:mod:`registry.store.boundary`): a passing failure of the store is a
 :class:`~registry.exceptions.TransientStoreError`.
 """
 from __future__ import annotations
 
 import os
-from typing import Collection, Sequence
+from typing import Collection, Mapping, Sequence
 
 import pandas as pd
 
-from registry import baselines, history, loading, recording, watermarks
-from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
-from registry.backend import Backend
-from registry.boundary import facade
-from registry.entities import AssetSummary, FitRecord, LoadedVersion, VersionInfo
-from registry.model_files import PyfuncTemplate
-from registry.retry import RetryPolicy
-from registry.submission import FitSubmission
-
+from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
+from registry import fleet_nights, review
+from registry.fleet_nights import NightRatio
+from registry.read import history, loading
+from registry.records import AssetSummary, FitRecord, LoadedVersion, VersionInfo
+from registry.store import probe
+from registry.store.backend import Backend
+from registry.store.boundary import facade
+from registry.store.retry import RetryPolicy
+from registry.write import recording, watermarks
+from registry.write.model_files import PyfuncTemplate
+from registry.write.submission import FitSubmission
 
 @facade
 class Registry:
@@ -89,7 +92,7 @@ class Registry:
         Parameters
         ----------
         submission : FitSubmission
-            What to record (see :class:`registry.submission.FitSubmission`). The arguments
+            What to record (see :class:`registry.write.submission.FitSubmission`). The arguments
             of ``FitSubmission`` may be given here instead: ``record_fit(asset_id,
             vehicle_class, signature, role=..., ...)``.
 
@@ -137,9 +140,9 @@ class Registry:
         ------
         registry.exceptions.UnusableBaselineError
             If it cannot be used; the message names the version and the command that fixes
-            it (see :func:`registry.baselines.reference`).
+            it (see :func:`registry.review.reference`).
         """
-        return baselines.reference(self._backend, asset_id, version, models)
+        return review.reference(self._backend, asset_id, version, models)
 
     def watermark(self, asset_id: str) -> pd.Timestamp | None:
         """End (exclusive, UTC) of the asset's last committed window: one registry call."""
@@ -173,24 +176,24 @@ class Registry:
     def promote(self, asset_id: str, version: int | None = None, *, reason: str,
                 user: str | None = None) -> VersionInfo:
         """Make a calibrated version (default: the candidate) the baseline, recording why."""
-        return baselines.promote(self._backend, asset_id, version, reason=reason, user=user)
+        return review.promote(self._backend, asset_id, version, reason=reason, user=user)
 
     def reject(self, asset_id: str, version: int, *, reason: str,
                user: str | None = None) -> VersionInfo:
         """Mark a version rejected; it loses the ``candidate`` alias and can't be promoted."""
-        return baselines.reject(self._backend, asset_id, version, reason=reason, user=user)
+        return review.reject(self._backend, asset_id, version, reason=reason, user=user)
 
     def rollback(self, asset_id: str, *, reason: str, user: str | None = None) -> VersionInfo:
         """Move ``baseline`` back to the baseline the current one replaced."""
-        return baselines.rollback(self._backend, asset_id, reason=reason, user=user)
+        return review.rollback(self._backend, asset_id, reason=reason, user=user)
 
     def list_baselines(self, vehicle_class: str | None = None) -> list[AssetSummary]:
         """Every asset (optionally of one class) with its baseline and candidate versions."""
-        return baselines.list_baselines(self._backend, vehicle_class)
+        return review.list_baselines(self._backend, vehicle_class)
 
     def history(self, asset_id: str) -> list[VersionInfo]:
         """Every version of the asset, oldest first."""
-        return baselines.history(self._backend, asset_id)
+        return review.history(self._backend, asset_id)
 
     def zeta_history(self, asset_id: str, last: int | None = None) -> pd.DataFrame:
         """The asset's candidate zetas: columns ``window_start, window_end, channel, tier,
@@ -203,10 +206,52 @@ class Registry:
                critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.
 
-        One :class:`registry.alert.Alert` per asset, window, channel and tier whose zeta
+        One :class:`graybox.alert.Alert` per asset, window, channel and tier whose zeta
         exceeded epsilon: the same records the nightly run wrote to its alerts file.
         ``major_ratio`` and ``critical_ratio`` grade their severity (``[alerts]`` of
         fleet.toml). Reanalyses are left out.
         """
         return history.alerts(self._backend, since, major_ratio=major_ratio,
                               critical_ratio=critical_ratio)
+
+    # -- the fleet's nights --------------------------------------------------------------------
+    def night_ratios(self, nights: Sequence[str]) -> list[NightRatio]:
+        """The worst recorded zeta/epsilon per asset and night, for the nights given
+        (``YYYY-MM-DD``; see :func:`registry.fleet_nights.night_ratios`)."""
+        return fleet_nights.night_ratios(self._backend, nights)
+
+    def latest_night(self) -> str | None:
+        """The latest night (``YYYY-MM-DD``) with a recorded candidate window or a published
+        fleet-level run; None when there is neither."""
+        return fleet_nights.latest_night(self._backend)
+
+    def published_nights(self) -> dict[str, str]:
+        """Every night published with :meth:`publish_night`: night -> its fleet-level run."""
+        return fleet_nights.published_nights(self._backend)
+
+    def night_statuses(self, runs: Mapping[str, str]) -> dict[str, dict]:
+        """The statuses published with each night's fleet-level run given (night -> run, as
+        :meth:`published_nights` returns; night -> document); nights without are left out."""
+        return fleet_nights.night_statuses(self._backend, runs)
+
+    def night_file(self, run_id: str, name: str) -> dict | None:
+        """The JSON file ``name`` published with a night's fleet-level run (None if absent)."""
+        return fleet_nights.run_document(self._backend, run_id, name)
+
+    def publish_night(self, night: str, statuses: Mapping, files: Mapping[str, bytes],
+                      metrics: Mapping[str, float] | None = None) -> str:
+        """Publish the night's ``statuses`` (a JSON document), ``files`` (name -> content)
+        and ``metrics`` with its fleet-level run, created once per night (a rerun replaces
+        the files); returns the run's id."""
+        return fleet_nights.publish_night(self._backend, night, statuses, files, metrics)
+
+    # -- the store -----------------------------------------------------------------------------
+    def probe_read(self) -> None:
+        """Read the store once (``fleet-health check``); the registry's error if it cannot."""
+        probe.probe_read(self._backend)
+
+    def probe_write(self) -> str:
+        """Write a probe run (a tag and an artifact), read it back and delete it; returns the
+        probe's experiment (see :mod:`registry.store.probe`). Raises ``OSError`` when what was
+        written does not read back."""
+        return probe.probe_write(self._backend)

@@ -32,7 +32,7 @@ import pandas as pd
 from benchmarks.skab.data import (INPUT_AVERAGING, SKAB_GRID, TESTBED_TIMEZONE)
 from benchmarks.skab.protocol import BaselinePlan, Experiment
 from benchmarks.skab.white_box import SKAB_COLUMNS
-from registry.alert_diagnosis import cause_text
+from graybox.alert_diagnosis import cause_text
 
 WINDOW = "5min"
 CLASS_NAME = "skab_pump"

@@ -11,7 +11,7 @@ from flows.discovery import parse_time
 from flows.run_tables import alert_table
 from graybox.exceptions import ArtifactError
 from flows.terminal import EXIT_FAILED, EXIT_OK, print_error, rich_console
-from registry.exceptions import RegistryError
+from registry import RegistryError
 
 
 def add_alerts_command(subparsers) -> argparse.ArgumentParser:

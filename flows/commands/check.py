@@ -23,15 +23,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import pathlib
-import tempfile
 from dataclasses import asdict, dataclass
 
 from flows.commands.plumbing import USAGE_ERRORS, config_options, load, prefect_environment
 from flows.config import FleetConfig
 from flows.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error, rich_console
 
-CHECK_EXPERIMENT = "fleet-health-check"
 PROBLEM, NOTE, OK = "problem", "note", "ok"
 
 
@@ -134,7 +131,7 @@ def check_store(config: FleetConfig):
     """(registry or None, findings): the store reachable, readable and writable."""
     from flows.store_probe import require_store
     from flows.errors import StoreUnavailable
-    from registry.store import resolve_store
+    from registry import resolve_store
 
     uri = config.tracking_uri
     store = resolve_store(uri)
@@ -149,7 +146,7 @@ def check_store(config: FleetConfig):
         from registry import Registry
 
         registry = Registry(uri)
-        registry.backend.experiment_ids()
+        registry.probe_read()
     except StoreUnavailable as error:
         return None, [Finding("store", uri, PROBLEM, str(error), f"start the server, or {fix_uri}")]
     except Exception as error:  # noqa: BLE001 - any failure to read is the finding
@@ -158,42 +155,17 @@ def check_store(config: FleetConfig):
                               f"restore the store from a backup, or {fix_uri}")]
     findings = [Finding("store", uri, OK, "reachable and readable")]
     try:
-        findings.append(_probe_write(registry, store))
+        experiment = registry.probe_write()
     except Exception as error:  # noqa: BLE001
         findings.append(Finding("store", uri, PROBLEM,
                                 f"not writable: {type(error).__name__}: {error}",
                                 "make the store (and its artifact location) writable for "
                                 "this user; runs record every window there"))
+    else:
+        findings.append(Finding("store", "artifacts", OK,
+                                f"writable (a probe run in experiment {experiment!r} wrote a "
+                                f"tag and an artifact, read them back and was deleted)"))
     return registry, findings
-
-
-def _probe_write(registry, store) -> Finding:
-    """A probe run in :data:`CHECK_EXPERIMENT`: a tag and an artifact written, read back,
-    then the run deleted."""
-    client = registry.backend.client
-    experiment = client.get_experiment_by_name(CHECK_EXPERIMENT)
-    experiment_id = (experiment.experiment_id if experiment is not None else
-                     client.create_experiment(CHECK_EXPERIMENT,
-                                              artifact_location=store.experiment_artifact_location(
-                                                  CHECK_EXPERIMENT)))
-    run = client.create_run(experiment_id, run_name="fleet-health check probe")
-    try:
-        client.set_tag(run.info.run_id, "fleet-health.check", "probe")
-        with tempfile.TemporaryDirectory(prefix="fleet-health-check-") as scratch:
-            probe = pathlib.Path(scratch) / "probe.txt"
-            probe.write_text("fleet-health check\n")
-            client.log_artifact(run.info.run_id, str(probe))
-            back = client.download_artifacts(run.info.run_id, "probe.txt", scratch + "/back")
-            if pathlib.Path(back).read_text() != "fleet-health check\n":
-                raise OSError(f"the probe artifact read back differs ({back})")
-        if client.get_run(run.info.run_id).data.tags.get("fleet-health.check") != "probe":
-            raise OSError("the probe run's tag did not read back")
-    finally:
-        client.set_terminated(run.info.run_id)
-        client.delete_run(run.info.run_id)
-    return Finding("store", "artifacts", OK,
-                   f"writable (a probe run in experiment {CHECK_EXPERIMENT!r} wrote a tag and "
-                   f"an artifact, read them back and was deleted)")
 
 
 def check_prefect() -> list[Finding]:
@@ -219,8 +191,7 @@ def check_runs(config: FleetConfig) -> list[Finding]:
     """A run of the fleet in progress (noted), orphaned flow runs (marked Crashed)."""
     from flows.orphans import crash_orphans
     from flows.run_lock import RunLock
-    from registry.exceptions import RegistryError
-    from registry.locks import file_lock
+    from registry import RegistryError, file_lock
 
     lock = RunLock.of(config.tracking_uri)
     findings = []

@@ -13,7 +13,7 @@ from flows.discovery import parse_time
 from flows.fleet_view import DEFAULT_NIGHTS, DEFAULT_TOP, collect_view
 from graybox.exceptions import ArtifactError
 from flows.terminal import EXIT_FAILED, EXIT_OK, print_error
-from registry.exceptions import RegistryError
+from registry import RegistryError
 
 PAGE_FILE = "index.html"
 
@@ -62,21 +62,17 @@ def report(args: argparse.Namespace) -> int:
     config = load(args)
     from flows.fleet_plot import heatmap_png          # matplotlib loads only here
     from flows.html_report import render_page
-    from registry.fleet_ratios import latest_candidate_night
-    from registry.fleet_runs import fleet_runs
 
     registry = config.registry()
     try:
         if args.last_night is not None:
             last = parse_time(args.last_night, "--last-night").strftime("%Y-%m-%d")
         else:
-            known = [n for n in (latest_candidate_night(registry.backend),
-                                 max(fleet_runs(registry.backend), default=None)) if n]
-            if not known:
+            last = registry.latest_night()
+            if last is None:
                 print_error(f"nothing recorded in {registry.tracking_uri} yet: run the nightly "
                        f"flow first (fleet-health run)")
                 return EXIT_FAILED
-            last = max(known)
         view = collect_view(registry, last, args.nights)
         first = pd.Timestamp(view.nights[0], tz="UTC")
         end = pd.Timestamp(last, tz="UTC") + pd.Timedelta(days=1)

@@ -23,7 +23,7 @@ import pandas as pd
 
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
 from flows.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, print_error, rich_console
-from registry.exceptions import RegistryError
+from registry import RegistryError
 
 
 def add_baseline_commands(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -92,7 +92,7 @@ def _positive(text: str) -> int:
 def _guarded(function: Callable[[argparse.Namespace], int], *,
              needs_existing_store: bool = False) -> Callable[[argparse.Namespace], int]:
     def run(args: argparse.Namespace) -> int:
-        from registry.store import resolve_store
+        from registry import resolve_store
 
         try:
             store = resolve_store(args.tracking_uri)
@@ -111,7 +111,7 @@ def _guarded(function: Callable[[argparse.Namespace], int], *,
 
 
 def _registry(args: argparse.Namespace):
-    from registry.registry import Registry
+    from registry import Registry
 
     return Registry(args.tracking_uri)
 

@@ -12,8 +12,8 @@ import pandas as pd
 
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from graybox.models import load_model
-from registry.alert import CRITICAL_RATIO, MAJOR_RATIO
-from registry.store import resolve_store
+from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO
+from registry import resolve_store
 from flows.errors import ConfigError
 
 DEFAULT_CONFIG = "fleet.toml"

@@ -6,7 +6,8 @@ import threading
 
 import pytest
 
-from flows.alerts import Alert, AlertLog, alerts_from_drift, severity
+from flows.alerts import AlertLog
+from graybox.alert import Alert, alerts_from_drift, severity
 
 
 def alert(asset="T-001", start="2026-01-05T00:00:00+00:00", end="2026-01-06T00:00:00+00:00",
@@ -81,7 +82,7 @@ def test_concurrent_appends_write_each_alert_once(tmp_path):
 
 
 def test_one_alert_type_with_an_exact_json_round_trip():
-    from registry.alert import Alert as RecordedAlert
+    from graybox.alert import Alert as RecordedAlert
 
     assert Alert is RecordedAlert          # the flows use the registry's record
     record = alert()
@@ -94,7 +95,7 @@ def test_a_stuck_lock_holder_fails_the_append_instead_of_hanging_it(tmp_path):
     import time
 
     from registry.exceptions import RegistryError
-    from registry.locks import file_lock
+    from registry.store.locks import file_lock
 
     log = AlertLog(tmp_path / "alerts.jsonl")
     with file_lock(tmp_path / "alerts.jsonl.lock"):          # another run holds the file
@@ -111,7 +112,7 @@ def test_jsonl_keeps_an_alerts_diagnosis(tmp_path):
     """The JSON-lines file writes and reads the ranked diagnosis (and its 'no single cause'
     marker) as the alert holds it."""
     from graybox.diagnosis import Diagnosis, Hypothesis
-    from registry.alert_diagnosis import alert_entries
+    from graybox.alert_diagnosis import alert_entries
 
     friction = Hypothesis("parameter inertia", "parameter", "inertia", 50.0, 33.4,
                           (33.1, 33.7), 412.0, 210.0)

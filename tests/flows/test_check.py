@@ -132,7 +132,7 @@ def test_check_marks_orphaned_flow_runs_crashed(workspace, capsys, monkeypatch):
 def test_unusable_baseline_is_reported_with_the_fix(workspace, capsys):
     """T-003's baseline no longer verifies (its recorded manifest digest differs from its
     artifacts): check names it unusable, with the error and the fix."""
-    from registry import naming
+    from registry.store import naming
 
     connection = sqlite3.connect(workspace.db)
     changed = connection.execute(

@@ -50,7 +50,7 @@ def test_demo_replaces_only_its_own_files(tmp_path):
 def test_verdicts_name_the_night_a_multi_night_window_is_for():
     from flows.demo import verdicts
     from graybox.simulation import Fault, FleetSpec, VehicleSpec
-    from registry.alert import Alert
+    from graybox.alert import Alert
 
     spec = FleetSpec((VehicleSpec("T-001", seed=1),
                       VehicleSpec("T-002", seed=2, faults=(Fault("friction", 6.5, 0.5),))),

@@ -478,7 +478,7 @@ def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
     The moment is made exact: the test holds the alerts file's lock (so the killed run
     cannot have exported) and, once enough watermarks are seen, SQLite's exclusive lock (so
     no further watermark is committed between looking and killing)."""
-    from registry.store import file_lock
+    from registry.store.tracking_store import file_lock
 
     assert _watermarks_committed(workspace.db) == 0
     holder_file = workspace.db.parent / ".fleet-health-locks" / "fleet-run.json"
@@ -539,7 +539,7 @@ def test_fault_promotion_during_a_run_is_not_torn(workspace, uninterrupted, coun
     it (those against the old one give the uninterrupted run's zetas), the alias ends where
     the promotion put it, nothing is recorded twice, the watermarks are those of a clean run,
     and the next run compares against the new baseline."""
-    from registry.store import file_lock
+    from registry.store.tracking_store import file_lock
 
     asset, nights = "T-001", DAYS - BASELINE_DAYS
     old = workspace.registry().baseline(asset).version

@@ -12,7 +12,7 @@ import pytest
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day
 from flows.fleet_view import (FleetView, Mark, build_view, night_of, summary_marks,
                               window_nights)
-from registry.fleet_ratios import NightRatio
+from registry.fleet_nights import NightRatio
 
 CELL_PIXELS = 600          # a heat-map cell has more pixels, a legend patch fewer
 NIGHTS = ("2026-02-01", "2026-02-02", "2026-02-03")
@@ -137,7 +137,7 @@ def test_heat_map_png_draws_alarms_marks_and_the_band():
 def test_html_page_holds_the_image_the_alerts_and_the_coverage():
     from flows.fleet_plot import heatmap_png
     from flows.html_report import render_page
-    from registry.alert import Alert
+    from graybox.alert import Alert
 
     view = _small_view()
     png = heatmap_png(view, top=2)
@@ -155,7 +155,7 @@ def test_html_page_holds_the_image_the_alerts_and_the_coverage():
 
 
 def _fleet_runs(registry):
-    from registry import naming
+    from registry.store import naming
 
     client = registry.backend.client
     experiment = client.get_experiment_by_name(naming.FLEET_EXPERIMENT)

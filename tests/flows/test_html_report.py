@@ -6,9 +6,9 @@ import html
 
 from flows.fleet_view import build_view
 from graybox.diagnosis import Diagnosis, Hypothesis
-from registry.alert import Alert
-from registry.alert_diagnosis import DiagnosisFailure, alert_entries
-from registry.fleet_ratios import NightRatio
+from graybox.alert import Alert
+from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
+from registry.fleet_nights import NightRatio
 
 NIGHT = "2026-02-02"
 INERTIA = Hypothesis("parameter inertia", "parameter", "inertia", 50.0, 33.4, (33.1, 33.7),

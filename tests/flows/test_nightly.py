@@ -92,7 +92,7 @@ def test_registry_and_alerts_file_hold_equal_records(workspace):
     JSON-lines file and the run summary hold, equal field for field."""
     from flows.alerts import AlertLog
     from flows.config import load_config
-    from registry.alert import Alert
+    from graybox.alert import Alert
 
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat())
     assert state.is_completed(), state.message

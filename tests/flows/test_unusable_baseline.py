@@ -146,7 +146,7 @@ def test_fault_stored_spec_naming_another_module_is_not_imported(workspace, tmp_
 
 def test_fault_reanalysis_against_an_uncalibrated_baseline(workspace, tmp_path, capsys, count):
     from flows.cli import main
-    from registry import naming
+    from registry.store import naming
 
     tampering = _tampering()
     registry = workspace.registry()

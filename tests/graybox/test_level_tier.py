@@ -20,7 +20,7 @@ from graybox.rk4 import rk4_step
 from graybox.signature import check_consistent
 from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
 from graybox.tiers import tier_kind
-from registry.alert import alerts_from_drift
+from graybox.alert import alerts_from_drift
 from tests.graybox.conftest import make_channel, make_signature
 
 DATA = pathlib.Path(__file__).parent / "data"

@@ -26,7 +26,7 @@ import mlflow.store.tracking.sqlalchemy_store  # noqa: F401
 from graybox.calibration import Calibration
 from graybox.signature import Signature
 from registry import Registry
-from registry.run_content import code_version
+from registry.write.run_content import code_version
 
 
 class _Count(logging.Handler):

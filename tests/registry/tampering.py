@@ -13,8 +13,8 @@ import shutil
 import urllib.parse
 from typing import Callable
 
-from registry import naming
-from registry.artifacts import MANIFEST_FILE, sha256_bytes
+from registry.store import naming
+from registry.write.artifacts import MANIFEST_FILE, sha256_bytes
 
 
 def model_path(registry, asset_id: str, version: int | str) -> pathlib.Path:

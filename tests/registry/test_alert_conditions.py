@@ -6,7 +6,7 @@ import json
 from graybox.calibration import Calibration, TierThreshold
 from graybox.drift import compute_drift
 from graybox.operating_conditions import OperatingConditions
-from registry.alert import Alert, alerts_from_drift
+from graybox.alert import Alert, alerts_from_drift
 from tests.graybox.conftest import make_channel, make_signature
 
 

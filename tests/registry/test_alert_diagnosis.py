@@ -10,9 +10,9 @@ import urllib.parse
 import pytest
 
 from graybox.diagnosis import Diagnosis, Hypothesis
-from registry import naming
-from registry.alert import Alert, alerts_from_drift
-from registry.alert_diagnosis import (ALERT_HYPOTHESES, NO_SINGLE_CAUSE, DiagnosisFailure,
+from registry.store import naming
+from graybox.alert import Alert, alerts_from_drift
+from graybox.alert_diagnosis import (ALERT_HYPOTHESES, NO_SINGLE_CAUSE, DiagnosisFailure,
                                       alert_entries, cause_text, diagnosis_document,
                                       entries_from_document)
 

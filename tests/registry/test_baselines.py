@@ -13,7 +13,7 @@ import yaml
 from mlflow_loading import load_by_models_uri
 
 from graybox.exceptions import ArtifactError
-from registry import naming
+from registry.store import naming
 from registry.exceptions import NotFoundError, PromotionError
 
 

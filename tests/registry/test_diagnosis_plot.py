@@ -9,7 +9,7 @@ import pytest
 
 from graybox.diagnosis import Diagnosis, Hypothesis
 from graybox.diagnosis_evidence import ChannelResidual, DiagnosisEvidence, HypothesisFit
-from registry.alert_diagnosis import DiagnosisFailure
+from graybox.alert_diagnosis import DiagnosisFailure
 
 N = 3000            # k-step errors of the window: drawn thinned to PLOT_POINTS
 SIGMA = 0.1
@@ -44,7 +44,7 @@ def _legend(axis) -> list[str]:
 
 
 def test_the_figure_draws_the_residual_and_each_hypothesis_fit_thinned():
-    from registry.plots import PLOT_POINTS, diagnosis_figure
+    from registry.write.plots import PLOT_POINTS, diagnosis_figure
 
     figure = diagnosis_figure(_diagnosis(BIAS, INERTIA, NOISE), "T-01 2026-01-05")
     # a parameter moves every channel: both are drawn, each with the fits and what they leave
@@ -69,14 +69,14 @@ def test_the_figure_draws_the_residual_and_each_hypothesis_fit_thinned():
 
 
 def test_sensor_hypotheses_draw_only_their_channel():
-    from registry.plots import diagnosis_figure
+    from registry.write.plots import diagnosis_figure
 
     figure = diagnosis_figure(_diagnosis(BIAS, NOISE))
     assert len(figure.axes) == 2 and figure.axes[0].get_title().startswith("omega:")
 
 
 def test_a_diagnosis_without_its_fits_is_not_drawn():
-    from registry.plots import diagnosis_figure
+    from registry.write.plots import diagnosis_figure
 
     with pytest.raises(ValueError, match="no evidence"):
         diagnosis_figure(_diagnosis(BIAS, evidence=False))

@@ -10,7 +10,8 @@ from mlflow_loading import load_by_models_uri
 from store_copies import copy_store
 
 from benchmarks.langevin_fits import DAY0
-from registry import FitSubmission, Registry, naming
+from registry import FitSubmission, Registry
+from registry.store import naming
 from registry.exceptions import RegistryError
 
 ASSETS = ("T-01", "T-02", "T-03")

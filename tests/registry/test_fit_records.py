@@ -10,8 +10,8 @@ import pytest
 
 from benchmarks.langevin_fits import DAY0
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
-from registry import naming
-from registry.alert import Alert, alerts_from_drift
+from registry.store import naming
+from graybox.alert import Alert, alerts_from_drift
 from registry.exceptions import NotFoundError
 
 

@@ -8,9 +8,9 @@ import pandas as pd
 import pytest
 import sqlalchemy
 
-from registry import naming
+from registry.store import naming
 from registry.exceptions import NotFoundError
-from registry.model_headers import ModelHeader, read_headers
+from registry.store.model_headers import ModelHeader, read_headers
 
 HISTORY = 40        # filler versions: a history much longer than one alias's worth
 

@@ -6,7 +6,7 @@ import shutil
 
 import pandas as pd
 
-from registry.store import resolve_store
+from registry.store.tracking_store import resolve_store
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")
 

@@ -9,11 +9,11 @@ import pandas as pd
 import pytest
 
 from graybox.exceptions import InvalidAssetIdError
-from registry import naming
+from registry.store import naming
 from registry.exceptions import RegistryError
-from registry.locks import file_lock
-from registry.retry import RetryPolicy, call_with_retry, is_locked_error
-from registry.store import resolve_store
+from registry.store.locks import file_lock
+from registry.store.retry import RetryPolicy, call_with_retry, is_locked_error
+from registry.store.tracking_store import resolve_store
 
 
 def test_names_follow_the_design():

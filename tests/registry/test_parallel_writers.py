@@ -8,7 +8,7 @@ import threading
 
 import pandas as pd
 
-from registry import naming
+from registry.store import naming
 
 WORKER = pathlib.Path(__file__).with_name("parallel_worker.py")
 

@@ -11,8 +11,8 @@ import pytest
 
 from postgres_server import subprocess_env
 from registry.exceptions import RegistryError
-from registry.locks import advisory_key
-from registry.store import resolve_store
+from registry.store.locks import advisory_key
+from registry.store.tracking_store import resolve_store
 from test_parallel_writers import WORKER, _check_store, record_from_threads
 
 DAY0 = pd.Timestamp("2026-01-01", tz="UTC")
@@ -39,7 +39,7 @@ def test_postgres_uris_are_normalized_for_psycopg(tmp_path):
 
 HOLD = """
 import sys, time
-from registry.store import resolve_store
+from registry.store.tracking_store import resolve_store
 with resolve_store(sys.argv[1]).asset_lock("T-01"):
     print("held", flush=True)
     time.sleep(60)

@@ -9,8 +9,8 @@ import pytest
 from graybox.drift import compute_drift
 from graybox.level_tier import LevelTier
 from graybox.parameter_estimate import ParameterEstimate
-from registry.run_content import describe, drift_document, drift_from_document, fit_metrics
-from registry.submission import FitSubmission, ResolvedFit
+from registry.write.run_content import describe, drift_document, drift_from_document, fit_metrics
+from registry.write.submission import FitSubmission, ResolvedFit
 from tests.graybox.conftest import make_channel, make_signature
 
 

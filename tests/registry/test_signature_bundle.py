@@ -10,7 +10,7 @@ from safetensors.numpy import load as load_tensors
 from safetensors.numpy import save as save_tensors
 
 from graybox.exceptions import ArtifactError
-from registry.artifacts import (CALIBRATION_FILE, MANIFEST_FILE, SIGNATURE_FILE, WEIGHTS_FILE,
+from registry.write.artifacts import (CALIBRATION_FILE, MANIFEST_FILE, SIGNATURE_FILE, WEIGHTS_FILE,
                                 read_bundle, sha256_bytes, weight_tensors, write_bundle)
 
 

@@ -1,6 +1,6 @@
-"""Which tracking-store errors are passing ones (registry.retry.is_transient_store_error): the
-one place that reads MLflow's error codes; and that the registry raises them as its own
-TransientStoreError (registry.boundary)."""
+"""Which tracking-store errors are passing ones (registry.store.retry.is_transient_store_error):
+the one place that reads MLflow's error codes; and that the registry raises them as its own
+TransientStoreError (registry.store.boundary)."""
 from __future__ import annotations
 
 import sqlite3
@@ -9,7 +9,7 @@ import pytest
 from mlflow.exceptions import MlflowException
 from mlflow.protos import databricks_pb2
 
-from registry.retry import is_transient_store_error
+from registry.store.retry import is_transient_store_error
 
 
 def test_a_locked_store_and_a_temporarily_unavailable_server_are_passing():
@@ -32,7 +32,7 @@ def test_a_store_briefly_away_raises_the_registrys_transient_error(tmp_path, mon
     (MLflow's error its cause); with the directory back, the same registry answers again."""
     from registry.exceptions import RegistryError, TransientStoreError
     from registry.registry import Registry
-    from registry.retry import RetryPolicy
+    from registry.store.retry import RetryPolicy
 
     monkeypatch.setenv("MLFLOW_SQLALCHEMYSTORE_POOLCLASS", "NullPool")  # a connection a call
     store, away = tmp_path / "store", tmp_path / "away"
@@ -53,7 +53,7 @@ def test_a_store_briefly_away_raises_the_registrys_transient_error(tmp_path, mon
 
 def test_the_registry_raises_its_own_errors_for_the_stores():
     from graybox.exceptions import ArtifactError
-    from registry.boundary import registry_error
+    from registry.store.boundary import registry_error
     from registry.exceptions import NotFoundError, StoreError, TransientStoreError
 
     locked = sqlite3.OperationalError("database is locked")

@@ -21,6 +21,8 @@ MODEL_PREFIX = "fleet-health."
 #: the fleet-level experiment: one run per night with the fleet's heat map (not a class)
 FLEET_EXPERIMENT = EXPERIMENT_PREFIX + "fleet"
 RESERVED_CLASSES = ("fleet",)
+#: the experiment of ``fleet-health check``'s write probe (outside the prefix: no class's)
+PROBE_EXPERIMENT = "fleet-health-check"
 
 BASELINE = "baseline"
 CANDIDATE = "candidate"

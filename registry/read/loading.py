@@ -4,7 +4,7 @@ A version's artifacts are read (in place from a local artifact store, else downl
 ``MLmodel`` file must describe the loader-module pyfunc of :mod:`registry.pyfunc` (a pickled
 ``python_model`` is refused), no file outside the expected set may be present, and the
 signature bundle is verified against the manifest digest recorded in the registry when the
-fit was recorded (:func:`registry.artifacts.read_bundle`). A version whose ``source`` has a
+fit was recorded (:func:`registry.write.artifacts.read_bundle`). A version whose ``source`` has a
 ``..`` segment (a path out of the artifact store) is refused before anything is read. Given
 ``models`` (the asset's configured model specs), the signature's model spec must be one of
 them; nothing the artifact names is imported before that check (see
@@ -22,12 +22,12 @@ import yaml
 from mlflow.exceptions import MlflowException
 
 from graybox.exceptions import ArtifactError
-from registry import naming
-from registry.artifacts import read_bundle
-from registry.backend import Backend
-from registry.entities import LoadedVersion, VersionInfo
+from registry.store import naming
+from registry.write.artifacts import read_bundle
+from registry.store.backend import Backend
+from registry.records import LoadedVersion, VersionInfo
 from registry.exceptions import NotFoundError
-from registry.model_files import BUNDLE_DIR, LOADER_MODULE
+from registry.write.model_files import BUNDLE_DIR, LOADER_MODULE
 
 # what MLflow writes beside the bundle; ``registered_model_meta`` is added by MLflow itself
 # (into a local artifact store, in place) when a ``models:/`` URI is loaded; none is executed

@@ -1,6 +1,6 @@
 """Exclusive locks the registry and the flows hold: a ``flock`` on a file (one machine), and a
-PostgreSQL advisory lock (every machine using the database). See :mod:`registry.store` for
-which lock guards what.
+PostgreSQL advisory lock (every machine using the database). See
+:mod:`registry.store.tracking_store` for which lock guards what.
 """
 from __future__ import annotations
 

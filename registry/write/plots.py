@@ -28,7 +28,7 @@ from graybox.autocovariance import autocorrelation as series_autocorrelation
 from graybox.decompose import ChannelDecomposition
 from graybox.diagnosis import Diagnosis
 from graybox.signature import TIERS, Signature
-from registry.alert_diagnosis import NO_SINGLE_CAUSE, cause_text, hypothesis_entry
+from graybox.alert_diagnosis import NO_SINGLE_CAUSE, cause_text, hypothesis_entry
 
 ZOOM_SAMPLES = 400
 ACF_LAGS = 60

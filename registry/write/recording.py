@@ -7,10 +7,10 @@ A recorded fit is
   metrics the noise moments, fit errors and (when known) zeta, epsilon and their ratio per
   tier and channel; its artifacts the signature bundle (``signature/``: JSON, safetensors,
   manifest), ``drift.json`` for a candidate and PNG plots (``plots/``) (see
-  :mod:`registry.runs`);
+  :mod:`registry.write.runs`);
 * its **pyfunc model** (loader module :mod:`registry.pyfunc`, no pickle): a logged model for
   a baseline, the run's own ``model/`` artifacts for a candidate
-  (:mod:`registry.model_files`);
+  (:mod:`registry.write.model_files`);
 * a **model version** of the asset's registered model, which takes the ``candidate`` alias.
 
 Recording is idempotent on ``(asset_id, window_start, window_end, role, data_hash)``: the key
@@ -35,13 +35,13 @@ from typing import Sequence
 from mlflow.entities import ViewType
 from mlflow.exceptions import MlflowException
 
-from registry import naming
-from registry.backend import Backend, is_not_found
-from registry.entities import FitRecord
-from registry.model_files import PyfuncTemplate, model_source
-from registry.run_content import describe, version_tags
-from registry.runs import log_run
-from registry.submission import FitSubmission, ResolvedFit
+from registry.store import naming
+from registry.store.backend import Backend, is_not_found
+from registry.records import FitRecord
+from registry.write.model_files import PyfuncTemplate, model_source
+from registry.write.run_content import describe, version_tags
+from registry.write.runs import log_run
+from registry.write.submission import FitSubmission, ResolvedFit
 
 logger = logging.getLogger(__name__)
 

@@ -3,7 +3,7 @@
 A submission is checked when it is built (asset id, vehicle class, role, which of calibration
 and drift it may carry), so a malformed one never reaches MLflow. :meth:`FitSubmission.resolve`
 fixes its window bounds (one ISO UTC spelling per instant), its data hash and its
-idempotence key (:func:`registry.naming.fit_key`).
+idempotence key (:func:`registry.store.naming.fit_key`).
 """
 from __future__ import annotations
 
@@ -20,8 +20,8 @@ from graybox.diagnosis import Diagnosis
 from graybox.drift import Drift
 from graybox.signature import Signature
 from graybox.timestamps import utc
-from registry import naming
-from registry.alert_diagnosis import DiagnosisFailure
+from registry.store import naming
+from graybox.alert_diagnosis import DiagnosisFailure
 
 
 def frames(window) -> list[pd.DataFrame]:
@@ -89,7 +89,7 @@ class FitSubmission:
     diagnosis : Diagnosis or DiagnosisFailure, optional
         Candidate fits only (an alarmed window's): ``diagnosis.json`` and the tags
         ``fleet_health.diagnosis`` (explained, unexplained or failed) and
-        ``fleet_health.likely_cause`` (see :mod:`registry.alert_diagnosis`).
+        ``fleet_health.likely_cause`` (see :mod:`graybox.alert_diagnosis`).
 
     Raises
     ------

@@ -1,8 +1,8 @@
 """The MLflow side of the registry: one client bound to one store, and the look-ups that
-:mod:`registry.records` and :mod:`registry.baselines` share.
+:mod:`registry.write.recording` and :mod:`registry.review` share.
 
 No global MLflow state is touched: every call goes through an ``MlflowClient`` created with
-an explicit tracking and registry URI, wrapped in :class:`registry.retry.RetryingClient`.
+an explicit tracking and registry URI, wrapped in :class:`registry.store.retry.RetryingClient`.
 """
 from __future__ import annotations
 
@@ -17,11 +17,11 @@ from mlflow.exceptions import MlflowException
 from mlflow.protos.databricks_pb2 import (RESOURCE_ALREADY_EXISTS, RESOURCE_DOES_NOT_EXIST,
                                           ErrorCode)
 
-from registry import naming
+from registry.store import naming
 from registry.exceptions import NotFoundError, RegistryError
-from registry.model_headers import ModelHeader, read_headers
-from registry.retry import RetryingClient, RetryPolicy, call_with_retry
-from registry.store import Store, prepare_store, relax_commit_sync, resolve_store
+from registry.store.model_headers import ModelHeader, read_headers
+from registry.store.retry import RetryingClient, RetryPolicy, call_with_retry
+from registry.store.tracking_store import Store, prepare_store, relax_commit_sync, resolve_store
 
 logger = logging.getLogger(__name__)
 
@@ -56,7 +56,8 @@ class Backend:
     Parameters
     ----------
     tracking_uri : str, optional
-        See :func:`registry.store.resolve_store`; None is the embedded SQLite default.
+        See :func:`registry.store.tracking_store.resolve_store`; None is the embedded SQLite
+        default.
     workdir : path-like, optional
         Base of the default and of relative SQLite paths.
     user : str, optional
@@ -133,7 +134,7 @@ class Backend:
 
     def artifact_repository(self, artifact_uri: str):
         """MLflow's artifact repository of a recorded artifact URI, where it is now (see
-        :meth:`registry.store.Store.local_artifact_uri`)."""
+        :meth:`registry.store.tracking_store.Store.local_artifact_uri`)."""
         from mlflow.store.artifact.artifact_repository_registry import get_artifact_repository
 
         return get_artifact_repository(self.store.local_artifact_uri(artifact_uri),
@@ -188,7 +189,7 @@ class Backend:
 
     def registered_model(self, asset_id: str) -> ModelHeader | None:
         """The asset's registered model (its name, tags and aliases, read without its
-        versions: see :mod:`registry.model_headers`), or None."""
+        versions: see :mod:`registry.store.model_headers`), or None."""
         return self.registered_models([asset_id]).get(asset_id)
 
     def _remember(self, asset_id: str, model) -> None:

@@ -1,7 +1,7 @@
 """The registry's edge: what MLflow and its database drivers raise leaves the registry as the
 registry's own errors (:mod:`registry.exceptions`), so nothing above it reads MLflow's.
 
-A passing failure of the store (:func:`registry.retry.is_transient_store_error`: locked or
+A passing failure of the store (:func:`registry.store.retry.is_transient_store_error`: locked or
 asking for the transaction again after the retries, unreachable, temporarily unavailable)
 becomes :class:`~registry.exceptions.TransientStoreError`; any other MLflow error
 :class:`~registry.exceptions.StoreError`; the store's error is the new one's ``__cause__``
@@ -9,7 +9,7 @@ and its message is kept. The registry's own errors, bad artifacts and ids
 (:mod:`graybox.exceptions`) and bad arguments (``ValueError``, ``TypeError``,
 ``KeyError``) pass unchanged: they say what is wrong, whatever the store did on the way.
 
-Inside the registry MLflow's errors are read as they come (``registry.backend.is_not_found``
+Inside the registry MLflow's errors are read as they come (``registry.store.backend.is_not_found``
 and the like); :func:`raises_registry_errors` marks the functions the flows and the command
 line call, and :func:`facade` every public method of a class (:class:`registry.Registry`).
 """
@@ -23,7 +23,7 @@ from mlflow.exceptions import MlflowException
 
 from graybox.exceptions import GrayBoxError
 from registry.exceptions import RegistryError, StoreError, TransientStoreError
-from registry.retry import is_transient_store_error
+from registry.store.retry import is_transient_store_error
 
 F = TypeVar("F", bound=Callable)
 C = TypeVar("C", bound=type)

@@ -1,8 +1,8 @@
 """What a recorded fit says about itself: tags, params, metrics, ``drift.json``, description.
 
-(A candidate's ``diagnosis.json`` and its tags are written by :mod:`registry.alert_diagnosis`.)
+(A candidate's ``diagnosis.json`` and its tags are written by :mod:`graybox.alert_diagnosis`.)
 
-Pure functions of a :class:`registry.submission.ResolvedFit` (no MLflow call), so every
+Pure functions of a :class:`registry.write.submission.ResolvedFit` (no MLflow call), so every
 record of a fit says the same whichever path wrote it. Each writer has its reader here:
 :func:`entry_metric` / :func:`parse_entry_metric` for the per-entry metric names (for the
 MLflow UI and the zeta history), :func:`drift_document` / :func:`drift_from_document` for
@@ -22,9 +22,9 @@ from typing import Any
 from graybox.calibration import Calibration
 from graybox.drift import Drift
 from graybox.signature import TIERS, Signature
-from registry import naming
-from registry.alert_diagnosis import diagnosis_document
-from registry.submission import ResolvedFit
+from registry.store import naming
+from graybox.alert_diagnosis import diagnosis_document
+from registry.write.submission import ResolvedFit
 
 _KEY_UNSAFE = re.compile(r"[^A-Za-z0-9_\-. /]")
 #: the metrics logged per (channel, tier): ``<kind>.<channel>.<tier>``

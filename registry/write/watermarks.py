@@ -3,7 +3,7 @@
 The watermark is a tag (``fleet_health.watermark``, ISO UTC) on the asset's registered
 model, so reading it is one read of the registered model's tags and aliases, whatever the
 number of runs and versions (not MLflow's ``get_registered_model``, which loads every
-version of the model: see :mod:`registry.model_headers`).
+version of the model: see :mod:`registry.store.model_headers`).
 It only moves forward, and only when the flow says its results are committed
 (:func:`commit_watermark`, under the asset's lock).
 """
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import pandas as pd
 
-from registry import naming
-from registry.backend import Backend
+from registry.store import naming
+from registry.store.backend import Backend
 
 
 def watermark(backend: Backend, asset_id: str) -> pd.Timestamp | None:

@@ -1,21 +1,22 @@
 """Alert: one record per asset, window, channel and tier whose zeta exceeded epsilon.
 
-The one alert type of fleet-health. :meth:`registry.Registry.alerts` returns it (read back
-from the candidate runs), the pipeline makes it from a fresh :class:`graybox.drift.Drift`
-(:func:`alerts_from_drift`, the only place an alert is made from a drift), and the
-JSON-lines file (:class:`flows.alerts.AlertLog`) writes and reads it. It becomes a dict only
-at the edges: :meth:`Alert.to_dict` / :meth:`Alert.from_dict` for JSON lines, run summaries,
-Prefect artifacts and ``--json`` output.
-
-The registry defines it (not the flows) because the registry returns it and nothing in the
-registry may import the flows.
+The one alert type of fleet-health, and its one home: the step after the drift
+(telemetry -> residual -> signature -> drift -> alert), as pure as the drift it comes from.
+Thresholding (:func:`severity`, the ratios :data:`MAJOR_RATIO` and :data:`CRITICAL_RATIO`)
+and alert making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
+:func:`stale_alert`) are here; the pipeline makes alerts from a fresh
+:class:`graybox.drift.Drift`, :meth:`registry.Registry.alerts` makes the same records again
+from the drift it stored, and the JSON-lines file (:class:`flows.alerts.AlertLog`) writes
+and reads them. An alert becomes a dict only at the edges: :meth:`Alert.to_dict` /
+:meth:`Alert.from_dict` for JSON lines, run summaries, Prefect artifacts and ``--json``
+output.
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from registry.alert_diagnosis import cause_text
+from graybox.alert_diagnosis import cause_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
@@ -91,7 +92,7 @@ class Alert:
         the marker ``kind`` ``"none"`` (``hypothesis`` "no single cause explains it", the
         ranking after it kept for inspection) or ``"failed"`` (``hypothesis`` "diagnosis
         failed: <reason>"). ``()``: not diagnosed (a stale alert, or recorded before
-        diagnoses). See :mod:`registry.alert_diagnosis`. A list given is kept as a tuple.
+        diagnoses). See :mod:`graybox.alert_diagnosis`. A list given is kept as a tuple.
     conditions : str or None
         For a window driven beyond every baseline day's input conditions, the input figure
         farthest outside with the baseline days' range (``Drift.conditions``, e.g.
@@ -145,7 +146,7 @@ class Alert:
 
     def likely_cause(self) -> str:
         """The diagnosis' first entry in a line (see
-        :func:`registry.alert_diagnosis.cause_text`), ``""`` when not diagnosed."""
+        :func:`graybox.alert_diagnosis.cause_text`), ``""`` when not diagnosed."""
         return cause_text(self.diagnosis[0] if self.diagnosis else None)
 
     def to_dict(self) -> dict[str, Any]:
@@ -187,7 +188,7 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
     source : str
         ``nightly`` or ``reanalysis``.
     diagnosis : sequence of dict, optional
-        The window's diagnosis (:func:`registry.alert_diagnosis.alert_entries`), given to
+        The window's diagnosis (:func:`graybox.alert_diagnosis.alert_entries`), given to
         each alert.
 
     Returns

@@ -3,7 +3,7 @@ transaction again (PostgreSQL): :func:`call_with_retry` and :class:`RetryingClie
 
 Only those errors are retried, with exponential backoff and jitter, each retry logged; the
 same errors relayed by an ``mlflow server`` (HTTP 500 with that message) are retried too. See
-:mod:`registry.store` for why SQLite answers "database is locked" at once.
+:mod:`registry.store.tracking_store` for why SQLite answers "database is locked" at once.
 """
 from __future__ import annotations
 
@@ -70,7 +70,7 @@ def is_transient_store_error(error: BaseException) -> bool:
     request rate or had an I/O error.
 
     The one place that reads MLflow's error codes: the registry's boundary asks this and
-    raises :class:`~registry.exceptions.TransientStoreError` (:mod:`registry.boundary`).
+    raises :class:`~registry.exceptions.TransientStoreError` (:mod:`registry.store.boundary`).
     """
     if is_locked_error(error):
         return True

@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
 
-from registry import naming
-from registry.retry import RetryPolicy, call_with_retry
+from registry.store import naming
+from registry.store.retry import RetryPolicy, call_with_retry
 
 NAMES_PER_SEARCH = 200      # registered models per search (MLflow's page limit is 1,000)
 

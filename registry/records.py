@@ -5,7 +5,7 @@ from dataclasses import asdict, dataclass
 
 from graybox.calibration import Calibration
 from graybox.signature import Signature
-from registry import naming
+from registry.store import naming
 
 
 @dataclass(frozen=True)
@@ -24,7 +24,7 @@ class FitRecord:
         The logged model of a baseline fit; empty for a candidate (its model is in its run's
         ``model/`` artifacts) and for a reanalysis (no model).
     fit_key : str
-        Idempotence key (see :func:`registry.naming.fit_key`).
+        Idempotence key (see :func:`registry.store.naming.fit_key`).
     window_start, window_end : str
         ISO UTC bounds of the telemetry window (end exclusive).
     data_hash : str

@@ -31,9 +31,9 @@ SQLite and concurrent writers
     processes open a new file together (MLflow PR #20014 and its issue are the known cases).
     So: the file is switched to write-ahead logging (``PRAGMA journal_mode=WAL``, persistent)
     and its tables are created under a file lock before any MLflow writer opens it, and every
-    MLflow call the registry makes goes through :func:`registry.retry.call_with_retry`, which retries only
-    "database is locked"/"database is busy" errors, with exponential backoff and jitter,
-    logging each retry. The same errors relayed by an ``mlflow server`` (HTTP 500 with that
+    MLflow call the registry makes goes through :func:`registry.store.retry.call_with_retry`,
+    which retries only "database is locked"/"database is busy" errors, with exponential
+    backoff and jitter, logging each retry. The same errors relayed by an ``mlflow server`` (HTTP 500 with that
     message) are retried the same way.
 
 Locks
@@ -63,8 +63,8 @@ from dataclasses import dataclass
 from typing import Iterator
 
 from graybox.telemetry import validate_asset_id
-from registry.locks import advisory_lock, file_lock
-from registry.retry import RetryPolicy, call_with_retry
+from registry.store.locks import advisory_lock, file_lock
+from registry.store.retry import RetryPolicy, call_with_retry
 
 logger = logging.getLogger(__name__)
 

@@ -4,7 +4,7 @@
 (:class:`graybox.diagnosis.Diagnosis`); the pipeline records it with the candidate run
 (``diagnosis.json`` and the tags ``fleet_health.diagnosis`` and
 ``fleet_health.likely_cause``) and hands it to every alert of the window as
-:attr:`registry.alert.Alert.diagnosis`. A diagnosis that could not be made is a
+:attr:`graybox.alert.Alert.diagnosis`. A diagnosis that could not be made is a
 :class:`DiagnosisFailure`: recorded and shown as such, never dropped.
 
 The alert's ``diagnosis`` is a ranked tuple of plain dicts, each ``{hypothesis, kind, target,

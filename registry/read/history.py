@@ -3,9 +3,9 @@
 Both come from tag-filtered run searches (complete runs only, reanalyses left out, one run
 per asset and window: the latest recorded). The history reads the runs' per-entry metrics
 (one search, no download); the alerts are made from each alarmed run's ``drift.json`` by
-:func:`registry.alert.alerts_from_drift`, as the nightly run made them from the drift
+:func:`graybox.alert.alerts_from_drift`, as the nightly run made them from the drift
 itself, with the run's diagnosis (``diagnosis.json``, when its tag ``fleet_health.diagnosis``
-says it has one), so both return the same :class:`registry.alert.Alert` records.
+says it has one), so both return the same :class:`graybox.alert.Alert` records.
 """
 from __future__ import annotations
 
@@ -21,13 +21,13 @@ from mlflow.exceptions import MlflowException
 from graybox.drift import Drift
 from graybox.exceptions import ArtifactError
 from graybox.signature import TIERS
-from registry import naming
-from registry.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
-from registry.alert_diagnosis import entries_from_document, failure_entry
-from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
-from registry.backend import Backend, is_not_found
-from registry.run_content import drift_from_document, entry_metric, parse_entry_metric
-from registry.retry import call_with_retry
+from registry.store import naming
+from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
+from graybox.alert_diagnosis import entries_from_document, failure_entry
+from registry.write.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
+from registry.store.backend import Backend, is_not_found
+from registry.write.run_content import drift_from_document, entry_metric, parse_entry_metric
+from registry.store.retry import call_with_retry
 
 VERSION_QUERY_RUNS = 50         # run ids per model-version search (``run_id IN (...)``)
 HISTORY_COLUMNS = ("window_start", "window_end", "channel", "tier", "zeta", "epsilon", "ratio",
@@ -113,7 +113,7 @@ def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
     -------
     list of Alert
         Per window (by window end, then asset), its alerts largest ratio first: the records
-        :func:`registry.alert.alerts_from_drift` made of the run's drift when it was
+        :func:`graybox.alert.alerts_from_drift` made of the run's drift when it was
         recorded (source ``nightly``; reanalyses are left out).
 
     Raises

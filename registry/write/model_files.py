@@ -23,8 +23,8 @@ import yaml
 from mlflow.entities import LoggedModelOutput, LoggedModelStatus
 from mlflow.models import Model
 
-from registry import naming
-from registry.backend import Backend
+from registry.store import naming
+from registry.store.backend import Backend
 
 logger = logging.getLogger(__name__)
 

@@ -1,12 +1,13 @@
-"""Baselines: promote, reject, roll back, list and history (loading: :mod:`registry.loading`).
+"""Reviewing baselines: promote, reject, roll back, list and history (loading:
+:mod:`registry.read.loading`).
 
 Aliases of the asset's registered model carry the state: ``baseline`` marks the healthy
 version, ``candidate`` the newest fit. Every change is made under the asset's lock
-(:meth:`registry.store.Store.asset_lock`), so promotions of one asset are serialized, and is
-recorded as tags on the version concerned (who, when, why, and the baseline it replaced, so
-that :func:`rollback` can restore it).
+(:meth:`registry.store.tracking_store.Store.asset_lock`), so promotions of one asset are
+serialized, and is recorded as tags on the version concerned (who, when, why, and the
+baseline it replaced, so that :func:`rollback` can restore it).
 
-Promotion and rollback load the version first (:func:`registry.loading.load`, which
+Promotion and rollback load the version first (:func:`registry.read.loading.load`, which
 verifies it and never unpickles) and refuse it if that fails. The runs load the version they
 compare with through :func:`reference` (by the ``baseline`` alias: one version read,
 whatever the asset's history), which also refuses a version without calibration
@@ -20,11 +21,11 @@ from typing import Collection
 import pandas as pd
 
 from graybox.exceptions import ArtifactError
-from registry import naming
-from registry.backend import Backend
-from registry.entities import AssetSummary, LoadedVersion, VersionInfo
+from registry.store import naming
+from registry.store.backend import Backend
+from registry.records import AssetSummary, LoadedVersion, VersionInfo
 from registry.exceptions import NotFoundError, PromotionError, UnusableBaselineError
-from registry.loading import load, resolve, version_info
+from registry.read.loading import load, resolve, version_info
 
 def _now() -> str:
     return pd.Timestamp.now(tz="UTC").isoformat(timespec="seconds")

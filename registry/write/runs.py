@@ -5,14 +5,14 @@
    (``signature/``), ``drift.json``, an alarmed candidate's ``diagnosis.json``, a
    candidate's pyfunc model (``model/``) and the plots (with a fresh diagnosis,
    ``plots/diagnosis.png``);
-   a baseline's logged model is logged after it (:func:`registry.model_files.log_logged_model`);
+   a baseline's logged model is logged after it (:func:`registry.write.model_files.log_logged_model`);
 3. one ``log_batch`` of params, metrics and, last, the tags ``manifest_sha256``,
    ``model_id`` and ``complete=true`` (MLflow writes a batch's tags after its params and
    metrics, so a run tagged complete holds everything);
 4. ``set_terminated``.
 
 A run without ``fleet_health.complete`` is an interrupted recording: the next attempt deletes
-it and logs the fit again (:mod:`registry.recording`).
+it and logs the fit again (:mod:`registry.write.recording`).
 """
 from __future__ import annotations
 
@@ -28,15 +28,15 @@ from mlflow.entities import Metric, Param, RunTag
 
 from graybox.decompose import decompose
 from graybox.diagnosis import Diagnosis
-from registry import naming
-from registry.alert_diagnosis import diagnosis_document
-from registry.artifacts import DIAGNOSIS_FILE, DRIFT_FILE, write_bundle
-from registry.backend import Backend
-from registry.history import zeta_history
-from registry.model_files import (BUNDLE_DIR, MODEL_DIR, PyfuncTemplate, log_logged_model,
+from registry.store import naming
+from graybox.alert_diagnosis import diagnosis_document
+from registry.write.artifacts import DIAGNOSIS_FILE, DRIFT_FILE, write_bundle
+from registry.store.backend import Backend
+from registry.read.history import zeta_history
+from registry.write.model_files import (BUNDLE_DIR, MODEL_DIR, PyfuncTemplate, log_logged_model,
                                   model_source)
-from registry.run_content import drift_document, fit_metrics, run_tags, structure_params
-from registry.submission import ResolvedFit, frames
+from registry.write.run_content import drift_document, fit_metrics, run_tags, structure_params
+from registry.write.submission import ResolvedFit, frames
 
 logger = logging.getLogger(__name__)
 
@@ -123,7 +123,7 @@ def _log_batched(backend: Backend, run_id: str, params: dict[str, str],
 def _draw_plots(backend: Backend, fit: ResolvedFit, directory: pathlib.Path) -> None:
     """Residual/ACF and tier fits of the last window, a drift's zeta trend and a fresh
     diagnosis' fits, as PNGs."""
-    from registry import plots as figures
+    from registry.write import plots as figures
 
     s = fit.submission
     directory.mkdir(parents=True, exist_ok=True)
