@@ -47,7 +47,7 @@ with the late night (``fleet-health reanalyze --candidate-nights N`` does that).
 
 Staleness: an asset whose newest sample is older than the as-of time minus ``[alerts]
 stale_after`` (default 2 days, ``"off"`` to disable) gets the status ``stale`` (not
-monitored: the run exits 1) and a ``stale`` alert (:func:`registry.alert.stale_alert`) in its
+monitored: the run exits 1) and a ``stale`` alert (:func:`graybox.alert.stale_alert`) in its
 result and the alerts file, one per (asset, newest sample), so it is not repeated nightly
 while no new data arrives.
 
