@@ -33,6 +33,10 @@ class ChannelSignature:
 
     ``level`` (:mod:`graybox.level_tier`) is None in signatures stored before the level tier
     existed; that tier is then absent and its drift not computed.
+
+    ``tiers`` holds the records of tiers beyond the four the format was written with (a tier
+    kind whose :attr:`~graybox.tiers.base.Tier.field` is None), by tier name, as their JSON
+    dicts (:meth:`graybox.tiers.base.Tier.record` reads one back); None without such tiers.
     """
 
     channel: str
@@ -43,9 +47,10 @@ class ChannelSignature:
     n_samples: int
     selection: Selection | None = None
     level: LevelTier | None = None
+    tiers: FrozenMap[str, Any] | None = None
 
-    #: written only when present, so signatures without the tier read and write as before
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level"})
+    #: written only when present, so signatures without the tiers read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level", "tiers"})
 
 
 @dataclass(frozen=True)
