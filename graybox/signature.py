@@ -4,7 +4,7 @@ structure they were fitted with. Small typed records with an exact JSON round tr
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from graybox.nonlinear_tier import NonlinearTier
 from graybox.operating_conditions import OperatingConditions
 from graybox.settings import GrayBoxSettings
 from graybox.summary import signature_summary
-from graybox.tiers import TIER_KINDS, TIERS, tier_kind  # noqa: F401 - TIERS re-exported
+from graybox.tiers import TIER_KINDS, TIERS, Tier, tier_kind  # noqa: F401 - TIERS re-exported
 
 FORMAT_VERSION = 1
 
@@ -180,8 +180,9 @@ class Signature:
                 "settings": self.settings.to_dict(), "integration": asdict(self.integration_used),
                 "channels": {c.channel: asdict(c.structure) for c in self.channels}}
 
-    def parameter_vector(self) -> tuple[list[str], np.ndarray]:
-        """All tier parameters as one flat vector with a name per entry.
+    def parameter_vector(self, kinds: Sequence[Tier] = TIER_KINDS
+                         ) -> tuple[list[str], np.ndarray]:
+        """All tier parameters (of ``kinds``) as one flat vector with a name per entry.
 
         Names look like ``omega.linear.a1``, ``omega.nonlinear.W1_3``,
         ``omega.nonlinear.w_3_2`` (hidden unit 3, delay 2), ``omega.noise.variance`` and
@@ -189,7 +190,7 @@ class Signature:
         """
         names, values = [], []
         for channel in self.channels:
-            for kind in TIER_KINDS:
+            for kind in kinds:
                 if not kind.present(channel):
                     continue
                 tier_names, tier_values = kind.parameters(channel)
