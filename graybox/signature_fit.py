@@ -162,7 +162,11 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
         if kind.early:
             with timed(clock, kind.stage):
                 kind.fit(prepared, settings)
-    prepared.windows = ()  # the states are not needed after the early tiers
+    # the states and the residual are not needed after the early tiers (memory: the networks
+    # of every asset of the call are fitted together)
+    prepared.windows = ()
+    for channel in prepared.channels:
+        channel.segments = []
     return prepared
 
 

@@ -27,7 +27,8 @@ class ChannelFit:
     ----------
     name : str
     segments : list of ndarray
-        The channel's residual at the analysis interval, one array per operating segment.
+        The channel's residual at the analysis interval, one array per operating segment;
+        kept while the early tiers are fitted, then dropped (empty).
     seed : int
         Seeds the random starting weights of a new baseline's network.
     reference : ChannelSignature or None
