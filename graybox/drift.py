@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -9,7 +10,7 @@ from graybox.exceptions import StructureMismatchError
 from graybox.operating_conditions import farthest
 from graybox.signature import ChannelSignature, Signature
 from graybox.summary import drift_summary
-from graybox.tiers import TIER_KINDS, tier_kind
+from graybox.tiers import TIER_KINDS, Tier, tier_kind
 
 
 def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
@@ -184,7 +185,7 @@ def check_comparable(candidate: Signature, baseline: Signature) -> None:
 
 
 def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
-                  top: int = 3) -> Drift:
+                  top: int = 3, kinds: Sequence[Tier] = TIER_KINDS) -> Drift:
     """Zeta of every tier and channel of ``candidate`` against ``baseline``.
 
     Parameters
@@ -196,6 +197,9 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
         the baseline's, see :mod:`graybox.epsilon_scaling`).
     top : int, default 3
         Parameter changes kept per entry as a root-cause hint.
+    kinds : sequence of Tier, default TIER_KINDS
+        The tiers compared (those the signatures were fitted with, see
+        :func:`graybox.signature_fit.fit_signatures`).
 
     Returns
     -------
@@ -206,7 +210,7 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     entries = []
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
-        for kind in TIER_KINDS:
+        for kind in kinds:
             if not (kind.present(channel) and kind.present(healthy)):
                 continue  # a tier one of them was stored without
             tier = kind.name

@@ -4,11 +4,12 @@ structure they were fitted with. Small typed records with an exact JSON round tr
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
 from graybox import record_json
+from graybox.channel_structure import ChannelStructure, Selection  # noqa: F401 - re-exported
 from graybox.exceptions import ArtifactError
 from graybox.frozen_map import FrozenMap
 from graybox.integration import Integration
@@ -20,78 +21,10 @@ from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.operating_conditions import OperatingConditions
 from graybox.settings import GrayBoxSettings
-from graybox.stationarize import Differencing
 from graybox.summary import signature_summary
-from graybox.tiers import TIER_KINDS, TIERS, tier_kind  # noqa: F401 - TIERS re-exported
+from graybox.tiers import TIER_KINDS, TIERS, Tier, tier_kind  # noqa: F401 - TIERS re-exported
 
 FORMAT_VERSION = 1
-
-
-@dataclass(frozen=True)
-class ChannelStructure:
-    """What a candidate must share with its baseline for their parameters to be comparable.
-
-    Attributes
-    ----------
-    period, seasonal_order, diff_order : int
-        The stationarizing operator ``(1 - B)^diff_order (1 - B^period)^seasonal_order``.
-    ar_order : int
-        ``n`` of the linear tier.
-    center, scale : float
-        The stationarized residual ``y`` enters the tiers as ``(y - center) / scale``.
-    tau, embedding_dim, hidden_units : int
-        Delay, number of delays ``m`` and hidden units ``J`` of the Eq. 25 network.
-    nn_scale : float
-        The AR residual ``w`` enters the network as ``w / nn_scale``.
-    nonlinear_needed : bool
-        Whether the network explained held-out structure the AR tier left. When False the
-        network is still fitted and monitored (so a nonlinearity that appears later moves its
-        weights), but the noise tier describes the AR residual itself.
-    init_seed : int
-        Seed of the random starting weights. A network with nothing to explain decays to the
-        all-zero saddle, where no gradient could move a candidate; candidates of such a
-        baseline start from these random weights instead of the baseline's.
-    reference_points : int
-        Size of the fixed reference set of delay vectors on which the network's drift is
-        measured in function space (:class:`graybox.tiers.NonlinearTierKind`); None (or 0)
-        where the drift is Eq. 28 on the weights, as in signatures stored before the measure.
-    """
-
-    period: int
-    seasonal_order: int
-    diff_order: int
-    ar_order: int
-    center: float
-    scale: float
-    tau: int
-    embedding_dim: int
-    hidden_units: int
-    nn_scale: float
-    nonlinear_needed: bool
-    init_seed: int
-    reference_points: int | None = None
-
-    #: written only when set, so structures stored before the measure read and write as before
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"reference_points"})
-
-    @property
-    def differencing(self) -> Differencing:
-        return Differencing(self.period, self.seasonal_order, self.diff_order)
-
-
-@dataclass(frozen=True)
-class Selection:
-    """Evidence behind a baseline's structure choices (absent from candidates)."""
-
-    acf_area: float
-    raw_acf_area: float
-    adf_statistic: float
-    candidate_period: int
-    ar_criterion: str
-
-    #: diagnostics only (never compared): a degenerate series may give NaN
-    non_finite_fields: ClassVar[frozenset[str]] = frozenset(
-        {"acf_area", "raw_acf_area", "adf_statistic"})
 
 
 @dataclass(frozen=True)
@@ -100,6 +33,10 @@ class ChannelSignature:
 
     ``level`` (:mod:`graybox.level_tier`) is None in signatures stored before the level tier
     existed; that tier is then absent and its drift not computed.
+
+    ``tiers`` holds the records of tiers beyond the four the format was written with (a tier
+    kind whose :attr:`~graybox.tiers.base.Tier.field` is None), by tier name, as their JSON
+    dicts (:meth:`graybox.tiers.base.Tier.record` reads one back); None without such tiers.
     """
 
     channel: str
@@ -110,9 +47,10 @@ class ChannelSignature:
     n_samples: int
     selection: Selection | None = None
     level: LevelTier | None = None
+    tiers: FrozenMap[str, Any] | None = None
 
-    #: written only when present, so signatures without the tier read and write as before
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level"})
+    #: written only when present, so signatures without the tiers read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level", "tiers"})
 
 
 @dataclass(frozen=True)
@@ -242,8 +180,9 @@ class Signature:
                 "settings": self.settings.to_dict(), "integration": asdict(self.integration_used),
                 "channels": {c.channel: asdict(c.structure) for c in self.channels}}
 
-    def parameter_vector(self) -> tuple[list[str], np.ndarray]:
-        """All tier parameters as one flat vector with a name per entry.
+    def parameter_vector(self, kinds: Sequence[Tier] = TIER_KINDS
+                         ) -> tuple[list[str], np.ndarray]:
+        """All tier parameters (of ``kinds``) as one flat vector with a name per entry.
 
         Names look like ``omega.linear.a1``, ``omega.nonlinear.W1_3``,
         ``omega.nonlinear.w_3_2`` (hidden unit 3, delay 2), ``omega.noise.variance`` and
@@ -251,7 +190,7 @@ class Signature:
         """
         names, values = [], []
         for channel in self.channels:
-            for kind in TIER_KINDS:
+            for kind in kinds:
                 if not kind.present(channel):
                     continue
                 tier_names, tier_values = kind.parameters(channel)

@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 
 from graybox.exceptions import GrayBoxError
-from graybox.signature_fit import (FitRequest, _fit_networks_isolated, _prepare, fit_signatures)
+from graybox.signature_fit import FitRequest, _prepare, fit_signatures
+from graybox.signature_fit import _fit_batched as _fit_networks_isolated
 from graybox.models import load_model
 from graybox.telemetry import GridPolicy, read_window
 

@@ -1,0 +1,91 @@
+"""The level tier's kind: each channel's level against the white box's k-step prediction
+(:mod:`graybox.level_tier`), fitted from the white box's states, not the residual."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from graybox.exceptions import InsufficientDataError, StructureMismatchError
+from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
+                                operating_features, pool_level_data, segment_level_data,
+                                start_stride)
+from graybox.settings import GrayBoxSettings
+from graybox.state_estimation import WindowStates
+from graybox.tiers.base import Tier
+from graybox.tiers.fit_state import AssetFit
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from graybox.signature import ChannelSignature
+
+
+class LevelTierKind(Tier):
+    """The level tier (:mod:`graybox.level_tier`): the channel's level at the baseline's
+    operating point.
+
+    One parameter, ``level``; its change is in units of the baseline's regression residual
+    standard deviation. Its :meth:`outside` is the candidate's own
+    :func:`~graybox.level_tier.extrapolation` (not the asset's input conditions): a night
+    whose operating-condition correction is twice the largest of a baseline day's has its
+    level change halved in :meth:`drift_deltas`, since the slopes that make the correction
+    were only checked up to that reach (a slope's error grows the level error in proportion
+    to the distance). Absent from signatures stored before the tier existed.
+    """
+
+    name = "level"
+    tensor_part = "level"
+    field = "level"
+    record_type = LevelTier
+    stage = "residual"  # reported with the residual, as it is a white-box computation too
+
+    def fit(self, asset: AssetFit, settings: GrayBoxSettings) -> None:
+        """The level of every channel, from the segments' states at the analysis interval
+        (:func:`~graybox.level_tier.segment_level_data`, pooled, then
+        :func:`~graybox.level_tier.fit_level`). A candidate uses its baseline's horizon and
+        operating centre; a candidate of a baseline stored without the tier gets none."""
+        model, interval, owners = asset.request.model, asset.analysis_interval, asset.owners
+        channels = asset.channels
+        if channels[0].reference is None:
+            horizon, references = horizon_samples(interval), [None] * len(channels)
+        else:
+            references = [channel.reference.level for channel in channels]
+            if any(level is None for level in references):
+                for channel in channels:
+                    channel.records[self.name] = None
+                return
+            horizon = references[0].horizon
+        stride, integration = start_stride(interval), asset.integration
+
+        def segment(window: WindowStates):
+            return segment_level_data(model, window, interval, horizon, stride, integration)
+
+        cache = asset.cache
+        parts = [segment(window) if cache is None else
+                 cache.remember("level", model, window, (interval, horizon, stride, integration),
+                                lambda w=window: segment(w))
+                 for window in asset.windows]
+        data = pool_level_data(model, asset.windows, parts, horizon, stride)
+        for channel, reference in zip(channels, references):
+            try:
+                errors, features, segments = data[channel.name]
+                channel.records[self.name] = fit_level(errors, features, horizon, reference,
+                                                       np.asarray(owners)[segments],
+                                                       operating_features(model))
+            except InsufficientDataError as error:
+                raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
+                                            f"{error}") from None
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        if channel.level is None:
+            raise StructureMismatchError(f"channel {channel.channel!r} has no level tier (a "
+                                         f"signature stored before the tier existed)")
+        return ["level"], np.array([channel.level.level])
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        delta = super().deltas(candidate, baseline)
+        spread = baseline.level.residual_std
+        return delta / spread if spread > 0 else delta
+
+    def outside(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                conditions: float = 0.0) -> float:
+        return extrapolation(candidate.level, baseline.level)

@@ -1,0 +1,55 @@
+"""The noise tier's kind: the moments of what the linear and nonlinear tiers leave
+(:mod:`graybox.noise_tier`)."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from graybox.noise_tier import MOMENT_WEIGHTS, NoiseTier, describe_noise
+from graybox.settings import GrayBoxSettings
+from graybox.tiers.base import Tier
+from graybox.tiers.fit_state import AssetFit
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from graybox.signature import ChannelSignature
+
+
+class NoiseTierKind(Tier):
+    """The noise tier: mean, variance, skewness and excess kurtosis of the final residual.
+
+    Changes are in units of the baseline noise standard deviation (mean), relative (variance),
+    or as they are (skewness, kurtosis), each scaled by the square root of
+    :data:`graybox.noise_tier.MOMENT_WEIGHTS`.
+    """
+
+    name = "noise"
+    tensor_part = "moments"
+    field = "noise"
+    record_type = NoiseTier
+    stage = "noise"
+    early = False
+
+    def fit(self, asset: AssetFit, settings: GrayBoxSettings) -> None:
+        """Describe the final residual: the network's prediction error where the network is
+        needed, else the AR residual itself (after the network's delays either way)."""
+        for channel in asset.channels:
+            structure, w = channel.structure, channel.w_segments
+            span = structure.embedding_dim * structure.tau
+            if structure.nonlinear_needed:
+                predictions = channel.nonlinear.predict([s / structure.nn_scale for s in w],
+                                                        structure.tau)
+                noise = [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]
+            else:
+                noise = [s[span:] for s in w]
+            channel.records[self.name] = describe_noise(noise)
+
+    def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
+        names = ["mean", "variance", "skewness", "excess_kurtosis"]
+        return names, np.asarray(channel.noise.moments)
+
+    def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
+        delta = super().deltas(candidate, baseline)
+        variance = baseline.noise.variance
+        delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
+        return delta * np.sqrt(MOMENT_WEIGHTS)

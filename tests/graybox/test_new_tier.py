@@ -1,0 +1,95 @@
+"""Issue 21 item 3: a new tier is one class and one registration, passed to the fit (no
+global state): it is fitted, kept in the signature's JSON round trip and its drift computed."""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from graybox import FitRequest, Signature, compute_drift, fit_signatures, load_model
+from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet
+from graybox.tiers import TIER_KINDS, TIERS, Tier
+
+
+@dataclass(frozen=True)
+class MeanAbsolute:
+    """The toy tier's record: the residual's mean absolute value."""
+
+    value: float
+
+
+class MeanAbsoluteTier(Tier):
+    """A toy tier: the mean absolute value of a channel's residual (at the analysis rate)."""
+
+    name = "mean_abs"
+    tensor_part = "value"
+    record_type = MeanAbsolute
+    stage = "mean_abs"
+
+    def fit(self, asset, settings):
+        for channel in asset.channels:
+            residual = np.concatenate(channel.segments)
+            channel.records[self.name] = MeanAbsolute(float(np.mean(np.abs(residual))))
+
+    def parameters(self, channel):
+        return ["value"], np.array([self.record(channel).value])
+
+
+KINDS = TIER_KINDS + (MeanAbsoluteTier(),)
+
+
+@pytest.fixture(scope="module")
+def fits():
+    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 40),), days=3))["V-1"]
+    frames = frames.set_index("timestamp")
+    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
+    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    plain = fit_signatures([FitRequest(model, days[:2], asset_id="V-1")])[0]
+    baseline = fit_signatures([FitRequest(model, days[:2], asset_id="V-1")], kinds=KINDS)[0]
+    candidate = fit_signatures([FitRequest(model, days[2:], baseline=baseline)],
+                               kinds=KINDS)[0]
+    return plain, baseline, candidate
+
+
+def test_the_new_tier_is_fitted_beside_the_built_in_ones_which_it_leaves_unchanged(fits):
+    plain, baseline, candidate = fits
+    kind = KINDS[-1]
+    for signature in (baseline, candidate):
+        assert isinstance(signature, Signature), signature
+        channel = signature.channel("omega")
+        assert kind.present(channel) and kind.record(channel).value > 0
+    # the built-in tiers are fitted exactly as without it
+    without = dataclasses.replace(baseline, channels=tuple(
+        dataclasses.replace(c, tiers=None) for c in baseline.channels))
+    assert without.to_json() == plain.to_json()
+    assert not kind.present(plain.channel("omega"))
+    # registering it for one fit changed no global registry
+    assert TIERS == ("linear", "nonlinear", "noise", "level") and kind not in TIER_KINDS
+
+
+def test_the_new_tier_survives_the_signature_json_round_trip(fits):
+    _, baseline, candidate = fits
+    kind = KINDS[-1]
+    for signature in (baseline, candidate):
+        back = Signature.from_json(signature.to_json())
+        assert back == signature
+        assert kind.record(back.channel("omega")) == kind.record(signature.channel("omega"))
+        names, values = back.parameter_vector(KINDS)
+        assert names[-1] == "omega.mean_abs.value"
+        assert values[-1] == kind.record(signature.channel("omega")).value
+
+
+def test_the_new_tier_has_its_drift(fits):
+    _, baseline, candidate = fits
+    kind = KINDS[-1]
+    drift = compute_drift(candidate, baseline, kinds=KINDS)
+    entry = drift.get("omega", "mean_abs")
+    change = (kind.record(candidate.channel("omega")).value
+              - kind.record(baseline.channel("omega")).value)
+    assert entry.zeta == pytest.approx(change ** 2) and entry.zeta > 0
+    assert entry.top_changes[0].name == "value"
+    assert [e.tier for e in drift.entries] == [*TIERS, "mean_abs"]
+    with pytest.raises(KeyError):  # the default kinds do not know it
+        compute_drift(candidate, baseline).get("omega", "mean_abs")
