@@ -272,7 +272,10 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
         _fail(rows, asset_id, "stuck_channel",
               f"channel {rows.channels[j]!r} stuck at {float(rows.values[j, i])!r} for {count} "
               f"consecutive samples ({format_duration(held / NS_PER_SECOND)}; "
-              f"stuck_after={format_duration(limit)})", i)
+              f"stuck_after={format_duration(limit)})" + ("" if policy.intermittent else (
+                  "; if the machine stands still then (parked, switched off), declare its "
+                  "operating periods in the class's grid (running = {channel = [low, high]}, "
+                  "intermittent = true) so that a pause is not read as a stuck sensor")), i)
 
 
 def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:

@@ -22,7 +22,8 @@ def test_a_cached_segment_replays_the_same_states_without_fitting_again(monkeypa
     y, u = window_arrays(model, frame)
     rk4 = Integration("rk4", 2)
     fresh = estimate_states(model, y, u, DT, rk4)
-    assert fresh.chunk_starts.shape == (5, 1)        # 2,499 steps in chunks of 600
+    # 2,499 steps in chunks of CHUNK_SAMPLES, one hidden state
+    assert fresh.chunk_starts.shape == (-(-2499 // state_estimation.CHUNK_SAMPLES), 1)
     cache = SegmentCache()
     first = cache.estimate(model, y, u, DT, rk4)
     np.testing.assert_array_equal(first.states, fresh.states)

@@ -317,6 +317,8 @@ def test_stuck_channel(tmp_path):
     error = window_error(tmp_path, "stuck_channel", ["a", "b"])
     assert error.file.endswith("part-0.parquet") and error.row == 50
     assert "'b'" in error.message and "stuck at 7.25 for 20" in error.message
+    # a machine that stands still is told the setting that helps
+    assert "intermittent = true" in error.message
     # one sample shorter is fine, and stuck_after=0 disables the check
     frame.loc[69, "b"] = 8.0
     frame.loc[139, "a"] = 2.0
