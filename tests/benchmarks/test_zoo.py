@@ -125,3 +125,22 @@ def test_envelope_places_each_healthy_night_against_the_baseline_range():
              for d in range(5)]
     expected = [max(0.0, means[d] - max(means[:3]), min(means[:3]) - means[d]) for d in (3, 4)]
     np.testing.assert_allclose(frame["outside"], expected, rtol=1e-12)
+
+
+def test_a_parked_bus_reads_as_a_stuck_speed_sensor_with_the_default_grid(tmp_path):
+    """A finding of the held-out bus family, kept as a test so that it shows when it changes:
+    its wheel-speed sensors read exactly 0 at a standstill (they drop out below 0.3 m/s), and a
+    city bus parks for 5-7 hours a night, so with the default grid (``stuck_after`` 10 min on
+    every sensor, the family declaring no fleet.toml ``grid`` line) every day's window fails
+    its read as a stuck ``speed`` channel, and the zoo fits no bus baseline."""
+    from graybox.telemetry.writing import write_telemetry
+
+    family = FAMILIES["bus_longitudinal"]
+    assert not family.grid
+    frame = _one_batch("bus_longitudinal")["A-1"]
+    write_telemetry(tmp_path, "A-1", frame)
+    model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
+    begin = START + pd.Timedelta(days=1)
+    with pytest.raises(gb.GrayBoxError, match=r"'speed' stuck at 0\.0.*stuck_channel"):
+        gb.read_window(tmp_path, "A-1", model.required_columns, begin, begin + pd.Timedelta(days=1),
+                       policy=gb.GridPolicy(**dict(family.grid)), inputs=model.input_columns)
