@@ -127,20 +127,27 @@ def test_envelope_places_each_healthy_night_against_the_baseline_range():
     np.testing.assert_allclose(frame["outside"], expected, rtol=1e-12)
 
 
-def test_a_parked_bus_reads_as_a_stuck_speed_sensor_with_the_default_grid(tmp_path):
-    """A finding of the held-out bus family, kept as a test so that it shows when it changes:
-    its wheel-speed sensors read exactly 0 at a standstill (they drop out below 0.3 m/s), and a
-    city bus parks for 5-7 hours a night, so with the default grid (``stuck_after`` 10 min on
-    every sensor, the family declaring no fleet.toml ``grid`` line) every day's window fails
-    its read as a stuck ``speed`` channel, and the zoo fits no bus baseline."""
+def test_a_parked_bus_reads_with_its_grid_line_and_without_it_is_told_which_setting_helps(
+        tmp_path):
+    """A finding of the held-out bus family: its wheel-speed sensors read exactly 0 at a
+    standstill and a city bus parks for 5-7 hours a night, so without a fleet.toml ``grid``
+    line (``stuck_after`` 10 min on every sensor) every day's read fails as a stuck ``speed``
+    channel. The error names the setting that helps; with it (the family's line, as a user
+    would write it) the same day reads as operating periods."""
     from graybox.telemetry.writing import write_telemetry
 
     family = FAMILIES["bus_longitudinal"]
-    assert not family.grid
     frame = _one_batch("bus_longitudinal")["A-1"]
     write_telemetry(tmp_path, "A-1", frame)
     model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
     begin = START + pd.Timedelta(days=1)
-    with pytest.raises(gb.GrayBoxError, match=r"'speed' stuck at 0\.0.*stuck_channel"):
-        gb.read_window(tmp_path, "A-1", model.required_columns, begin, begin + pd.Timedelta(days=1),
-                       policy=gb.GridPolicy(**dict(family.grid)), inputs=model.input_columns)
+    span = (begin, begin + pd.Timedelta(days=1))
+    with pytest.raises(gb.GrayBoxError,
+                       match=r"'speed' stuck at 0\.0.*intermittent = true.*stuck_channel"):
+        gb.read_window(tmp_path, "A-1", model.required_columns, *span,
+                       policy=gb.GridPolicy(), inputs=model.input_columns)
+    window = gb.read_window(tmp_path, "A-1", model.required_columns, *span,
+                            policy=gb.GridPolicy(**dict(family.grid)),
+                            inputs=model.input_columns)
+    # the day's service (about 17 hours) in many periods between stops
+    assert len(window.frame) > 6 * 3600 and len(window.periods()) > 10

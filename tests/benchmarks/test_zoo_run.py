@@ -12,9 +12,10 @@ FAMILIES = discover()
 #: nights run in ``python -m benchmarks.zoo`` (docs/benchmarks.md), not in the suite (the
 #: coolant loop's hidden metal node at 10 s: 2 baselines of 5 days cost about 95 s of CPU)
 HEAVY = {"ev_battery", "traction_drive", "cooling_loop"}
-#: families whose telemetry the default grid refuses to read (a finding, each kept as its
-#: own test: tests/benchmarks/test_zoo.py, the parked bus's speed reads as a stuck sensor)
-UNREAD = {"bus_longitudinal"}
+#: families that miss the false-alarm bound with the protocol's 5-day baseline (a finding,
+#: docs/benchmarks.md): the bus's ridership falls at weekends, and the reduced run's two
+#: nights are a Saturday and a Sunday against a Monday-to-Friday baseline
+MISSES = {"bus_longitudinal"}
 
 
 def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
@@ -24,11 +25,11 @@ def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
 
 @pytest.mark.slow
 def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
-    assert HEAVY <= set(FAMILIES) and UNREAD <= set(FAMILIES)
+    assert HEAVY <= set(FAMILIES) and MISSES <= set(FAMILIES)
     # 5 baseline days, the zoo protocol's own: day-to-day variation is estimated from them
     results = [run_family(family, healthy_assets=2, baseline_days=5, nights=2, faulty_per_cell=0,
                           seed=3) for family in FAMILIES.values()
-               if family.name not in HEAVY | UNREAD]
+               if family.name not in HEAVY | MISSES]
     for result in results:
         assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
         assert result["failed_baselines"] == {}, result["family"]
