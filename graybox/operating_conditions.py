@@ -22,14 +22,15 @@ piece, additive) tests the windows' effect against what is left after the window
 times of day's, at :data:`VARYING_LEVEL`. A daily cycle every window shares (the gas turbine's
 load, a mast's afternoon gusts) is the pieces' effect and does not hide the windows'; a plant
 driven the same way every day has windows that differ by chance alone, and a night a little
-beyond the reach of five such days is not outside anything. A candidate lies :func:`outside` by the
-largest ratio, over the counted figures and over its own windows, of a window's distance from
-the centre to the reach: above 1, it was driven beyond any baseline day. A candidate of
-several nights is as far outside as its farthest night: their average would put a night far
-beyond the range together with one inside it back near the centre. :class:`graybox.tiers.Tier` divides the AR, network
-and noise tiers' changes by that ratio where it exceeds 1 (zeta by its square), as the level
-tier's change is divided by its own extrapolation: a tier's healthy change grows with the
-distance, and calibration measured it only up to the reach. Calibration divides each left-out
+beyond the reach of five such days is not outside anything. A candidate lies :func:`outside`
+by the largest ratio, over the counted figures and over its own windows, of a window's
+distance from the centre to the reach: above 1, it was driven beyond any baseline day. A
+candidate of several nights is as far outside as its farthest night: their average would put
+a night far beyond the range together with one inside it back near the centre.
+:class:`graybox.tiers.Tier` divides the AR, network and noise tiers' changes by that ratio
+where it exceeds 1 (zeta by its square), as the level tier's change is divided by its own
+extrapolation: a tier's healthy change grows with the distance, and calibration measured it
+only up to the reach. Calibration divides each left-out
 day's changes by its own ratio to the other days, so the threshold describes a night within
 the range and the two stay consistent.
 
@@ -171,9 +172,8 @@ def outside(candidate: OperatingConditions | None, baseline: OperatingConditions
     """How far outside its baseline's conditions a candidate was driven: the largest ratio,
     over the figures whose baseline windows differ (:meth:`OperatingConditions.varying`) and
     over the candidate's windows, of a window's distance from the baseline's centre to the
-    baseline's reach. Above 1:
-    beyond every baseline window. 0 where either lacks the record, their inputs differ, or no
-    figure of the baseline varies."""
+    baseline's reach. Above 1: beyond every baseline window. 0 where either lacks the
+    record, their inputs differ, or no figure of the baseline varies."""
     return farthest(candidate, baseline)[0]
 
 
