@@ -69,7 +69,7 @@ from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock
 from graybox.segment_cache import SegmentCache
-from graybox.tiers import TIER_KINDS, TIERS
+from graybox.tiers import TIER_KINDS, Tier
 
 METHOD = "held-out healthy pieces rescaled to a night, scaled chi-square, predictive F quantile"
 
@@ -146,8 +146,8 @@ class Calibration:
         seen = set()
         for entry in calibration.thresholds:
             where = f"Calibration threshold of channel {entry.channel!r}, tier {entry.tier!r}"
-            if entry.tier not in TIERS:
-                raise ArtifactError(f"{where}: tier must be one of {list(TIERS)}")
+            if not entry.tier:  # a tier added by the caller's kinds is stored like the others
+                raise ArtifactError(f"{where}: the tier has no name")
             if entry.epsilon < 0:
                 raise ArtifactError(f"{where}: epsilon must be >= 0, got {entry.epsilon!r}")
             if (entry.channel, entry.tier) in seen:
@@ -215,7 +215,7 @@ DEFAULT_FALSE_ALARM_RATE = 0.01
 
 def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | None = None,
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, chunk_size: int = 32,
-                  clock: StageClock | None = None
+                  clock: StageClock | None = None, kinds: Sequence[Tier] = TIER_KINDS
                   ) -> list[tuple[Signature, Calibration] | GrayBoxError]:
     """Fit baselines and calibrate their epsilons (see :mod:`graybox.calibration`).
 
@@ -227,6 +227,8 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     clock : StageClock, optional
         Accumulates the seconds of the fits' stages (see
         :func:`graybox.signature_fit.fit_signatures`).
+    kinds : sequence of Tier, default TIER_KINDS
+        The tiers fitted and calibrated (an added tier gets its epsilons like the others).
 
     Returns
     -------
@@ -240,7 +242,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     # every window is fitted several times below: its hidden states, residual and level
     # data are computed once (the pieces, new data, are not kept)
     cache = SegmentCache()
-    signatures = fit_signatures(fresh, settings, chunk_size, clock, cache)
+    signatures = fit_signatures(fresh, settings, chunk_size, clock, cache, kinds)
     cache.storing = False
     results: list = list(signatures)
     jobs = []  # (position, baseline signature, number of windows)
@@ -257,7 +259,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     rest_requests = [replace(fresh[p], windows=[w for j, w in enumerate(fresh[p].windows) if j != k],
                              baseline=sig)
                      for p, sig, count in jobs for k in range(count)]
-    rests = fit_signatures(rest_requests, settings, chunk_size, clock, cache)
+    rests = fit_signatures(rest_requests, settings, chunk_size, clock, cache, kinds)
     # ...and the left-out window's pieces are fitted as nightly candidates of that refit, and
     # so is the whole window (a healthy night with its own day's conditions)
     requests, owners = [], []
@@ -273,7 +275,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             for piece in _merge_short(pieces, sig, settings) + [window]:
                 requests.append(replace(fresh[p], windows=[piece], baseline=sig, warm_start=warm))
                 owners.append((p, first + k, piece is window))
-    fitted = fit_signatures(requests, settings, chunk_size, clock, cache)
+    fitted = fit_signatures(requests, settings, chunk_size, clock, cache, kinds)
     pairs: dict[int, list] = {p: [] for p, _, _ in jobs}
     days: dict[int, list] = {p: [] for p, _, _ in jobs}
     for (p, rest_index, whole), candidate in zip(owners, fitted):
@@ -285,7 +287,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             results[p] = failure
             continue
         try:
-            results[p] = (sig, _calibrate(sig, _changes(sig, pairs[p], days[p]),
+            results[p] = (sig, _calibrate(sig, _changes(sig, pairs[p], days[p], kinds),
                                           false_alarm_rate))
         except GrayBoxError as error:
             results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
@@ -387,7 +389,8 @@ def _merge_short(pieces: list, baseline: Signature, settings: GrayBoxSettings) -
 
 
 def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
-             days: list[tuple[Signature, Signature]]) -> dict[tuple[str, str], tuple[list, list]]:
+             days: list[tuple[Signature, Signature]], kinds: Sequence[Tier] = TIER_KINDS
+             ) -> dict[tuple[str, str], tuple[list, list]]:
     """Per channel and tier: the pieces' changes and the whole windows' changes against
     their rest refits, each rescaled to a night against the full baseline.
 
@@ -403,7 +406,7 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
     beyond = [outside(whole.conditions, rest.conditions) for rest, whole in days]
     out = {}
     for channel in baseline.channel_names:
-        for kind in TIER_KINDS:
+        for kind in kinds:
             if kind.present(baseline.channel(channel)):
                 out[channel, kind.name] = (
                     [_rescaled(kind, rest, piece, channel, night) for rest, piece in pairs],

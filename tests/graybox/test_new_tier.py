@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from graybox import FitRequest, Signature, compute_drift, fit_signatures, load_model
+from graybox import (Calibration, FitRequest, Signature, compute_drift, fit_baselines,
+                     fit_signatures, load_model)
 from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet
 from graybox.tiers import TIER_KINDS, TIERS, Tier
 
@@ -93,3 +94,20 @@ def test_the_new_tier_has_its_drift(fits):
     assert [e.tier for e in drift.entries] == [*TIERS, "mean_abs"]
     with pytest.raises(KeyError):  # the default kinds do not know it
         compute_drift(candidate, baseline).get("omega", "mean_abs")
+
+
+def test_the_new_tier_is_calibrated_like_the_others():
+    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 41),), days=4))["V-1"]
+    frames = frames.set_index("timestamp")
+    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
+    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    (baseline, calibration), = fit_baselines([FitRequest(model, days[:3], asset_id="V-1")],
+                                             kinds=KINDS)
+    threshold = calibration.threshold("omega", "mean_abs")
+    # epsilon from the same method as every tier: healthy changes of the pieces and days
+    assert threshold.epsilon > threshold.mean_zeta > 0 and len(threshold.day_zetas) == 3
+    assert calibration.test_alpha == pytest.approx(calibration.false_alarm_rate / 5)
+    assert Calibration.from_json(calibration.to_json()) == calibration
+    candidate = fit_signatures([FitRequest(model, days[3:], baseline=baseline)], kinds=KINDS)[0]
+    entry = compute_drift(candidate, baseline, calibration, kinds=KINDS).get("omega", "mean_abs")
+    assert entry.epsilon > 0 and entry.ratio == pytest.approx(entry.zeta / entry.epsilon)
