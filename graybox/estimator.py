@@ -8,6 +8,8 @@ here with :class:`~graybox.settings.GrayBoxSettings` and :class:`~graybox.signat
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import pandas as pd
 
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE, fit_baselines
@@ -17,6 +19,7 @@ from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.settings import GrayBoxSettings
 from graybox.signature import Signature
+from graybox.tiers import TIER_KINDS, Tier
 
 __all__ = ["GrayBox", "GrayBoxSettings", "FitRequest", "fit_signatures", "fit_baselines"]
 
@@ -44,6 +47,10 @@ class GrayBox:
         Calibrate epsilon when fitting a baseline (needs at least 3 windows).
     random_state : int, default 0
         Seeds the random initial network weights of a baseline.
+    kinds : sequence of Tier, optional
+        The tiers to fit, calibrate and compare (default
+        :data:`graybox.tiers.TIER_KINDS`); an added tier is one more
+        :class:`graybox.tiers.Tier` here.
 
     Attributes
     ----------
@@ -61,13 +68,15 @@ class GrayBox:
     def __init__(self, model: WhiteBoxModel, baseline: Signature | None = None,
                  settings: GrayBoxSettings | None = None,
                  false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE,
-                 calibrate: bool = True, random_state: int = 0):
+                 calibrate: bool = True, random_state: int = 0,
+                 kinds: Sequence[Tier] | None = None):
         self.model = model
         self.baseline = baseline
         self.settings = settings
         self.false_alarm_rate = false_alarm_rate
         self.calibrate = calibrate
         self.random_state = random_state
+        self.kinds = kinds
 
     def fit(self, windows) -> "GrayBox":
         """Fit on one window or a sequence of windows (TelemetryWindow or uniform-grid DataFrame).
@@ -85,14 +94,15 @@ class GrayBox:
             settings = self.baseline.settings
         settings = settings or GrayBoxSettings()
         request = FitRequest(self.model, windows, self.baseline, seed=self.random_state)
+        kinds = self._kinds()
         self.calibration_ = None
         if self.baseline is None and self.calibrate:
-            result = fit_baselines([request], settings, self.false_alarm_rate)[0]
+            result = fit_baselines([request], settings, self.false_alarm_rate, kinds=kinds)[0]
             if isinstance(result, GrayBoxError):
                 raise result
             self.signature_, self.calibration_ = result
         else:
-            result = fit_signatures([request], settings)[0]
+            result = fit_signatures([request], settings, kinds=kinds)[0]
             if isinstance(result, GrayBoxError):
                 raise result
             self.signature_ = result
@@ -100,5 +110,10 @@ class GrayBox:
 
     def drift(self, windows) -> Drift:
         """Fit a candidate on ``windows`` against this fitted baseline and return its drift."""
-        candidate = GrayBox(self.model, baseline=self.signature_, settings=self.settings).fit(windows)
-        return compute_drift(candidate.signature_, self.signature_, self.calibration_)
+        candidate = GrayBox(self.model, baseline=self.signature_, settings=self.settings,
+                            kinds=self.kinds).fit(windows)
+        return compute_drift(candidate.signature_, self.signature_, self.calibration_,
+                             kinds=self._kinds())
+
+    def _kinds(self) -> tuple[Tier, ...]:
+        return TIER_KINDS if self.kinds is None else tuple(self.kinds)

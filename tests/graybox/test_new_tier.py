@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from graybox import (Calibration, FitRequest, Signature, compute_drift, fit_baselines,
+from graybox import (Calibration, FitRequest, GrayBox, Signature, compute_drift, fit_baselines,
                      fit_signatures, load_model)
 from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet
 from graybox.tiers import TIER_KINDS, TIERS, Tier
@@ -111,3 +111,22 @@ def test_the_new_tier_is_calibrated_like_the_others():
     candidate = fit_signatures([FitRequest(model, days[3:], baseline=baseline)], kinds=KINDS)[0]
     entry = compute_drift(candidate, baseline, calibration, kinds=KINDS).get("omega", "mean_abs")
     assert entry.epsilon > 0 and entry.ratio == pytest.approx(entry.zeta / entry.epsilon)
+
+
+def test_the_estimator_fits_calibrates_and_compares_the_tiers_it_is_given():
+    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 41),), days=4))["V-1"]
+    frames = frames.set_index("timestamp")
+    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
+    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    box = GrayBox(model, kinds=KINDS).fit(days[:3])
+    assert box.kinds is KINDS  # stored as given (scikit-learn's rule)
+    # the same baseline and calibration as the fleet form with the same kinds
+    (baseline, calibration), = fit_baselines([FitRequest(model, days[:3])], kinds=KINDS)
+    assert box.signature_.to_json() == baseline.to_json()
+    assert box.calibration_ == calibration
+    entry = box.drift(days[3:]).get("omega", "mean_abs")
+    candidate = fit_signatures([FitRequest(model, days[3:], baseline=baseline)], kinds=KINDS)[0]
+    expected = compute_drift(candidate, baseline, calibration, kinds=KINDS).get("omega", "mean_abs")
+    assert entry.zeta == pytest.approx(expected.zeta) and entry.epsilon == expected.epsilon
+    with pytest.raises(KeyError):  # without kinds: the built-in tiers only
+        GrayBox(model).fit(days[:3]).drift(days[3:]).get("omega", "mean_abs")
