@@ -29,6 +29,7 @@ from typing import Iterable, Iterator
 
 from graybox.timestamps import utc
 from graybox.alert import Alert
+from graybox.severity import SeverityScale
 from registry import file_lock
 
 #: seconds an append waits for the alerts file's lock before the run fails (never hangs)
@@ -133,8 +134,8 @@ class AlertLog:
         return records
 
 
-def export_alerts(registry, log: AlertLog, since=None, major_ratio: float | None = None,
-                  critical_ratio: float | None = None) -> tuple[list[Alert], list[Alert]]:
+def export_alerts(registry, log: AlertLog, since=None, scale: SeverityScale = SeverityScale()
+                  ) -> tuple[list[Alert], list[Alert]]:
     """Append the registry's nightly alerts to the JSON-lines file (those not in it yet).
 
     Parameters
@@ -143,18 +144,15 @@ def export_alerts(registry, log: AlertLog, since=None, major_ratio: float | None
     log : AlertLog
     since : timestamp-like, optional
         Only windows ending at or after this instant (default: every alert recorded).
-    major_ratio, critical_ratio : float, optional
-        Severity thresholds (``[alerts]`` of fleet.toml; the registry's defaults if omitted).
+    scale : SeverityScale, optional
+        Grades the alerts' severity (``[alerts]`` of fleet.toml; default 2 and 5).
 
     Returns
     -------
     (list of Alert, list of Alert)
         The registry's alerts since ``since``, and those of them newly written.
     """
-    thresholds = {name: value for name, value in (("major_ratio", major_ratio),
-                                                   ("critical_ratio", critical_ratio))
-                  if value is not None}
-    recorded = registry.alerts(since=since, **thresholds)
+    recorded = registry.alerts(since=since, scale=scale)
     return recorded, log.append(recorded)
 
 

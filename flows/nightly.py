@@ -342,8 +342,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
         written = []
         if since is not None:
             _, written = export_alerts(config.registry(), log, since=since,
-                                       major_ratio=config.alerts.major_ratio,
-                                       critical_ratio=config.alerts.critical_ratio)
+                                       scale=config.alerts.scale)
         written = list(written) + log.append(stale)
     except Exception as error:
         since_text = f" --since {since:%Y-%m-%d}" if since is not None else ""

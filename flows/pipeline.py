@@ -642,8 +642,7 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             drift, asset_id=asset.asset_id, vehicle_class=asset.ref.vehicle_class,
             window_start=record.window_start, window_end=record.window_end,
             version=None if reanalysis else record.version, baseline_version=reference.version,
-            run_id=record.run_id, major_ratio=config.alerts.major_ratio,
-            critical_ratio=config.alerts.critical_ratio,
+            run_id=record.run_id, scale=config.alerts.scale,
             source=REANALYSIS if reanalysis else NIGHTLY, diagnosis=alert_entries(diagnosis))
         out += alerts
         asset.result.alerts += alerts

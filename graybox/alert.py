@@ -2,8 +2,7 @@
 
 The one alert type of fleet-health, and its one home: the step after the drift
 (telemetry -> residual -> signature -> drift -> alert), as pure as the drift it comes from.
-Thresholding (:func:`severity`, the ratios :data:`MAJOR_RATIO` and :data:`CRITICAL_RATIO`)
-and alert making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
+Grading (:class:`graybox.severity.SeverityScale`, a small record of its own) and alert making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
 :func:`stale_alert`) are here; the pipeline makes alerts from a fresh
 :class:`graybox.drift.Drift`, :meth:`registry.Registry.alerts` makes the same records again
 from the drift it stored, and the JSON-lines file (:class:`flows.alerts.AlertLog`) writes
@@ -17,43 +16,15 @@ from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from graybox.alert_diagnosis import cause_text
+from graybox.severity import SeverityScale
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
 
-SEVERITIES = ("minor", "major", "critical")
 NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
 DRIFT, STALE = "drift", "stale"
 KINDS = (DRIFT, STALE)    #: a drift over its threshold; an asset whose telemetry stopped
-MAJOR_RATIO = 2.0        #: default zeta/epsilon from which an alert is ``major`` (and of ``[alerts]``)
-CRITICAL_RATIO = 5.0     #: default zeta/epsilon from which an alert is ``critical`` (and of ``[alerts]``)
-
-
-def severity(ratio: float | None, major_ratio: float = MAJOR_RATIO,
-             critical_ratio: float = CRITICAL_RATIO) -> str:
-    """The severity of a zeta/epsilon ratio.
-
-    Parameters
-    ----------
-    ratio : float or None
-        zeta / epsilon (None: no threshold).
-    major_ratio, critical_ratio : float
-        The ratios from which an alert is ``major`` and ``critical``.
-
-    Returns
-    -------
-    str
-        ``minor`` below ``major_ratio`` (or without a ratio), ``major`` below
-        ``critical_ratio``, else ``critical``.
-    """
-    if ratio is None:
-        return "minor"
-    if ratio >= critical_ratio:
-        return "critical"
-    if ratio >= major_ratio:
-        return "major"
-    return "minor"
 
 
 @dataclass(frozen=True)
@@ -68,7 +39,8 @@ class Alert:
     channel, tier : str
     zeta, epsilon, ratio : float
     severity : str
-        ``minor``, ``major`` or ``critical`` (from ``ratio``, see :func:`severity`).
+        ``minor``, ``major`` or ``critical`` (``ratio`` graded by a
+        :class:`~graybox.severity.SeverityScale`).
     top_changes : tuple of dict
         The parameters that moved most, largest first: ``name``, ``baseline``,
         ``candidate`` and ``contribution`` (its share of zeta). A list given is kept as a
@@ -171,8 +143,7 @@ class Alert:
 
 def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, window_start: str,
                       window_end: str, version: int | None, baseline_version: int | None,
-                      run_id: str | None, major_ratio: float = MAJOR_RATIO,
-                      critical_ratio: float = CRITICAL_RATIO,
+                      run_id: str | None, scale: SeverityScale = SeverityScale(),
                       source: str = NIGHTLY, diagnosis: Sequence[dict] = ()) -> list[Alert]:
     """The alerts of a drift: one per entry whose zeta exceeds epsilon, largest ratio first.
 
@@ -183,8 +154,8 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
         The candidate's asset and recorded window.
     version, baseline_version : int or None
     run_id : str or None
-    major_ratio, critical_ratio : float
-        Severity thresholds (see :func:`severity`).
+    scale : SeverityScale, optional
+        Grades each alert's ratio (``[alerts]`` of fleet.toml; default 2 and 5).
     source : str
         ``nightly`` or ``reanalysis``.
     diagnosis : sequence of dict, optional
@@ -205,7 +176,7 @@ def alerts_from_drift(drift: "Drift", *, asset_id: str, vehicle_class: str, wind
             window_end=window_end, channel=entry.channel, tier=entry.tier,
             zeta=float(entry.zeta), epsilon=float(entry.epsilon),
             ratio=float(ratio) if ratio is not None else float("nan"),
-            severity=severity(ratio, major_ratio, critical_ratio),
+            severity=scale.grade(ratio),
             top_changes=tuple(asdict(c) for c in entry.top_changes),
             version=version, baseline_version=baseline_version, run_id=run_id, source=source,
             diagnosis=tuple(diagnosis), conditions=drift.conditions))

@@ -11,7 +11,8 @@ from typing import Collection, Mapping, Sequence
 
 import pandas as pd
 
-from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, Alert
+from graybox.alert import Alert
+from graybox.severity import SeverityScale
 from registry import fleet_nights, review
 from registry.fleet_nights import NightRatio
 from registry.read import history, loading
@@ -202,17 +203,15 @@ class Registry:
         again with other data keeps its latest record."""
         return history.zeta_history(self._backend, asset_id, last)
 
-    def alerts(self, since=None, *, major_ratio: float = MAJOR_RATIO,
-               critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
+    def alerts(self, since=None, *, scale: SeverityScale = SeverityScale()) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.
 
         One :class:`graybox.alert.Alert` per asset, window, channel and tier whose zeta
         exceeded epsilon: the same records the nightly run wrote to its alerts file.
-        ``major_ratio`` and ``critical_ratio`` grade their severity (``[alerts]`` of
-        fleet.toml). Reanalyses are left out.
+        ``scale`` grades their severity (``[alerts]`` of fleet.toml). Reanalyses are left
+        out.
         """
-        return history.alerts(self._backend, since, major_ratio=major_ratio,
-                              critical_ratio=critical_ratio)
+        return history.alerts(self._backend, since, scale=scale)
 
     # -- the fleet's nights --------------------------------------------------------------------
     def night_ratios(self, nights: Sequence[str]) -> list[NightRatio]:

@@ -42,9 +42,7 @@ def alerts(args: argparse.Namespace) -> int:
         return export(config, since)
     if args.from_registry:
         try:
-            found = config.registry().alerts(since=since,
-                                             major_ratio=config.alerts.major_ratio,
-                                             critical_ratio=config.alerts.critical_ratio)
+            found = config.registry().alerts(since=since, scale=config.alerts.scale)
         except (RegistryError, ArtifactError) as error:
             print_error(str(error))
             return EXIT_FAILED
@@ -70,8 +68,7 @@ def export(config, since) -> int:
     log = AlertLog(config.alerts.jsonl)
     try:
         recorded, written = export_alerts(config.registry(), log, since=since,
-                                          major_ratio=config.alerts.major_ratio,
-                                          critical_ratio=config.alerts.critical_ratio)
+                                          scale=config.alerts.scale)
     except (RegistryError, ArtifactError) as error:
         print_error(str(error))
         return EXIT_FAILED

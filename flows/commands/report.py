@@ -76,8 +76,7 @@ def report(args: argparse.Namespace) -> int:
         view = collect_view(registry, last, args.nights)
         first = pd.Timestamp(view.nights[0], tz="UTC")
         end = pd.Timestamp(last, tz="UTC") + pd.Timedelta(days=1)
-        alerts = [a for a in registry.alerts(since=first, major_ratio=config.alerts.major_ratio,
-                                             critical_ratio=config.alerts.critical_ratio)
+        alerts = [a for a in registry.alerts(since=first, scale=config.alerts.scale)
                   if first <= pd.Timestamp(a.window_start) < end]
     except (RegistryError, ArtifactError) as error:
         print_error(str(error))

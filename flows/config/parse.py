@@ -25,6 +25,7 @@ from graybox.estimator import GrayBoxSettings
 from graybox.exceptions import ModelSpecError
 from graybox.models import load_model
 from graybox.nonlinear_tier import FitSettings
+from graybox.severity import SeverityScale
 from graybox.telemetry import GridPolicy
 
 _CLASS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
@@ -127,9 +128,10 @@ def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings
     major = check.number("alerts.major_ratio", table.get("major_ratio", default.major_ratio))
     critical = check.number("alerts.critical_ratio", table.get("critical_ratio",
                                                                  default.critical_ratio))
-    if not 1 <= major <= critical:
-        raise check.error("alerts", f"need 1 <= major_ratio <= critical_ratio, got "
-                                    f"major_ratio={major!r}, critical_ratio={critical!r}")
+    try:
+        SeverityScale(major, critical)
+    except ValueError as error:
+        raise check.error("alerts", str(error)) from None
     stale = check.string("alerts.stale_after", table.get("stale_after", default.stale_after))
     if stale.strip().lower() in ("off", "none"):
         stale = None

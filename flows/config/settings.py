@@ -12,7 +12,7 @@ import pandas as pd
 
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from graybox.models import load_model
-from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO
+from graybox.severity import SeverityScale
 from registry import resolve_store
 from flows.errors import ConfigError
 
@@ -78,10 +78,15 @@ class VehicleClass:
 class AlertSettings:
     false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE
     jsonl: pathlib.Path = pathlib.Path("alerts.jsonl")
-    major_ratio: float = MAJOR_RATIO
-    critical_ratio: float = CRITICAL_RATIO
+    major_ratio: float = SeverityScale.major_ratio
+    critical_ratio: float = SeverityScale.critical_ratio
     #: an asset whose newest telemetry is older than as-of minus this is stale (None: off)
     stale_after: str | None = "2D"
+
+    @property
+    def scale(self) -> SeverityScale:
+        """The alerts' severity scale (``major_ratio``, ``critical_ratio``)."""
+        return SeverityScale(self.major_ratio, self.critical_ratio)
 
     @property
     def stale_after_delta(self) -> pd.Timedelta | None:

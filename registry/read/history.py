@@ -22,7 +22,8 @@ from graybox.drift import Drift
 from graybox.exceptions import ArtifactError
 from graybox.signature import TIERS
 from registry.store import naming
-from graybox.alert import CRITICAL_RATIO, MAJOR_RATIO, NIGHTLY, Alert, alerts_from_drift
+from graybox.alert import NIGHTLY, Alert, alerts_from_drift
+from graybox.severity import SeverityScale
 from graybox.alert_diagnosis import entries_from_document, failure_entry
 from registry.write.artifacts import DIAGNOSIS_FILE, DRIFT_FILE
 from registry.store.backend import Backend, is_not_found
@@ -98,16 +99,16 @@ def zeta_history(backend: Backend, asset_id: str, last: int | None = None) -> pd
     return frame
 
 
-def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
-           critical_ratio: float = CRITICAL_RATIO) -> list[Alert]:
+def alerts(backend: Backend, since=None, *, scale: SeverityScale = SeverityScale()
+           ) -> list[Alert]:
     """The recorded nightly alerts, oldest window first.
 
     Parameters
     ----------
     since : timestamp-like, optional
         Only windows ending at or after this instant (naive is UTC).
-    major_ratio, critical_ratio : float
-        Severity thresholds (``[alerts]`` of fleet.toml).
+    scale : SeverityScale
+        Grades the alerts' severity (``[alerts]`` of fleet.toml).
 
     Returns
     -------
@@ -143,7 +144,7 @@ def alerts(backend: Backend, since=None, *, major_ratio: float = MAJOR_RATIO,
                 window_end=tags.get(naming.TAG_WINDOW_END),
                 version=versions.get(run.info.run_id),
                 baseline_version=int(baseline) if baseline else None, run_id=run.info.run_id,
-                major_ratio=major_ratio, critical_ratio=critical_ratio, source=NIGHTLY)
+                scale=scale, source=NIGHTLY)
     return out
 
 

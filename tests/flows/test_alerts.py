@@ -7,13 +7,14 @@ import threading
 import pytest
 
 from flows.alerts import AlertLog
-from graybox.alert import Alert, alerts_from_drift, severity
+from graybox.alert import Alert, alerts_from_drift
+from graybox.severity import SeverityScale
 
 
 def alert(asset="T-001", start="2026-01-05T00:00:00+00:00", end="2026-01-06T00:00:00+00:00",
           channel="omega", tier="noise", ratio=3.0):
     return Alert(asset, "turbine", start, end, channel, tier, zeta=ratio * 0.5, epsilon=0.5,
-                 ratio=ratio, severity=severity(ratio),
+                 ratio=ratio, severity=SeverityScale().grade(ratio),
                  top_changes=[{"name": "variance", "baseline": 0.2, "candidate": 0.4,
                                "contribution": 1.2}], version=3, baseline_version=1,
                  run_id="abc")
@@ -23,7 +24,7 @@ def alert(asset="T-001", start="2026-01-05T00:00:00+00:00", end="2026-01-06T00:0
                                              (4.9, "major"), (5.0, "critical"),
                                              (float("inf"), "critical"), (None, "minor")])
 def test_severity(ratio, expected):
-    assert severity(ratio) == expected
+    assert SeverityScale().grade(ratio) == expected
 
 
 def test_alerts_from_drift_keeps_exceeded_entries_with_their_hint():

@@ -99,8 +99,7 @@ def test_registry_and_alerts_file_hold_equal_records(workspace):
     logged = AlertLog(workspace.alerts).read()
     assert logged and {a.asset_id for a in logged} <= set(FAULTY)
     config = load_config(workspace.config)
-    recorded = workspace.registry().alerts(major_ratio=config.alerts.major_ratio,
-                                           critical_ratio=config.alerts.critical_ratio)
+    recorded = workspace.registry().alerts(scale=config.alerts.scale)
     assert all(isinstance(a, Alert) for a in recorded)
     assert recorded == logged
     assert sorted((Alert.from_dict(a) for a in summary["alerts"]), key=lambda a: a.key) == \

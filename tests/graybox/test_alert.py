@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from graybox.alert import (CRITICAL_RATIO, MAJOR_RATIO, REANALYSIS, STALE, Alert,
-                           alerts_from_drift, severity, stale_alert)
+from graybox.alert import REANALYSIS, STALE, Alert, alerts_from_drift, stale_alert
+from graybox.severity import SeverityScale
 from graybox.drift import Drift, ParameterChange, TierDrift
 
 WINDOW = dict(asset_id="T-07", vehicle_class="turbine", window_start="2026-03-01T00:00:00+00:00",
@@ -26,7 +26,7 @@ def drift() -> Drift:
 
 
 def test_the_default_thresholds_are_two_and_five():
-    assert (MAJOR_RATIO, CRITICAL_RATIO) == (2.0, 5.0)
+    assert (SeverityScale().major_ratio, SeverityScale().critical_ratio) == (2.0, 5.0)
 
 
 @pytest.mark.parametrize("ratio, major, critical, expected", [
@@ -34,7 +34,7 @@ def test_the_default_thresholds_are_two_and_five():
     (5.0, 2.0, 5.0, "critical"), (1.5, 1.2, 1.4, "critical"), (3.0, 4.0, 8.0, "minor"),
     (None, 2.0, 5.0, "minor")])
 def test_severity_grades_a_ratio_by_the_thresholds_given(ratio, major, critical, expected):
-    assert severity(ratio, major, critical) == expected
+    assert SeverityScale(major, critical).grade(ratio) == expected
 
 
 def test_one_alert_per_exceeded_entry_largest_ratio_first():
@@ -54,7 +54,7 @@ def test_one_alert_per_exceeded_entry_largest_ratio_first():
 
 
 def test_the_thresholds_given_grade_the_alerts():
-    graded = alerts_from_drift(drift(), major_ratio=1.4, critical_ratio=2.5, **WINDOW)
+    graded = alerts_from_drift(drift(), scale=SeverityScale(1.4, 2.5), **WINDOW)
     assert [a.severity for a in graded] == ["critical", "critical", "major"]
 
 
@@ -84,3 +84,14 @@ def test_a_stale_alert_is_major_with_its_age_over_the_limit():
     assert (alert.window_start, alert.window_end) == ("2026-03-01T06:00:00+00:00",) * 2
     assert math.isclose(alert.ratio, 1.5) and alert.zeta == 3.0 and alert.epsilon == 2.0
     assert alert.hint() == "no telemetry since 2026-03-01T06:00:00+00:00 (3.0 days)"
+
+
+def test_the_severity_scale_round_trips_and_refuses_an_inverted_scale():
+    scale = SeverityScale(1.5, 4.0)
+    assert SeverityScale.from_dict(scale.to_dict()) == scale
+    assert scale.to_dict() == {"major_ratio": 1.5, "critical_ratio": 4.0}
+    assert SeverityScale.from_dict({}) == SeverityScale()
+    with pytest.raises(ValueError, match="need 1 <= major_ratio <= critical_ratio"):
+        SeverityScale(6.0, 5.0)
+    with pytest.raises(ValueError, match="major_ratio=0.5"):
+        SeverityScale(0.5, 5.0)

@@ -12,6 +12,7 @@ from benchmarks.langevin_fits import DAY0
 from graybox.exceptions import ArtifactError, InvalidAssetIdError
 from registry.store import naming
 from graybox.alert import Alert, alerts_from_drift
+from graybox.severity import SeverityScale
 from registry.exceptions import NotFoundError
 
 
@@ -210,7 +211,7 @@ def test_zeta_history_and_alerts(rec, registry, fits):
             version=record.version, baseline_version=baseline, run_id=record.run_id)
     assert len(registry.alerts(since="2026-01-08")) == 2 * exceeded
     assert registry.alerts(since="2026-01-09") == []
-    graded = registry.alerts(major_ratio=1e12, critical_ratio=1e13)
+    graded = registry.alerts(scale=SeverityScale(1e12, 1e13))
     assert {a.severity for a in graded} == {"minor"}
     assert [a.key for a in graded] == [a.key for a in alerts]
 
