@@ -55,7 +55,9 @@ Failures: an asset whose telemetry is bad (:class:`graybox.exceptions.TelemetryE
 whose fit fails stops at that window: the windows before it are committed, the watermark
 stays at the start of the bad window, the error (asset, file, row) is in the run summary,
 and the other assets go on. The next run retries the same window (fix the file, or move it
-aside as ``.<name>``: dot-files are ignored). An asset without a baseline is skipped as
+aside as ``.<name>``: dot-files are ignored). A night whose sensor reads stuck or out of range
+(a sensor's fault, not the data's) also raises a ``sensor`` alert naming the channel
+(:func:`graybox.alert.sensor_alert`), in the result and the alerts file, once per night. An asset without a baseline is skipped as
 "no baseline". An asset whose baseline cannot be used (no calibration, e.g. the alias moved
 by hand to a nightly candidate; artifacts that fail verification; another model than its
 class's configured one, refused before anything is imported) is "unusable baseline": not
@@ -84,7 +86,7 @@ from prefect import flow
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates, newest_timestamp
 from graybox.telemetry.changes import changed_days, clear_changed
-from graybox.alert import STALE as STALE_KIND
+from graybox.alert import SENSOR as SENSOR_KIND, STALE as STALE_KIND
 from graybox.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
@@ -323,9 +325,9 @@ def export_since(summary: RunSummary, lookback: pd.Timedelta) -> pd.Timestamp | 
 
 def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
     """Step 3 of the module docstring: the registry's alerts since the run's start, and the
-    run's staleness alerts (which are not recorded in the registry: every run finds them again
-    from the telemetry), into the JSON-lines file (in the flow's own process, after every
-    batch).
+    run's staleness and sensor alerts (which are not recorded in the registry: every run finds
+    them again from the telemetry, a sensor's night being read again until it is fixed or
+    quarantined), into the JSON-lines file (in the flow's own process, after every batch).
 
     Raises
     ------
@@ -334,8 +336,9 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
         ``fleet-health alerts --export`` writes the file again.
     """
     since = export_since(summary, config.nightly.lookback_delta)
-    stale = [alert for a in summary.assets for alert in a.alerts if alert.kind == STALE_KIND]
-    if since is None and not stale:
+    unrecorded = [alert for a in summary.assets for alert in a.alerts
+                  if alert.kind in (STALE_KIND, SENSOR_KIND)]
+    if since is None and not unrecorded:
         return
     log = AlertLog(config.alerts.jsonl)
     try:
@@ -343,7 +346,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
         if since is not None:
             _, written = export_alerts(config.registry(), log, since=since,
                                        scale=config.alerts.scale)
-        written = list(written) + log.append(stale)
+        written = list(written) + log.append(unrecorded)
     except Exception as error:
         since_text = f" --since {since:%Y-%m-%d}" if since is not None else ""
         raise RuntimeError(f"the night is recorded in the registry, but exporting its alerts "

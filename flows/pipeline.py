@@ -49,7 +49,7 @@ from flows.config import FleetConfig, VehicleClass
 from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
-from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift
+from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry import FitSubmission, LoadedVersion
 
@@ -116,6 +116,8 @@ class AssetJob:
     changed_days : tuple of datetime.date
         Days marked changed by an import whose windows are planned: cleared once everything
         is committed (:mod:`flows.changed_days`).
+    source : str
+        ``nightly`` or ``reanalysis``: the source of the alerts of its candidates.
     """
 
     ref: AssetRef
@@ -128,6 +130,7 @@ class AssetJob:
     idle_status: str | None = None
     idle_note: str | None = None
     changed_days: tuple = ()
+    source: str = NIGHTLY
 
 
 def candidate_job(config: FleetConfig, ref: AssetRef, result: AssetResult,
@@ -284,7 +287,8 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
     stops the reading when ``job.stop_at_error`` (the windows before it are kept: ``stop``);
     otherwise it fails the asset and the other windows go on. Each night is read once; a bad
     earlier night of a multi-night candidate is an error of its window, as above, and an idle
-    one is left out.
+    one is left out. A candidate's window whose sensor was found stuck or out of range also
+    gets a ``sensor`` alert (:func:`graybox.alert.sensor_alert`).
 
     A new baseline (no reference) is fitted on all of its windows or not at all: bad
     telemetry fails it (its note says why), and so do fewer than :data:`MIN_WINDOWS` windows
@@ -367,6 +371,9 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     if any(start < d + DAY and d < end for d in dates):
                         empty.append(start)      # a partition is there, without rows
                     continue
+                if job.reference is not None:   # on the night whose telemetry it is
+                    _alert_sensor(config, job, error, next(
+                        (n for n in window.nights if found.get(n) is error), window.night))
                 if job.stop_at_error:
                     asset.stop, asset.stop_start = error, start
                     break
@@ -386,6 +393,16 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                      f"{', '.join(links)}")
     for note in notes:
         asset.result.note = note if not asset.result.note else f"{asset.result.note}; {note}"
+
+
+def _alert_sensor(config: FleetConfig, job: AssetJob, error: TelemetryError,
+                  night: tuple[pd.Timestamp, pd.Timestamp]) -> None:
+    """A ``sensor`` alert in the job's result when ``error`` is a sensor's fault."""
+    alert = sensor_alert(error, vehicle_class=job.ref.vehicle_class,
+                         window_start=night[0].isoformat(), window_end=night[1].isoformat(),
+                         scale=config.alerts.scale, source=job.source)
+    if alert is not None:
+        job.result.alerts.append(alert)
 
 
 @dataclass

@@ -24,6 +24,7 @@ from typing import Iterator, Sequence
 
 from prefect import flow
 
+from graybox.alert import REANALYSIS
 from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
@@ -69,6 +70,7 @@ def plan_asset(config: FleetConfig, registry, ref: AssetRef, windows, version,
                                          error=describe_error(error)))
     result = AssetResult(asset, ref.vehicle_class, OK, baseline_version=loaded.version)
     return candidate_job(config, ref, result, loaded, windows, nights, stop_at_error=False,
+                         source=REANALYSIS,
                          idle_note=f"0 windows: no telemetry in [{windows[0][0]:%Y-%m-%d %H:%M}, "
                                    f"{windows[-1][1]:%Y-%m-%d %H:%M}) UTC")
 

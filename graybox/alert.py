@@ -3,7 +3,8 @@
 The one alert type of fleet-health, and its one home: the step after the drift
 (telemetry -> residual -> signature -> drift -> alert), as pure as the drift it comes from.
 Grading (:class:`graybox.severity.SeverityScale`, a small record of its own) and alert making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
-:func:`stale_alert`) are here; the pipeline makes alerts from a fresh
+:func:`stale_alert`; :func:`sensor_alert`, a candidate night whose sensor the telemetry
+checks found stuck or out of range) are here; the pipeline makes alerts from a fresh
 :class:`graybox.drift.Drift`, :meth:`registry.Registry.alerts` makes the same records again
 from the drift it stored, and the JSON-lines file (:class:`flows.alerts.AlertLog`) writes
 and reads them. An alert becomes a dict only at the edges: :meth:`Alert.to_dict` /
@@ -20,11 +21,16 @@ from graybox.severity import SeverityScale
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
+    from graybox.exceptions import TelemetryError
 
 NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
-DRIFT, STALE = "drift", "stale"
-KINDS = (DRIFT, STALE)    #: a drift over its threshold; an asset whose telemetry stopped
+DRIFT, STALE, SENSOR = "drift", "stale", "sensor"
+#: a drift over its threshold; an asset whose telemetry stopped; a sensor found stuck or out
+#: of range by the telemetry checks
+KINDS = (DRIFT, STALE, SENSOR)
+#: the telemetry checks' findings that are a sensor's fault (:class:`TelemetryError` kinds)
+SENSOR_FAULTS = ("stuck_channel", "out_of_range")
 
 
 @dataclass(frozen=True)
@@ -56,7 +62,10 @@ class Alert:
     kind : str
         ``drift`` (the fields above), or ``stale``: the asset's telemetry stopped arriving
         (:func:`stale_alert`: ``window_start`` and ``window_end`` are both the time of its
-        newest sample, ``zeta`` its age and ``epsilon`` the ``stale_after`` limit, in days).
+        newest sample, ``zeta`` its age and ``epsilon`` the ``stale_after`` limit, in days),
+        or ``sensor``: a channel of the night read stuck or out of range
+        (:func:`sensor_alert`: ``tier`` is the finding, ``zeta`` and ``epsilon`` how far it
+        went and may go).
     diagnosis : tuple of dict
         The physical diagnosis of the alert's window (the same for every alert of the
         window), ranked: ``hypothesis``, ``kind``, ``target``, ``baseline``, ``estimate``,
@@ -107,6 +116,12 @@ class Alert:
         at the baseline's operating point, in the channel's units)."""
         if self.kind == STALE:
             return f"no telemetry since {self.window_end} ({self.zeta:.1f} days)"
+        if self.kind == SENSOR:
+            if self.tier == "stuck_channel":
+                return (f"sensor {self.channel} stuck for {self.zeta:.0f} s "
+                        f"(stuck_after {self.epsilon:.0f} s)")
+            return (f"sensor {self.channel} out of range: {self.zeta:.6g} from its centre, "
+                    f"{self.epsilon:.6g} allowed")
         if self.tier == "level" and self.top_changes:
             change = self.top_changes[0]
             a, b = change["baseline"], change["candidate"]
@@ -204,3 +219,39 @@ def stale_alert(*, asset_id: str, vehicle_class: str, last_data: str, age_days: 
                  window_end=last_data, channel="*", tier=STALE, zeta=float(age_days),
                  epsilon=float(stale_after_days), ratio=float(ratio), severity="major",
                  source=NIGHTLY, kind=STALE)
+
+
+def sensor_alert(error: "TelemetryError", *, vehicle_class: str, window_start: str,
+                 window_end: str, scale: SeverityScale = SeverityScale(),
+                 source: str = NIGHTLY) -> Alert | None:
+    """The alert of a candidate night whose telemetry check found a sensor's fault.
+
+    A stuck sensor or an impossible reading fails the night's fit (bad telemetry is never
+    fitted); it is also what a diagnostics engineer wants in the alert feed, named by channel.
+    One per (asset, night, channel, finding), so later runs of the same night add no
+    duplicate.
+
+    Parameters
+    ----------
+    error : graybox.exceptions.TelemetryError
+    vehicle_class, window_start, window_end : str
+        The asset's class and the night's window (ISO UTC).
+    scale : SeverityScale, optional
+        Grades how far the sensor went past its limit.
+    source : str
+        ``nightly`` or ``reanalysis``.
+
+    Returns
+    -------
+    Alert or None
+        None when the finding is not a sensor's fault (:data:`SENSOR_FAULTS`: a gap, a
+        schema error, ... are the data's).
+    """
+    if error.kind not in SENSOR_FAULTS or error.channel is None or error.excess is None:
+        return None
+    went, allowed = error.excess
+    ratio = went / allowed if allowed > 0 else float("inf")
+    return Alert(asset_id=error.asset_id, vehicle_class=vehicle_class,
+                 window_start=window_start, window_end=window_end, channel=error.channel,
+                 tier=error.kind, zeta=float(went), epsilon=float(allowed), ratio=float(ratio),
+                 severity=scale.grade(ratio), source=source, kind=SENSOR)

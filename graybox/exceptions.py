@@ -32,15 +32,23 @@ class TelemetryError(GrayBoxError):
         The Parquet file the bad row came from.
     row : int or None
         The 0-based row index inside ``file``.
+    channel : str or None
+        For a sensor's fault (``"stuck_channel"``, ``"out_of_range"``): the channel.
+    excess : tuple of float or None
+        For a sensor's fault: how far it went and how far it may go, ``(seconds held,
+        stuck_after)`` or ``(distance from the channel's centre, the distance allowed)``.
     """
 
     def __init__(self, asset_id: str, kind: str, message: str, file: str | None = None,
-                 row: int | None = None):
+                 row: int | None = None, channel: str | None = None,
+                 excess: tuple[float, float] | None = None):
         self.asset_id = asset_id
         self.kind = kind
         self.message = message
         self.file = file
         self.row = row
+        self.channel = channel
+        self.excess = excess
         where = f"asset {asset_id!r}"
         if file is not None:
             where += f", file {file}"

@@ -162,9 +162,9 @@ def limit_intervals(seconds: float, dt_ns: int) -> int:
     return int(intervals(round(seconds * NS_PER_SECOND), dt_ns))
 
 
-def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int):
+def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int, **sensor):
     file, row = rows.where(i)
-    raise TelemetryError(asset_id, kind, message, file=file, row=row)
+    raise TelemetryError(asset_id, kind, message, file=file, row=row, **sensor)
 
 
 def _check_finite(rows: Rows, asset_id: str) -> None:
@@ -186,7 +186,7 @@ def _check_finite(rows: Rows, asset_id: str) -> None:
 
 def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
     """``"out_of_range"`` at the first row (over all channels) with an implausible value."""
-    first = None  # (row, channel index, message)
+    first = None  # (row, channel index, message, (distance from the centre, allowed))
     for j, name in enumerate(rows.channels):
         v = rows.values[j]
         if not len(v):
@@ -196,6 +196,7 @@ def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
             low, high = bounds
             bad = (v < low) | (v > high)
             why = f"outside its range [{low:g}, {high:g}] (grid ranges)"
+            centre, allowed = (low + high) / 2, (high - low) / 2
         elif policy.plausible_spread > 0:
             p1, median, p99 = np.percentile(v, [1, 50, 99])
             scale = (p99 - p1) or abs(median)
@@ -203,6 +204,7 @@ def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
                 continue  # a channel all zero but for a few samples: only ranges can judge it
             limit = policy.plausible_spread * scale
             bad = np.abs(v - median) > limit
+            centre, allowed = median, limit
             why = (f"implausibly far from the window's median {median:.6g} (more than "
                    f"plausible_spread={policy.plausible_spread:g} x its 1-99 % span "
                    f"{scale:.6g}; set the class's grid ranges to accept it)")
@@ -211,9 +213,11 @@ def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
         if bad.any():
             i = int(np.argmax(bad))
             if first is None or i < first[0]:
-                first = (i, j, f"value {float(v[i])!r} of channel {name!r} is {why}")
+                first = (i, j, f"value {float(v[i])!r} of channel {name!r} is {why}",
+                         (abs(float(v[i]) - centre), float(allowed)))
     if first is not None:
-        _fail(rows, asset_id, "out_of_range", first[2], first[0])
+        _fail(rows, asset_id, "out_of_range", first[2], first[0],
+              channel=rows.channels[first[1]], excess=first[3])
 
 
 def check_order(rows: Rows, asset_id: str) -> None:
@@ -275,7 +279,8 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
               f"stuck_after={format_duration(limit)})" + ("" if policy.intermittent else (
                   "; if the machine stands still then (parked, switched off), declare its "
                   "operating periods in the class's grid (running = {channel = [low, high]}, "
-                  "intermittent = true) so that a pause is not read as a stuck sensor")), i)
+                  "intermittent = true) so that a pause is not read as a stuck sensor")), i,
+              channel=rows.channels[j], excess=(held / NS_PER_SECOND, float(limit)))
 
 
 def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:

@@ -3,9 +3,11 @@
 Each scenario breaks one Parquet file of one asset (T-002, its second night) and runs the
 nightly command over two nights. The bad asset fails, named with error kind, file and row
 (in the JSON and on stderr); its watermark stops before the bad night, whose first night is
-committed; every other asset is committed exactly as in a clean run. Restoring the file and
-rerunning gives exactly the state of one uninterrupted clean run: no window is lost or
-recorded twice, and the alerts file holds each alert once.
+committed; every other asset is committed exactly as in a clean run. A stuck or impossible
+reading is a sensor's fault: the bad night also gets a ``sensor`` alert of its channel, in
+the result and the alerts file. Restoring the file and rerunning gives exactly the state of
+one uninterrupted clean run: no window is lost or recorded twice, and the alerts file holds
+each alert once (and the sensor alert of the broken night, which stays as history).
 """
 from __future__ import annotations
 
@@ -203,6 +205,12 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
         assert f"row {row}:" in err
     assert summary["coverage"]["missed"] == [BAD_ASSET]
     assert summary["coverage"]["failed"] == 1 and summary["exit_status"] == 1
+    sensor = ([(BAD_ASSET, day(BAD_DAY).isoformat(), "shaft_speed", kind)]
+              if kind in ("stuck_channel", "out_of_range") else [])
+    assert [(a["asset_id"], a["window_start"], a["channel"], a["tier"])
+            for a in bad["alerts"] if a["kind"] == "sensor"] == sensor
+    assert all(a["kind"] != "sensor" for r in summary["assets"] for a in r["alerts"]
+               if r["asset_id"] != BAD_ASSET)
 
     registry = workspace.registry()
     state = committed_state(registry)
@@ -217,8 +225,10 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
                                "versions": clean.counts["versions"] - 1,
                                "alerts": len(kept)}
     exported = _alert_lines(workspace.alerts)
-    assert exported == sorted((a, w, c, t) for a, w, c, t in clean.alerts
-                              if a != BAD_ASSET or w < day(BAD_DAY).isoformat())
+    assert exported == sorted([(a, w, c, t) for a, w, c, t in clean.alerts
+                               if a != BAD_ASSET or w < day(BAD_DAY).isoformat()] + sensor)
+    status, summary, err = _run(capsys, workspace.config)   # still broken: said once
+    assert status == 1 and _alert_lines(workspace.alerts) == exported
 
     shutil.copy(fleet.root / relative, bad_file)          # the file is fixed
     status, summary, err = _run(capsys, workspace.config)
@@ -230,7 +240,7 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
     registry = workspace.registry()
     assert committed_state(registry) == expected
     assert count(registry) == clean.counts
-    assert _alert_lines(workspace.alerts) == clean.alerts
+    assert _alert_lines(workspace.alerts) == sorted(clean.alerts + sensor)
 
 
 @pytest.mark.slow
