@@ -20,6 +20,11 @@ ALL_CHANNELS = "*"
 """Key of a ``stuck_after`` mapping that sets the limit of every channel not listed."""
 
 _DEFAULT_STUCK_AFTER = 600.0
+#: a stuck channel holds one value for ``stuck_after`` and for at least this many samples: a
+#: logger slower than a minute takes as many readings as one at a minute does in the default
+#: 10 minutes (a 0.1-degree reading every 5 minutes holds for two samples as a matter of
+#: course)
+MIN_STUCK_SAMPLES = 10
 
 
 def duration_seconds(value, what: str = "duration") -> float:
@@ -104,7 +109,9 @@ class GridPolicy:
         A channel that holds one value (at least two identical consecutive samples) for this
         long is an error (kind ``"stuck_channel"``). A value holds from its first sample to
         the next sample with another value (to the end of the window's last interval if
-        none): 60 identical samples at 10 s hold 10 minutes. ``0`` disables the check. A
+        none): 60 identical samples at 10 s hold 10 minutes. A logger slower than a minute
+        needs :data:`MIN_STUCK_SAMPLES` (10) identical samples as well, as many as 10 minutes
+        give at 1-minute samples (at 5-minute samples, 50 minutes). ``0`` disables the check. A
         mapping gives limits per channel (telemetry column); its key ``"*"`` sets the limit
         of channels not listed (default 10 minutes), e.g. ``{"pdisch": "30min"}``. Columns
         passed as ``inputs`` to :func:`validate` are never checked.

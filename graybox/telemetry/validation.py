@@ -11,7 +11,7 @@ import pandas as pd
 
 from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
-from graybox.telemetry.policy import GridPolicy, format_duration
+from graybox.telemetry.policy import MIN_STUCK_SAMPLES, GridPolicy, format_duration
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
@@ -266,21 +266,26 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
             cut = (ends + 1 < n) & paused[np.minimum(ends, n - 2)]
             until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
-        long = np.flatnonzero(held >= limit_intervals(limit, dt_ns))
+        needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
+        long = np.flatnonzero(held >= needed)
         if long.size and (best is None or starts[long[0]] < best[0]):
             r = long[0]
             best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]) * dt_ns,
-                    limit)
+                    limit, needed)
     if best is not None:
-        i, j, count, held, limit = best
+        i, j, count, held, limit, needed = best
+        floor = needed > limit_intervals(limit, dt_ns)   # the samples, not the time, decided
+        allowed = max(float(limit), needed * dt_ns / NS_PER_SECOND)
         _fail(rows, asset_id, "stuck_channel",
               f"channel {rows.channels[j]!r} stuck at {float(rows.values[j, i])!r} for {count} "
               f"consecutive samples ({format_duration(held / NS_PER_SECOND)}; "
-              f"stuck_after={format_duration(limit)})" + ("" if policy.intermittent else (
+              f"stuck_after={format_duration(limit)}" + (
+                  f", and at least {MIN_STUCK_SAMPLES} samples" if floor else "") + ")"
+              + ("" if policy.intermittent else (
                   "; if the machine stands still then (parked, switched off), declare its "
                   "operating periods in the class's grid (running = {channel = [low, high]}, "
                   "intermittent = true) so that a pause is not read as a stuck sensor")), i,
-              channel=rows.channels[j], excess=(held / NS_PER_SECOND, float(limit)))
+              channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
 
 
 def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:

@@ -253,3 +253,15 @@ def test_limits_hold_when_the_inferred_interval_is_a_little_off(tmp_path, seed):
     five = frame.drop(index=range(first + 1, first + 5)).reset_index(drop=True)
     error = telemetry_error("gap", tmp_path, five, policy=GridPolicy(max_gap="4s"))
     assert error.row == first + 1
+
+
+def test_a_logger_slower_than_a_minute_needs_ten_equal_samples_for_a_stuck_sensor(tmp_path):
+    # a 0.1-degree reading every 5 minutes holds for two samples (10 min) as a matter of
+    # course: as at 1-minute samples, ten equal readings are the evidence of a stuck sensor
+    frame = make_frame(300.0, hours=12)
+    read(tmp_path, hold(frame, "sensor", 3600.0, 9 * 300.0))      # 9 samples, 45 min: fine
+    error = telemetry_error("stuck_channel", tmp_path, hold(frame, "sensor", 3600.0, 3000.0))
+    assert error.row == rows_at(frame, 3600.0)
+    assert ("for 10 consecutive samples (50min; stuck_after=10min, and at least 10 samples)"
+            in error.message)
+    assert (error.channel, error.excess) == ("sensor", (3000.0, 3000.0))
