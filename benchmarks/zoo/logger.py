@@ -1,0 +1,127 @@
+"""The zoo through other loggers: slower sampling, timestamp jitter, dropped rows.
+
+``python -m benchmarks.zoo.logger thermal_room:every=5 hydraulic_level:jitter=0.2,drop=0.02``
+
+A user's logger is rarely the simulator's: it samples more slowly (a building logs every 5 or
+15 minutes), its timestamps wander around the nominal step, and rows go missing. Each spec is
+a family and how its telemetry is logged: ``every=k`` keeps every k-th sample (the sample
+interval times k), ``jitter=f`` moves each timestamp by up to ``f`` sample intervals (uniform,
+to the millisecond), ``drop=p`` drops each row with probability ``p``. The family then runs
+exactly as in ``python -m benchmarks.zoo`` (:func:`benchmarks.zoo.run.run_family`, the
+product's defaults), on a smaller fleet by default. One markdown row per spec: failures (reads,
+baselines, nights, with the first reason), healthy alarms, faults found, the analysis interval
+and the cost.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from benchmarks.zoo.families import discover
+from benchmarks.zoo.family import Family
+from benchmarks.zoo.run import run_family
+
+
+@dataclass(frozen=True)
+class Logger:
+    """How a family's telemetry is logged (see the module docstring)."""
+
+    every: int = 1
+    jitter: float = 0.0
+    drop: float = 0.0
+
+    @classmethod
+    def parse(cls, text: str) -> "Logger":
+        """``"every=5,jitter=0.2"`` (empty: the simulator's own logging)."""
+        fields = dict(item.split("=", 1) for item in text.split(",") if item)
+        unknown = set(fields) - {"every", "jitter", "drop"}
+        if unknown:
+            raise ValueError(f"unknown logger settings {sorted(unknown)}: every, jitter, drop")
+        return cls(int(fields.get("every", 1)), float(fields.get("jitter", 0.0)),
+                   float(fields.get("drop", 0.0)))
+
+
+class LoggedFamily:
+    """A family whose telemetry passes through ``logger`` (everything else is the family's)."""
+
+    def __init__(self, family: Family, logger: Logger, seed: int = 0):
+        self.family, self.logger, self.seed = family, logger, seed
+
+    def __getattr__(self, name):
+        return getattr(self.family, name)
+
+    @property
+    def sample_interval(self) -> float:
+        return self.family.sample_interval * self.logger.every
+
+    def simulate(self, plans, start, days: int, first_day: int = 0) -> dict[str, pd.DataFrame]:
+        frames = self.family.simulate(plans, start, days, first_day)
+        return {asset: self._logged(frame, [self.seed, index, first_day])
+                for index, (asset, frame) in enumerate(frames.items())}
+
+    def _logged(self, frame: pd.DataFrame, seed: list[int]) -> pd.DataFrame:
+        rng = np.random.default_rng(seed)
+        frame = frame.iloc[::self.logger.every]
+        if self.logger.drop:
+            frame = frame[rng.random(len(frame)) >= self.logger.drop]
+        if self.logger.jitter:
+            shift = rng.uniform(-1, 1, len(frame)) * self.logger.jitter * self.sample_interval
+            frame = frame.set_axis((frame.index + pd.to_timedelta(shift, unit="s")).round("ms")
+                                   .rename(frame.index.name))
+        return frame
+
+
+def row(spec: str, result: dict, seconds: float) -> str:
+    """The markdown row of one run."""
+    failures = {**result["failed_reads"], **result["failed_baselines"], **result["failed_nights"]}
+    first = next(iter(failures.values()), "")
+    fa = result["false_alarms"]
+    small, large = result["detected_small"], result["detected_large"]
+    return (f"| {spec} | {result['analysis_intervals']} | {len(result['failed_reads'])} / "
+            f"{len(result['failed_baselines'])} / {len(result['failed_nights'])} | "
+            f"{fa['alarms']}/{fa['asset_nights']} | {small[0]}/{small[1]} | {large[0]}/{large[1]} | "
+            f"{result['s_per_baseline_day']:.2f} | {result['s_per_night']:.3f} | {seconds:.0f} | "
+            f"{first[:160]} |")
+
+
+HEADER = ("| family:logger | analysis interval (s) | failed reads / baselines / nights | "
+          "healthy alarms | small faults | large faults | s per asset-day of baseline | "
+          "s per asset-night | wall s | first failure |\n|---|---|---|---|---|---|---|---|---|---|")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.zoo.logger",
+                                     description=__doc__.split("\n")[0])
+    parser.add_argument("specs", nargs="+", help="family:logger, e.g. thermal_room:every=5")
+    parser.add_argument("--healthy-assets", type=int, default=6)
+    parser.add_argument("--baseline-days", type=int, default=5)
+    parser.add_argument("--nights", type=int, default=5)
+    parser.add_argument("--faulty-per-cell", type=int, default=1)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args(argv)
+    families = discover()
+    load = os.getloadavg()[0]
+    print(HEADER, flush=True)
+    for spec in args.specs:
+        name, _, text = spec.partition(":")
+        if name not in families:
+            parser.error(f"unknown family {name!r}; known: {', '.join(families)}")
+        family = LoggedFamily(families[name], Logger.parse(text))
+        began = time.perf_counter()
+        result = run_family(family, healthy_assets=args.healthy_assets,
+                            baseline_days=args.baseline_days, nights=args.nights,
+                            faulty_per_cell=args.faulty_per_cell, seed=args.seed,
+                            progress=lambda line: print(line, file=sys.stderr, flush=True))
+        print(row(spec, result, time.perf_counter() - began), flush=True)
+    print(f"\n1-minute load {load:.1f} before, {os.getloadavg()[0]:.1f} after")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,43 @@
+"""The zoo through another logger: a 5-minute heated room is baselined and scored (it failed
+every read before a stuck sensor needed 10 equal samples), and the logger does what it says."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.zoo.families import discover
+from benchmarks.zoo.logger import Logger, LoggedFamily, main
+from benchmarks.zoo.run import START, plan_fleet
+
+
+def test_logger_settings_parse_and_refuse_unknown_ones():
+    assert Logger.parse("every=5,jitter=0.2,drop=0.02") == Logger(5, 0.2, 0.02)
+    assert Logger.parse("") == Logger()
+    with pytest.raises(ValueError, match="unknown logger settings"):
+        Logger.parse("rate=5")
+
+
+def test_the_logger_keeps_every_kth_sample_moves_and_drops_rows():
+    family = discover()["thermal_room"]                  # 60-s samples
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 1)
+    plain = family.simulate(vehicles, START, 3)[vehicles[0].asset_id]
+    logged = LoggedFamily(family, Logger(every=2, jitter=0.2, drop=0.1))
+    frame = logged.simulate(vehicles, START, 3)[vehicles[0].asset_id]
+    assert logged.sample_interval == 120.0
+    kept = plain.iloc[::2]
+    assert 0.85 * len(kept) < len(frame) < 0.95 * len(kept)
+    nominal = kept.index[kept.index.get_indexer(frame.index, method="nearest")]
+    shift = (frame.index - nominal).total_seconds()
+    assert np.abs(shift).max() <= 0.2 * 120 + 1e-3 and np.abs(shift).max() > 12.0
+    assert frame.index.name == plain.index.name
+
+
+def test_a_room_logged_every_5_minutes_is_baselined_and_scored(capsys):
+    assert main(["thermal_room:every=5", "--healthy-assets", "2", "--baseline-days", "3",
+                 "--nights", "2", "--faulty-per-cell", "0"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines()
+                if x.startswith("| thermal_room:every=5"))
+    cells = [c.strip() for c in line.split("|")[1:-1]]
+    assert cells[1] == "[300.0]"          # the analysis interval: the logger's
+    assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
+    assert cells[3].endswith("/4")        # 2 vehicles x 2 nights scored
