@@ -129,10 +129,35 @@ def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
 
 
 def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:
-    """The grid step in ns: the policy's, or the median of the raw steps (>= 2 rows)."""
+    """The grid step in ns: the policy's, or the logger's nominal step (>= 2 rows).
+
+    Regular timestamps give the median step exactly. When they jitter, each step counts as
+    the whole number of median steps nearest to it (a missing row's double step is two; a
+    step of more than 10 is a pause, which starts a new run of samples), and the nominal step
+    is the slope of the timestamps over the sample numbers within each run (least squares),
+    rounded to three significant digits. A logger's timestamps that wander around their
+    nominal step (±0.2 s at 1 s, with 2 % of the rows missing) otherwise give each window a
+    step of its own (a median of 1.003 s one day, 1.004 s the next), and windows gridded at
+    different steps cannot be fitted together.
+    """
     if policy.sample_interval is not None:
         return max(1, int(round(policy.sample_interval * NS_PER_SECOND)))
-    return max(1, int(round(float(np.median(np.diff(ts))))))
+    steps = np.diff(ts)
+    typical = float(np.median(steps))
+    if typical <= 0:
+        return 1
+    counts = np.maximum(1.0, np.round(steps / typical))
+    counted = counts <= 10
+    if np.all(steps[counted] == typical * counts[counted]):
+        return max(1, int(round(typical)))
+    run = np.concatenate([[0], np.cumsum(~counted)])
+    number = np.concatenate([[0.0], np.cumsum(np.where(counted, counts, 0.0))])
+    t = (ts - ts[0]).astype(np.float64)
+    size = np.bincount(run)
+    dk = number - (np.bincount(run, number) / size)[run]
+    dt = t - (np.bincount(run, t) / size)[run]
+    step = float((dk * dt).sum() / (dk * dk).sum())
+    return max(1, int(round(step, 2 - int(np.floor(np.log10(step))))))
 
 
 def grid_points(ts: np.ndarray, dt_ns: int) -> int:
