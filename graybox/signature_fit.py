@@ -34,6 +34,7 @@ from graybox.signature import ChannelSignature, HiddenStart, Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.segment_cache import SegmentCache
 from graybox.state_estimation import WindowStates, estimate_states, window_arrays
+from graybox.telemetry.policy import format_duration
 from graybox.telemetry.window import window_periods
 from graybox.tiers import TIER_KINDS, Tier
 from graybox.tiers.base import channel_fields
@@ -114,7 +115,11 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
     parts = [_window_parts(w) for w in request.windows]
     intervals = {round(p[1], 9) for p in parts}
     if len(intervals) != 1:
-        raise GrayBoxError(f"windows have different sample intervals: {sorted(intervals)}")
+        raise GrayBoxError(
+            f"windows have different sample intervals: {sorted(intervals)} s (each window's "
+            f"is inferred from its timestamps; if they jitter too much to agree, give the "
+            f"class's grid its sample interval, e.g. grid = {{ sample_interval = "
+            f"\"{format_duration(min(intervals))}\" }})")
     interval = parts[0][1]
     asset_id = request.asset_id or parts[0][2]
     baseline = request.baseline

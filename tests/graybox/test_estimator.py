@@ -107,3 +107,12 @@ def test_a_baseline_does_not_depend_on_the_assets_fitted_with_it(fleet, model):
                               FitRequest(model, fleet["A"][:4], asset_id="A")])[1]
     assert together == alone
     assert all(len(t.day_zetas) == 4 for t in alone[1].thresholds)
+
+
+def test_windows_at_different_steps_name_the_grid_setting_that_aligns_them(fleet, model):
+    days = fleet["A"][:3]
+    slower = [days[0], days[1].iloc[::2], days[2]]     # one day logged every 60 s
+    result = fit_signatures([FitRequest(model, slower, asset_id="A")])[0]
+    assert isinstance(result, GrayBoxError)
+    assert "windows have different sample intervals: [30.0, 60.0] s" in str(result)
+    assert 'grid = { sample_interval = "30s" }' in str(result)
