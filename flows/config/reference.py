@@ -219,13 +219,15 @@ def sections() -> list[Section]:
                 "string with a unit (`\"5s\"`, `\"10min\"`, `\"2h\"`; a bare number in a "
                 "string is refused).",
                 _grid_defaults(),
-                {"sample_interval": "the grid step; none: the median raw step (candidates use "
-                                    "their baseline's)",
+                {"sample_interval": "the grid step; none: the median raw step, or for "
+                                    "timestamps that jitter their slope over the sample "
+                                    "numbers to 3 significant digits (candidates use their "
+                                    "baseline's)",
                  "max_gap": "longest time between consecutive rows bridged by linear "
                             "interpolation; longer is a `gap` error",
                  "stuck_after": "how long a channel may hold one value (`0`: no check), or per "
-                                "channel, `{ \"*\" = \"5min\", pdisch = \"30min\" }`; the "
-                                "model's inputs are exempt",
+                                "channel, `{ \"*\" = \"5min\", pdisch = \"30min\" }`; "
+                                "and at least 10 samples; the model's inputs are exempt",
                  "min_duration": "least time a window must cover",
                  "ranges": "`{ <column> = [low, high] }`: a channel's plausible values; none: "
                            "the `plausible_spread` bound",
