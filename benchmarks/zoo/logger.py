@@ -82,16 +82,18 @@ def row(spec: str, result: dict, seconds: float) -> str:
     failures = {**result["failed_reads"], **result["failed_baselines"], **result["failed_nights"]}
     first = next(iter(failures.values()), "")
     fa = result["false_alarms"]
+    tiers = "".join(f", {name} {count}" for name, count in result["healthy_tiers"].items())
     small, large = result["detected_small"], result["detected_large"]
     return (f"| {spec} | {result['analysis_intervals']} | {len(result['failed_reads'])} / "
             f"{len(result['failed_baselines'])} / {len(result['failed_nights'])} | "
-            f"{fa['alarms']}/{fa['asset_nights']} | {small[0]}/{small[1]} | {large[0]}/{large[1]} | "
+            f"{fa['alarms']}/{fa['asset_nights']}{tiers} | {small[0]}/{small[1]} | "
+            f"{large[0]}/{large[1]} | "
             f"{result['s_per_baseline_day']:.2f} | {result['s_per_night']:.3f} | {seconds:.0f} | "
             f"{first[:160]} |")
 
 
 HEADER = ("| family:logger | analysis interval (s) | failed reads / baselines / nights | "
-          "healthy alarms | small faults | large faults | s per asset-day of baseline | "
+          "healthy alarms (channel/tier) | small faults | large faults | s per asset-day of baseline | "
           "s per asset-night | wall s | first failure |\n|---|---|---|---|---|---|---|---|---|---|")
 
 
