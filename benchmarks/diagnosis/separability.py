@@ -21,7 +21,10 @@ assumption) and each hypothesis scores ``(s_j . r)^2 / |s_j|^2`` (equal penaltie
 share of draws in which the bias scores highest is the top-1 the night allows. Also printed:
 ``1 - cos^2`` between the bias' slope and each parameter's (0: the same signature), and the
 non-centrality ``delta = (1 - cos^2) m^2 |s_bias|^2`` that separates the two (the expected
-score gap; the bias leads a single rival with probability ``Phi(sqrt(delta) / 2)``).
+score gap; the bias leads a single rival with probability ``Phi(sqrt(delta) / 2)``). The
+same figures under a whitened likelihood (the errors through an autoregression of order
+``2 k`` fitted to the centred ``r``, over its innovations' spread) say what a
+prediction-error likelihood would gain over the diagnosis' ``N_eff / N`` scaling.
 """
 from __future__ import annotations
 
