@@ -409,7 +409,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         if first_gains[index] < REFINE_GAIN:
             break           # explains nothing at the baseline's slope: a healthy-like window
         try:
-            fits[index] = _refine(objectives[index], fits[index].value)
+            fits[index] = _refine(objectives[index], fits[index])
         except _OutOfTime:
             break           # the screened values stand: the ranking is complete
         first_gains[index] = _gain(fits[index], healthy, sigma, weights)
@@ -516,6 +516,27 @@ class _Objective:
     weighted: Callable[[np.ndarray], np.ndarray]
     bounds: tuple[float, float]
     rows: _Rows
+    #: the weighted errors at every value evaluated (one white-box run each), by value
+    evaluated: dict = field(default_factory=dict)
+
+    def at(self, x) -> np.ndarray:
+        """The weighted errors at ``x``, each value run once."""
+        key = float(np.ravel(x)[0])
+        if key not in self.evaluated:
+            self.evaluated[key] = self.weighted(np.array([key]))
+        return self.evaluated[key]
+
+    def slope(self, x, *_) -> np.ndarray:
+        """The errors' slope at ``x``, shape (N, 1), for ``least_squares``: the secant to the
+        nearest value run before (a one-dimensional Broyden update: one run an iteration
+        instead of two), a finite difference of :data:`DIFF_STEP` when none lies further
+        than that (a secant over a shorter span would read the inner fits' tolerance)."""
+        key = float(np.ravel(x)[0])
+        fun = self.at(key)
+        step = DIFF_STEP * max(1.0, abs(key))
+        others = [v for v in self.evaluated if abs(v - key) >= step]
+        other = min(others, key=lambda v: abs(v - key)) if others else key + step
+        return ((fun - self.at(other)) / (key - other))[:, None]
 
     def record(self, x: float, fun: np.ndarray, slope: np.ndarray) -> _Fit:
         """The fit at ``x`` from its weighted errors and their weighted slope in ``x``."""
@@ -567,22 +588,34 @@ def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:
     (the errors at the baseline are the healthy ones, shared by every hypothesis), the free
     value that minimises the linearised errors, and those errors."""
     step = DIFF_STEP
-    slope = (objective.weighted(np.array([step])) - healthy_weighted) / step
+    objective.evaluated[0.0] = healthy_weighted
+    slope = (objective.at(step) - healthy_weighted) / step
     information = float(slope @ slope)
     x = -float(slope @ healthy_weighted) / information if information > 0 else 0.0
     x = float(np.clip(x, *objective.bounds))
     return objective.record(x, healthy_weighted + slope * x, slope)
 
 
-def _refine(objective: _Objective, screened: float) -> _Fit:
+def _refine(objective: _Objective, screened: _Fit) -> _Fit:
     """The least-squares fit (a trust region: the errors need not be linear in the value far
     from the baseline), from the screened value when it is within :data:`SCREEN_REACH` of the
     baseline, else from the baseline (a step far out lands in another valley: a shaft's
-    damping screened at -250 times its value was refined to a worse minimum)."""
-    start = screened if abs(screened) <= SCREEN_REACH else 0.0
-    fit = least_squares(objective.weighted, [start], bounds=objective.bounds,
-                        diff_step=DIFF_STEP, max_nfev=MAX_EVALUATIONS, xtol=REFINE_XTOL,
-                        ftol=REFINE_FTOL)
+    damping screened at -250 times its value was refined to a worse minimum).
+
+    The Jacobian is the secant between the last two values run (:meth:`_Objective.slope`).
+    A screened value is the least-squares minimum when the Gauss-Newton step there, on the
+    secant from the baseline, is within ``xtol``: the errors are then linear in the value
+    over that span (a sensor bias, a small parameter change), and its one run is the fit.
+    """
+    start = screened.value if abs(screened.value) <= SCREEN_REACH else 0.0
+    if start != 0.0:
+        fun, slope = objective.at(start), objective.slope(start)[:, 0]
+        information = float(slope @ slope)
+        if information > 0 and abs(float(slope @ fun)) / information <= (
+                REFINE_XTOL * (REFINE_XTOL + abs(start))):
+            return objective.record(start, fun, slope)
+    fit = least_squares(objective.at, [start], jac=objective.slope, bounds=objective.bounds,
+                        max_nfev=MAX_EVALUATIONS, xtol=REFINE_XTOL, ftol=REFINE_FTOL)
     return objective.record(fit.x[0], fit.fun, fit.jac[:, 0])
 
 
