@@ -57,8 +57,8 @@ stays at the start of the bad window, the error (asset, file, row) is in the run
 and the other assets go on. The next run retries the same window (fix the file, or move it
 aside as ``.<name>``: dot-files are ignored). A night whose sensor reads stuck or out of range
 (a sensor's fault, not the data's) also raises a ``sensor`` alert naming the channel
-(:func:`graybox.alert.sensor_alert`), in the result and the alerts file, once per night. An asset without a baseline is skipped as
-"no baseline". An asset whose baseline cannot be used (no calibration, e.g. the alias moved
+(:func:`graybox.alert.sensor_alert`), in the result and the alerts file, once per night. An
+asset without a baseline is skipped as "no baseline". An asset whose baseline cannot be used (no calibration, e.g. the alias moved
 by hand to a nightly candidate; artifacts that fail verification; another model than its
 class's configured one, refused before anything is imported) is "unusable baseline": not
 monitored, its watermark kept, the run's exit status 1, and its note names the version and
