@@ -134,7 +134,11 @@ class Alert:
 
     def likely_cause(self) -> str:
         """The diagnosis' first entry in a line (see
-        :func:`graybox.alert_diagnosis.cause_text`), ``""`` when not diagnosed."""
+        :func:`graybox.alert_diagnosis.cause_text`), ``""`` when not diagnosed; for a
+        ``sensor`` alert, the sensor's fault (``omega sensor stuck``)."""
+        if self.kind == SENSOR:
+            fault = "stuck" if self.tier == "stuck_channel" else "out of range"
+            return f"{self.channel} sensor {fault}"
         return cause_text(self.diagnosis[0] if self.diagnosis else None)
 
     def to_dict(self) -> dict[str, Any]:

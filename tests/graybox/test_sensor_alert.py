@@ -44,6 +44,7 @@ def test_a_stuck_sensor_is_an_alert_of_its_channel_graded_by_how_long_it_held():
         (SENSOR, "P-1", "speed", "stuck_channel")
     assert (alert.zeta, alert.epsilon, alert.ratio, alert.severity) == (900.0, 600.0, 1.5, "minor")
     assert alert.hint() == "sensor speed stuck for 900 s (stuck_after 600 s)"
+    assert alert.likely_cause() == "speed sensor stuck"
     assert sensor_alert(error, scale=SeverityScale(1.2, 1.4), **NIGHT).severity == "critical"
     assert alert.key == ("P-1", NIGHT["window_start"], NIGHT["window_end"], "speed",
                          "stuck_channel")
@@ -58,6 +59,7 @@ def test_an_impossible_reading_is_an_alert_graded_by_its_distance_from_the_range
     alert = sensor_alert(error, **NIGHT)
     assert (alert.tier, alert.ratio, alert.severity) == ("out_of_range", 1.5, "minor")
     assert alert.hint() == "sensor speed out of range: 150 from its centre, 100 allowed"
+    assert alert.likely_cause() == "speed sensor out of range"
 
 
 def test_the_data_s_faults_are_not_a_sensor_s():
