@@ -89,5 +89,5 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
                              f"(grid running)")
-    dt_ns = validate_rows(rows, asset_id, policy, inputs)
+    rows, dt_ns = validate_rows(rows, asset_id, policy, inputs)
     return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))

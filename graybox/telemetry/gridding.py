@@ -8,8 +8,9 @@ from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND
 from graybox.telemetry.policy import GridPolicy
 from graybox.telemetry.rows import Rows
-from graybox.telemetry.validation import (check_duration, check_order, grid_points, interval_ns,
-                                          operating_points, period_starts, running_rows)
+from graybox.telemetry.validation import (check_duration, check_order, fill_missing,
+                                          grid_points, interval_ns, operating_points,
+                                          period_starts, running_rows)
 from graybox.telemetry.window import TelemetryWindow
 
 
@@ -53,6 +54,7 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
                              "1 sample(s) in the window: two are needed to infer the "
                              "sample interval")
     dt_ns = interval_ns(rows.ts, policy)
+    rows = fill_missing(rows, asset_id, policy, dt_ns)
     check_duration(asset_id, operating_points(rows.ts, dt_ns, policy), dt_ns, policy)
     return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))
 
@@ -89,7 +91,7 @@ def _grid_period(rows: Rows, asset_id: str, dt_ns: int) -> TelemetryWindow:
     if n == n_grid and np.array_equal(rel, grid):
         # every row on the grid already (the common, unjittered case): nothing to compute
         out = rows.values
-        filled = np.zeros(n_grid, dtype=bool)
+        filled = np.zeros(n_grid, dtype=bool) if rows.missing is None else rows.missing.copy()
         left = right = np.arange(n_grid)
     else:
         # left[g]: last row at or before grid point g (rel >= 0, so row 0 is always there);
@@ -101,6 +103,8 @@ def _grid_period(rows: Rows, asset_id: str, dt_ns: int) -> TelemetryWindow:
         right = np.minimum(left + (at_left != grid), n - 1)
         at_right = rel.take(right)
         filled = 2 * np.minimum(at_right - grid, grid - at_left) > dt_ns  # none within dt/2
+        if rows.missing is not None:   # or a value interpolated at a row it comes from
+            filled |= rows.missing[left] | rows.missing[right]
         # linear interpolation between rows left and right (np.interp would search again)
         width = at_right - at_left
         width[width == 0] = 1  # a grid point on a row: weight 0

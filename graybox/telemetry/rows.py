@@ -34,6 +34,9 @@ class Rows:
         Per row, its index into ``files``; None when untagged.
     file_row : numpy.ndarray or None
         Per row, its 0-based row in its file; None when untagged (errors give the position).
+    missing : numpy.ndarray or None
+        Per row, True where a channel's value was missing (NaN) and has been interpolated
+        (:func:`graybox.telemetry.validation.validate_rows`); None: none was.
     """
 
     ts: np.ndarray
@@ -42,6 +45,7 @@ class Rows:
     files: tuple[str, ...] = ()
     file_index: np.ndarray | None = None
     file_row: np.ndarray | None = None
+    missing: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ts)
@@ -58,14 +62,16 @@ class Rows:
         return Rows(self.ts[index], self.values[keep][:, index],
                     self.channels if channels is None else tuple(channels), self.files,
                     None if self.file_index is None else self.file_index[index],
-                    None if self.file_row is None else self.file_row[index])
+                    None if self.file_row is None else self.file_row[index],
+                    None if self.missing is None else self.missing[index])
 
     def slice(self, start: int, stop: int) -> "Rows":
         """Rows ``start`` to ``stop - 1``, still tagged against all of ``files``."""
         part = np.s_[start:stop]
         return Rows(self.ts[part], self.values[:, part], self.channels, self.files,
                     None if self.file_index is None else self.file_index[part],
-                    None if self.file_row is None else self.file_row[part])
+                    None if self.file_row is None else self.file_row[part],
+                    None if self.missing is None else self.missing[part])
 
     @classmethod
     def from_frame(cls, raw: pd.DataFrame) -> "Rows":

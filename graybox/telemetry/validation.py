@@ -4,6 +4,7 @@ The rules: docs/design.md section 5.1.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Collection, Sequence
 
 import numpy as np
@@ -30,11 +31,15 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     rows and the limits count in whole intervals, rounded to the nearest (see
     :class:`GridPolicy`).
 
-    1. ``"non_finite"``: NaN or Inf in a channel (or a missing timestamp);
-       ``"out_of_range"``: a value outside the channel's ``policy.ranges``, or (channels
-       without ranges) implausibly far from the window's median (``policy.plausible_spread``);
+    1. ``"non_finite"``: Inf in a channel, a channel without any value, or a missing
+       timestamp;
     2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
        than the previous row's (which may be in the previous file);
+       a channel's missing values (NaN, a missed reading) are interpolated in time like a
+       missing row, and ``"gap"`` when the values around them lie more than
+       ``policy.max_gap`` apart (reported at the first missing one);
+       ``"out_of_range"``: a value outside the channel's ``policy.ranges``, or (channels
+       without ranges) implausibly far from the window's median (``policy.plausible_spread``);
     3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
        ``policy.stuck_after`` (two or more identical consecutive samples), reported at the
        first row of the run;
@@ -68,20 +73,55 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
 
 
 def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
-                  ) -> int:
-    """:func:`validate` on :class:`Rows`; returns the sample interval in ns (for gridding)."""
+                  ) -> tuple[Rows, int]:
+    """:func:`validate` on :class:`Rows`; returns the rows with their missing values
+    interpolated (``Rows.missing`` marks them) and the sample interval in ns (for gridding)."""
     _check_finite(rows, asset_id)
-    _check_ranges(rows, asset_id, policy)
     check_order(rows, asset_id)
     if len(rows) < 2 and policy.sample_interval is None:
         raise TelemetryError(asset_id, "too_few_samples",
                              f"{len(rows)} sample(s) in the window: two are needed to infer the "
                              f"sample interval")
     dt_ns = interval_ns(rows.ts, policy)
+    rows = fill_missing(rows, asset_id, policy, dt_ns)
+    _check_ranges(rows, asset_id, policy)
     _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
     _check_gaps(rows, asset_id, policy, dt_ns)
     check_duration(asset_id, operating_points(rows.ts, dt_ns, policy), dt_ns, policy)
-    return dt_ns
+    return rows, dt_ns
+
+
+def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> Rows:
+    """The rows with each channel's missing values (NaN) interpolated in time between the
+    values around them (held at a window's ends); ``"gap"`` where those lie further apart
+    than ``policy.max_gap``, as missing rows would."""
+    missing = np.isnan(rows.values)
+    if not missing.any():
+        return rows
+    values = rows.values.copy()
+    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
+    for j in np.flatnonzero(missing.any(axis=1)):
+        have = np.flatnonzero(~missing[j])
+        if not have.size:
+            _fail(rows, asset_id, "non_finite",
+                  f"channel {rows.channels[j]!r} has no value in the window", 0)
+        # each missing value's neighbours with a value (a window's end stands in for one)
+        after = np.searchsorted(have, np.flatnonzero(missing[j]))
+        lost = np.flatnonzero(missing[j])
+        before_ts = np.where(after > 0, rows.ts[have[np.maximum(after - 1, 0)]], rows.ts[0])
+        after_ts = np.where(after < have.size, rows.ts[have[np.minimum(after, have.size - 1)]],
+                            rows.ts[-1])
+        too_long = intervals(after_ts - before_ts, dt_ns) > allowed
+        if too_long.any():
+            k = int(np.argmax(too_long))
+            span = format_duration((after_ts[k] - before_ts[k]) / NS_PER_SECOND)
+            _fail(rows, asset_id, "gap",
+                  f"channel {rows.channels[j]!r} has no value from {stamp(before_ts[k])} to "
+                  f"{stamp(after_ts[k])} ({span}; max_gap={format_duration(policy.max_gap)})",
+                  int(lost[k]))
+        t = (rows.ts - rows.ts[0]).astype(np.float64)
+        values[j, lost] = np.interp(t[lost], t[have], values[j, have])
+    return replace(rows, values=values, missing=missing.any(axis=0))
 
 
 def pauses(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
@@ -194,7 +234,7 @@ def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int, **sensor):
 
 def _check_finite(rows: Rows, asset_id: str) -> None:
     ts, values = rows.ts, rows.values
-    finite = np.isfinite(values)
+    finite = ~np.isinf(values)   # a missing value (NaN) is interpolated (fill_missing)
     bad_values = not finite.all()
     bad_ts = bool((ts == _NAT).any())
     if not (bad_values or bad_ts):

@@ -103,12 +103,12 @@ def corrupt(tmp_path, fleet):
     root = tmp_path / "telemetry"
     shutil.copytree(fleet.root, root)
 
-    def apply(asset: str, day_index: int, how: str = "nan"):
+    def apply(asset: str, day_index: int, how: str = "inf"):
         path = (root / f"asset_id={asset}" / f"date={day(day_index):%Y-%m-%d}"
                 / "part-0.parquet")
         frame = pq.read_table(path).to_pandas()
-        if how == "nan":
-            frame.loc[100, "shaft_speed"] = float("nan")
+        if how == "inf":   # a corrupt value (a missing one, NaN, is interpolated)
+            frame.loc[100, "shaft_speed"] = float("inf")
         elif how == "backward":
             frame.loc[200, "timestamp"] = frame.loc[199, "timestamp"] - pd.Timedelta(seconds=5)
         else:

@@ -86,7 +86,6 @@ def _set(row, column, value):
 
 def _nan(path):
     _rewrite(path, _set(100, "shaft_speed", float("nan")))
-    return "non_finite", 100
 
 
 def _plus_inf(path):
@@ -105,7 +104,6 @@ def _null(path):
         frame.loc[103, "shaft_speed"] = None
         return frame
     _rewrite(path, change)
-    return "non_finite", 103
 
 
 def _backward(path):
@@ -173,12 +171,34 @@ def _not_parquet(path):
     return "unreadable", None
 
 
-BREAKAGES = {"nan": _nan, "plus_inf": _plus_inf, "minus_inf": _minus_inf, "null": _null,
+BREAKAGES = {"plus_inf": _plus_inf, "minus_inf": _minus_inf,
              "backward_timestamp": _backward, "duplicate_timestamp": _duplicate,
              "gap": _gap, "stuck_sensor": _stuck, "missing_column": _missing_column,
              "strings_in_numeric_column": _strings, "out_of_range": _out_of_range,
              "truncated_file": _truncated, "zero_byte_file": _zero_bytes,
              "not_parquet": _not_parquet}
+
+
+@pytest.mark.parametrize("miss", [_nan, _null])
+def test_a_missed_reading_is_interpolated_and_the_night_analysed(miss, workspace, fleet, clean,
+                                                                 count, capsys):
+    """A NaN or a null (a missed reading) is not bad telemetry: it is interpolated in time
+    like a missing row, and the night is analysed and committed as in a clean run."""
+    root = workspace.path / "telemetry"
+    shutil.copytree(fleet.root, root)
+    miss(root / f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet")
+    workspace.configure(telemetry=root)
+    status, summary, err = _run(capsys, workspace.config)
+    assert status == 0, err
+    assert summary["coverage"]["complete"]
+    by_asset = {a["asset_id"]: a for a in summary["assets"]}
+    assert [w["window_start"] for w in by_asset[BAD_ASSET]["windows"]] == [
+        day(BAD_DAY - 1).isoformat(), day(BAD_DAY).isoformat()]
+    registry = workspace.registry()
+    state = committed_state(registry)
+    assert state["watermarks"] == clean.state["watermarks"]
+    assert state["baselines"] == clean.state["baselines"]
+    assert count(registry)["runs"] == clean.counts["runs"]
 
 
 @pytest.mark.parametrize("how", list(BREAKAGES))

@@ -109,7 +109,7 @@ def test_registry_and_alerts_file_hold_equal_records(workspace):
 def test_corrupt_telemetry_fails_only_that_asset(workspace, corrupt, capsys):
     from flows.cli import main
 
-    root, nan_file = corrupt("T-003", BASELINE_DAYS, "nan")          # its first night
+    root, nan_file = corrupt("T-003", BASELINE_DAYS, "inf")          # its first night
     _, backward_file = corrupt("T-001", BASELINE_DAYS + 1, "backward")  # its second night
     workspace.configure(telemetry=root)
     status = main(["--config", str(workspace.config), "run", "--as-of", day(DAYS).isoformat(),

@@ -39,7 +39,7 @@ def test_report_after_a_night_with_a_failed_asset(workspace, corrupt, capsys):
     from flows.cli import main
 
     bad_day = BASELINE_DAYS + 1
-    root, _ = corrupt("T-003", bad_day, "nan")
+    root, _ = corrupt("T-003", bad_day, "inf")
     workspace.configure(telemetry=root)
     assert main(["--config", str(workspace.config), "run", "--as-of", day(DAYS).isoformat(),
                  "--json"]) == 1                                    # T-003 failed

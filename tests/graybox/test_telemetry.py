@@ -262,11 +262,11 @@ def test_reserved_column_names_rejected(tmp_path):
 
 # -- validation: the first bad row, by file and row -----------------------------------------
 
-@pytest.mark.parametrize("bad, column", [(np.nan, "a"), (np.inf, "b"), (-np.inf, "a")])
+@pytest.mark.parametrize("bad, column", [(np.inf, "b"), (-np.inf, "a")])
 def test_non_finite(tmp_path, bad, column):
     frame = make_frame(100)
     frame.loc[37, column] = bad
-    frame.loc[80, "a"] = np.nan
+    frame.loc[80, "a"] = np.inf
     write_telemetry(tmp_path, "T-1", frame)
     error = window_error(tmp_path, "non_finite", ["a", "b"])
     assert error.file.endswith("part-0.parquet")
@@ -275,12 +275,28 @@ def test_non_finite(tmp_path, bad, column):
     assert error.asset_id == "T-1"
 
 
-def test_null_value_is_non_finite(tmp_path):
+def test_a_missing_value_is_interpolated_like_a_missing_row(tmp_path):
+    # a null (a missed reading) and a NaN, 10 s apart from their neighbours: filled in time
     stamps = pd.date_range(T0, periods=30, freq="10s")
-    values = pa.array([float(i) if i != 12 else None for i in range(30)])
+    values = pa.array([float(i * i) if i != 12 else None for i in range(30)])
+    other = pa.array([np.nan if i == 20 else 1.0 + i for i in range(30)])
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=values, b=other)
+    window = read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
+    assert window.frame["a"].iloc[12] == (11 * 11 + 13 * 13) / 2
+    assert window.frame["b"].iloc[20] == 21.0
+    assert window.filled_samples == 2
+
+
+def test_values_missing_longer_than_max_gap_are_a_gap_of_the_channel(tmp_path):
+    stamps = pd.date_range(T0, periods=30, freq="10s")
+    values = pa.array([float(i) if not 10 <= i < 15 else None for i in range(30)])
     write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=values)
-    error = window_error(tmp_path, "non_finite", ["a"])
-    assert error.row == 12
+    error = window_error(tmp_path, "gap", ["a"])        # 60 s between values, max_gap 40 s
+    assert error.row == 10 and "channel 'a' has no value from" in error.message
+    empty = pa.array([None] * 30, type=pa.float64())
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=empty)
+    assert "channel 'a' has no value in the window" in window_error(
+        tmp_path, "non_finite", ["a"]).message
 
 
 def test_duplicate_timestamp(tmp_path):
@@ -347,7 +363,7 @@ def test_too_few_samples(tmp_path):
 def test_checks_run_in_documented_order(tmp_path):
     frame = make_frame(9)                      # too few samples ...
     frame.loc[5, "timestamp"] = frame.loc[4, "timestamp"]   # ... a duplicate ...
-    frame.loc[7, "a"] = np.nan                 # ... and, later, a NaN: non-finite comes first
+    frame.loc[7, "a"] = np.inf                 # ... and, later, an Inf: non-finite comes first
     write_telemetry(tmp_path, "T-1", frame)
     error = window_error(tmp_path, "non_finite", ["a"])
     assert error.row == 7
