@@ -93,34 +93,37 @@ def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collect
 
 def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> Rows:
     """The rows with each channel's missing values (NaN) interpolated in time between the
-    values around them (held at a window's ends); ``"gap"`` where those lie further apart
-    than ``policy.max_gap``, as missing rows would."""
+    values around them in their operating period (held at its ends); ``"gap"`` where those
+    lie further apart than ``policy.max_gap``, as missing rows would."""
     missing = np.isnan(rows.values)
     if not missing.any():
         return rows
     values = rows.values.copy()
     allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
-    for j in np.flatnonzero(missing.any(axis=1)):
-        have = np.flatnonzero(~missing[j])
-        if not have.size:
-            _fail(rows, asset_id, "non_finite",
-                  f"channel {rows.channels[j]!r} has no value in the window", 0)
-        # each missing value's neighbours with a value (a window's end stands in for one)
-        after = np.searchsorted(have, np.flatnonzero(missing[j]))
-        lost = np.flatnonzero(missing[j])
-        before_ts = np.where(after > 0, rows.ts[have[np.maximum(after - 1, 0)]], rows.ts[0])
-        after_ts = np.where(after < have.size, rows.ts[have[np.minimum(after, have.size - 1)]],
-                            rows.ts[-1])
-        too_long = intervals(after_ts - before_ts, dt_ns) > allowed
-        if too_long.any():
-            k = int(np.argmax(too_long))
-            span = format_duration((after_ts[k] - before_ts[k]) / NS_PER_SECOND)
-            _fail(rows, asset_id, "gap",
-                  f"channel {rows.channels[j]!r} has no value from {stamp(before_ts[k])} to "
-                  f"{stamp(after_ts[k])} ({span}; max_gap={format_duration(policy.max_gap)})",
-                  int(lost[k]))
-        t = (rows.ts - rows.ts[0]).astype(np.float64)
-        values[j, lost] = np.interp(t[lost], t[have], values[j, have])
+    bounds = np.append(period_starts(rows.ts, policy, dt_ns), len(rows))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        ts = rows.ts[a:b]
+        t = (ts - ts[0]).astype(np.float64)
+        for j in np.flatnonzero(missing[:, a:b].any(axis=1)):
+            lost, have = np.flatnonzero(missing[j, a:b]), np.flatnonzero(~missing[j, a:b])
+            if not have.size:
+                where = "the window" if len(bounds) == 2 else "an operating period"
+                _fail(rows, asset_id, "non_finite",
+                      f"channel {rows.channels[j]!r} has no value in {where}", int(a))
+            # each missing value's neighbours with a value (the period's ends stand in)
+            after = np.searchsorted(have, lost)
+            before_ts = np.where(after > 0, ts[have[np.maximum(after - 1, 0)]], ts[0])
+            after_ts = np.where(after < have.size, ts[have[np.minimum(after, have.size - 1)]],
+                                ts[-1])
+            too_long = intervals(after_ts - before_ts, dt_ns) > allowed
+            if too_long.any():
+                k = int(np.argmax(too_long))
+                span = format_duration((after_ts[k] - before_ts[k]) / NS_PER_SECOND)
+                _fail(rows, asset_id, "gap",
+                      f"channel {rows.channels[j]!r} has no value from {stamp(before_ts[k])} "
+                      f"to {stamp(after_ts[k])} ({span}; "
+                      f"max_gap={format_duration(policy.max_gap)})", int(a + lost[k]))
+            values[j, a + lost] = np.interp(t[lost], t[have], values[j, a + have])
     return replace(rows, values=values, missing=missing.any(axis=0))
 
 

@@ -287,6 +287,19 @@ def test_a_missing_value_is_interpolated_like_a_missing_row(tmp_path):
     assert window.filled_samples == 2
 
 
+def test_a_missing_value_at_an_operating_period_s_start_is_held_not_a_gap(tmp_path):
+    # two runs an hour apart (intermittent): the second run's first reading is missing
+    first = pd.date_range(T0, periods=20, freq="10s")
+    second = pd.date_range(T0 + pd.Timedelta(hours=1), periods=20, freq="10s")
+    values = pa.array([float(i) for i in range(20)] + [None] + [float(i) for i in range(1, 20)])
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(first.append(second)),
+                a=values)
+    policy = GridPolicy(min_duration="100s", stuck_after="200s", max_gap="40s",
+                        intermittent=True)
+    window = read_window(tmp_path, "T-1", ["a"], policy=policy)
+    assert window.frame["a"].iloc[20] == 1.0 and window.filled_samples == 1
+
+
 def test_values_missing_longer_than_max_gap_are_a_gap_of_the_channel(tmp_path):
     stamps = pd.date_range(T0, periods=30, freq="10s")
     values = pa.array([float(i) if not 10 <= i < 15 else None for i in range(30)])
