@@ -89,6 +89,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--json", dest="json_out", help="write every run here")
     parser.add_argument("--reuse", action="store_true",
                         help="keep the fleet and baselines of an earlier run in --workdir")
+    parser.add_argument("--report", metavar="FILE",
+                        help="print the tables and the model of a saved --json FILE, run nothing")
     args = parser.parse_args(argv)
     args.workers = [int(k) for k in args.workers.split(",") if k.strip()]
     if not args.workers or min(args.workers) < 1 or args.repeats < 1 or args.assets < 1:
@@ -510,9 +512,16 @@ def cost_model(result: dict) -> dict | None:
     compute = med(r["batch_wall"] for r in seq) - registry
     fixed = med(r["wall"] for r in idles["sequential"])
     per_batch = (med(r["wall"] for r in seq) - fixed - compute - registry) / batches
-    model = {"assets": n, "batches": batches, "compute_per_asset": compute / n,
-             "registry_per_asset": registry / n, "per_batch": per_batch, "fixed": fixed,
-             "worker_start": {}, "check": {}}
+    model = {"assets": n, "batch_size": result["batch_size"], "batches": batches,
+             "compute_per_asset": compute / n, "registry_per_asset": registry / n,
+             "per_batch": per_batch, "fixed": fixed, "worker_start": {}, "check": {}}
+    # the servers' CPU: PostgreSQL per asset, Prefect's server per batch (a night's minus an
+    # idle run's)
+    for key, per, count in (("postgres_cpu", "postgres_cpu_per_asset", n),
+                            ("prefect_cpu", "prefect_cpu_per_batch", batches)):
+        if all(key in r for r in seq + idles["sequential"]):
+            model[per] = (med(r[key] for r in seq)
+                          - med(r[key] for r in idles["sequential"])) / count
     work = compute + registry + batches * per_batch
     for runner, runs in nights.items():
         if not runner.startswith("dask-") or runner not in idles:
@@ -525,6 +534,19 @@ def cost_model(result: dict) -> dict | None:
     return model
 
 
+def projection(model: dict, assets: int, machines: int, server_cores: float = 1.0) -> float:
+    """Predicted wall seconds of a night of ``assets`` on ``machines`` workers (one per
+    machine, started at once: one worker's start), with the model's batch size; a server
+    (PostgreSQL, Prefect's) of ``server_cores`` cores bounds the work from below by its CPU."""
+    batches = math.ceil(assets / model["batch_size"])
+    work = assets * (model["compute_per_asset"] + model["registry_per_asset"]) \
+        + batches * model["per_batch"]
+    floors = [assets * model.get("postgres_cpu_per_asset", 0.0) / server_cores,
+              batches * model.get("prefect_cpu_per_batch", 0.0) / server_cores]
+    start = model["worker_start"].get(1, 0.0)
+    return model["fixed"] + start + max([work / min(machines, batches)] + floors)
+
+
 def model_table(model: dict) -> str:
     lines = [f"per asset: compute {model['compute_per_asset']:.3f} s, registry "
              f"{model['registry_per_asset']:.3f} s; per batch {model['per_batch']:.2f} s; "
@@ -534,23 +556,38 @@ def model_table(model: dict) -> str:
     for k, check in model["check"].items():
         lines.append(f"| {k} | {check['predicted']:.1f} | {check['measured']:.1f} | "
                      f"{check['measured'] / check['predicted']:.2f} |")
+    servers = [f"{label} {model[key]:.3f} s" for key, label in
+               (("postgres_cpu_per_asset", "PostgreSQL CPU per asset"),
+                ("prefect_cpu_per_batch", "Prefect server CPU per batch")) if key in model]
+    if servers:
+        lines.append("servers: " + ", ".join(servers))
+    machines = (1, 2, 4, 8, 16, 32, 64)
+    lines += ["10,000 assets on K machines (one worker each), predicted:",
+              "| K | " + " | ".join(str(k) for k in machines) + " |",
+              "|---|" + "---|" * len(machines),
+              "| wall s | " + " | ".join(f"{projection(model, 10_000, k):.0f}"
+                                      for k in machines) + " |"]
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv)
-    began = time.perf_counter()
-    result = run(args, argv)
-    result["wall_seconds"] = time.perf_counter() - began
+    if args.report:
+        result = json.loads(pathlib.Path(args.report).read_text())
+    else:
+        began = time.perf_counter()
+        result = run(args, argv)
+        result["wall_seconds"] = time.perf_counter() - began
     model = cost_model(result)
     if model is not None:
         result["model"] = model
-    if args.json_out:
+    if args.json_out and not args.report:
         pathlib.Path(args.json_out).write_text(json.dumps(result, indent=1))
-    print(f"{result['command']}  ({result['date']}, commit {result['commit']}, "
-          f"{result['cpus']} CPUs, {result['family']}, {result['assets']} assets, batch_size "
-          f"{result['batch_size']}, MLflow on {result['mlflow']}, Prefect {result['prefect']})")
+    setup = (f"{result['cpus']} CPUs, {result.get('family', GAS_TURBINE)}, "
+             f"{result['assets']} assets, batch_size {result['batch_size']}, MLflow on "
+             f"{result.get('mlflow', 'sqlite')}, Prefect {result.get('prefect', 'temporary')}")
+    print(f"{result['command']}  ({result['date']}, commit {result['commit']}, {setup})")
     print(summarize(result))
     if model is not None:
         print(model_table(model))

@@ -50,8 +50,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.served_startup",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="measured runs (default %(default)s)")
-    parser.add_argument("--lead", type=float, default=15.0,
-                        help="seconds ahead each run is scheduled (default %(default)s)")
+    parser.add_argument("--lead", type=float, default=40.0,
+                        help="seconds ahead each run is scheduled (default %(default)s: more "
+                             "than the runner's prefetch, 30 s, as for a cron schedule, whose "
+                             "runs the server creates long before they are due)")
     parser.add_argument("--workdir", type=pathlib.Path,
                         help="work directory (default: a new temporary one, removed after)")
     parser.add_argument("--json", type=pathlib.Path, help="write the runs here")

@@ -10,7 +10,8 @@ import sys
 
 import pytest
 
-from benchmarks.dask_scale import cost_model, model_table, parse_args, set_line, set_runner
+from benchmarks.dask_scale import (cost_model, model_table, parse_args, projection, set_line,
+                                   set_runner)
 from flows.config import load_config, render_config
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
@@ -57,6 +58,12 @@ def test_the_cost_model_on_known_numbers():
     assert model["check"][1] == {"predicted": pytest.approx(38.0), "measured": 40.0}
     assert model["check"][2] == {"predicted": pytest.approx(29.0), "measured": 28.0}
     assert "| 2 | 29.0 | 28.0 | 0.97 |" in model_table(model)
+    # 10,000 assets in 5,000 batches: 20,000 s of assets and 5,000 s of batches over 10
+    # machines, after the start-up and one worker's start
+    assert projection(model, 10_000, 10) == pytest.approx(10 + 8 + 2500)
+    # a PostgreSQL server spending 0.5 s of CPU per asset on its one core is the bound
+    assert projection({**model, "postgres_cpu_per_asset": 0.5}, 10_000, 100) == \
+        pytest.approx(10 + 8 + 5000)
     # without the sequential runner's idle run there is no model
     assert cost_model({"assets": 8, "batch_size": 2, "runs": runs[2:]}) is None
 
