@@ -123,12 +123,14 @@ def child_environment(workdir: pathlib.Path) -> dict:
     return env
 
 
-def fleet_health(workdir: pathlib.Path, name: str, *arguments: str) -> dict:
-    """Run ``fleet-health ARGUMENTS --json`` measured; returns the measurement and summary."""
+def fleet_health(workdir: pathlib.Path, name: str, *arguments: str,
+                 env: dict | None = None) -> dict:
+    """Run ``fleet-health ARGUMENTS --json`` measured; returns the measurement and summary
+    (``env``: the child's environment, :func:`child_environment` by default)."""
     command = [sys.executable, "-m", "flows.cli", "--config", "fleet.toml", *arguments,
                "--json"]
-    measured = run_measured(command, workdir, child_environment(workdir), workdir / "logs",
-                            name)
+    measured = run_measured(command, workdir, env or child_environment(workdir),
+                            workdir / "logs", name)
     try:
         summary = json.loads(measured.stdout)
     except json.JSONDecodeError:

@@ -102,8 +102,12 @@ from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, can
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, now_iso)
-from registry import UnusableBaselineError
+from registry import UnusableBaselineError, load_mlflow
 from flows.run_guard import exclusive_run
+
+# every nightly run opens the registry: its MLflow side loads with this module, so a served
+# run's process, started ahead of its scheduled time (flows.serve), has it before it is due
+load_mlflow()
 
 
 def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,

@@ -27,13 +27,12 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import ClassVar, Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, ClassVar, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
-from graybox.diagnosis import Diagnosis, diagnose
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import GrayBoxError, InsufficientDataError, TelemetryError
 from graybox.signature_fit import FitRequest, fit_signatures
@@ -52,6 +51,9 @@ from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry import FitSubmission, LoadedVersion
+
+if TYPE_CHECKING:  # pragma: no cover
+    from graybox.diagnosis import Diagnosis
 
 DAY = pd.Timedelta(days=1)
 #: windows a new baseline needs at least (epsilon is calibrated from them)
@@ -682,6 +684,8 @@ def diagnose_alarm(asset: PendingAsset, window: PendingWindow) -> Diagnosis | Di
     its reason: it is recorded and shown with the alerts, and neither the asset nor the
     alerts are lost.
     """
+    from graybox.diagnosis import diagnose    # scipy.stats: imported when a window alarms
+
     try:
         return diagnose(asset.reference.signature, window.parts, asset.model)
     except (GrayBoxError, ArithmeticError, ValueError, np.linalg.LinAlgError) as error:

@@ -44,6 +44,23 @@ def build_deployments(config: FleetConfig, tracking_uri: str | None = None) -> l
     ]
 
 
+#: how far ahead of its scheduled time a run's process is started, beyond the runner's poll
+#: interval: the process imports Prefect and the flow (about 3 s) and then waits
+#: for the scheduled time, so a run starts on time instead of up to that much late
+SPAWN_AHEAD_SECONDS = 20.0
+
+
 def serve_deployments(deployments: list) -> None:
-    """Serve until interrupted (schedules stay active on shutdown)."""
-    serve(*deployments, pause_on_shutdown=False)
+    """Serve until interrupted (schedules stay active on shutdown).
+
+    The runner polls the server every ``PREFECT_RUNNER_POLL_FREQUENCY`` seconds and takes the
+    runs due within ``prefetch_seconds``; with the poll interval plus
+    :data:`SPAWN_AHEAD_SECONDS` of prefetch, each run's process is started at least that long
+    before the run is due (Prefect's default prefetch equals the poll interval, so a run could
+    be picked up just before its time and start late by its process's import time).
+    """
+    from prefect.settings import get_current_settings
+
+    poll = float(get_current_settings().runner.poll_frequency)
+    serve(*deployments, pause_on_shutdown=False, query_seconds=poll,
+          prefetch_seconds=poll + SPAWN_AHEAD_SECONDS)

@@ -18,9 +18,10 @@ The tiers can also be run by hand on any residual: ``choose_differencing``, ``fi
 This package imports numpy, scipy, pandas, pyarrow, threadpoolctl and torch only: never mlflow
 or prefect.
 """
+from typing import TYPE_CHECKING
+
 from graybox.calibration import Calibration
 from graybox.decompose import decompose
-from graybox.diagnosis import Diagnosis, Hypothesis, diagnose
 from graybox.drift import Drift, compute_drift
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.estimator import FitRequest, GrayBox, GrayBoxSettings, fit_baselines, fit_signatures
@@ -51,3 +52,24 @@ __all__ = [
     "GrayBoxError", "ModelSpecError", "TelemetryError", "InsufficientDataError",
     "StructureMismatchError", "ArtifactError", "InvalidAssetIdError",
 ]
+
+#: names loaded on first use: the diagnosis imports scipy.stats (0.5 s), which a nightly run's
+#: process does not need unless a window alarms
+_LAZY = {"Diagnosis": "graybox.diagnosis", "Hypothesis": "graybox.diagnosis",
+         "diagnose": "graybox.diagnosis"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'graybox' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
+
+if TYPE_CHECKING:  # pragma: no cover
+    from graybox.diagnosis import Diagnosis, Hypothesis, diagnose

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from graybox.models.base import WhiteBoxModel
 
@@ -103,7 +103,7 @@ class OperatingConditions:
         if dof < 1:
             return np.zeros(table.shape[2], dtype=bool)
         within = (left ** 2).sum(axis=(0, 1)) / dof
-        critical = stats.f.ppf(1 - VARYING_LEVEL, windows - 1, dof)
+        critical = special.fdtri(windows - 1, dof, 1 - VARYING_LEVEL)   # scipy.stats.f.ppf
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
         return ratio > critical

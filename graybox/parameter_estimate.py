@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scipy import stats
+from scipy import special
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ class ParameterEstimate:
 
     def interval(self, level: float = 0.95) -> tuple[tuple[float, float], ...]:
         """Normal confidence intervals ``value +- z sd``, one ``(low, high)`` per parameter."""
-        z = float(stats.norm.ppf(0.5 + level / 2))
+        z = float(special.ndtri(0.5 + level / 2))        # scipy.stats.norm.ppf
         return tuple((v - z * s, v + z * s) for v, s in zip(self.values, self.standard_errors))
 
     def parameters(self) -> dict[str, float]:

@@ -11,7 +11,6 @@ from typing import Literal
 
 import numpy as np
 import pandas as pd
-from scipy.signal import savgol_filter
 
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
@@ -114,6 +113,9 @@ def inverse_residual(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: flo
     -------
     ndarray of shape (T, n_states)
     """
+    # scipy.signal imports scipy.stats (0.5 s together): only the inverse form needs it
+    from scipy.signal import savgol_filter
+
     x = np.asarray(x, dtype=float)
     u = np.asarray(u, dtype=float).reshape(len(x), -1)
     if len(x) < window:
@@ -136,6 +138,8 @@ def inverse_output_residual(model: WhiteBoxModel, window: WindowStates, dt: floa
         measured = [model.states.index(name) for name in model.outputs]
         full = inverse_residual(model, window.states, window.u, dt, derivative_window, polyorder)
         return full[:, measured]
+    from scipy.signal import savgol_filter
+
     if len(window.y) < derivative_window:
         raise InsufficientDataError(f"the inverse residual needs at least {derivative_window} "
                                     f"samples")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Sequence
 
-from scipy import stats
+from scipy import special
 
 if TYPE_CHECKING:
     from graybox.drift import Drift
@@ -113,7 +113,7 @@ def coefficient_rows(names: Sequence[str], values: Sequence[float],
             z = value / error
         else:  # an exact coefficient: infinitely many standard errors from 0, unless it is 0
             z = math.copysign(math.inf, value) if value else math.nan
-        p = math.nan if math.isnan(z) else float(2.0 * stats.norm.sf(abs(z)))
+        p = math.nan if math.isnan(z) else float(2.0 * special.ndtr(-abs(z)))
         rows.append([name, format_number(value), format_number(error), format_number(z, 3),
                      format_pvalue(p), format_number(value - Z_95 * error),
                      format_number(value + Z_95 * error)])

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 __all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
            "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError",
            "UnusableBaselineError", "StoreError", "TransientStoreError", "RetryPolicy",
-           "NightRatio", "night_of_window", "resolve_store", "file_lock"]
+           "NightRatio", "night_of_window", "resolve_store", "file_lock", "load_mlflow"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
@@ -47,6 +47,7 @@ _LOCATIONS = {
     "NightRatio": "registry.fleet_nights",
     "night_of_window": "registry.fleet_nights",
     "resolve_store": "registry.store.tracking_store",
+    "load_mlflow": "registry.store.tracking_store",
     "file_lock": "registry.store.locks",
 }
 
@@ -58,7 +59,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from registry.registry import Registry
     from registry.store.locks import file_lock
     from registry.store.retry import RetryPolicy
-    from registry.store.tracking_store import resolve_store
+    from registry.store.tracking_store import load_mlflow, resolve_store
     from registry.write.submission import FitSubmission
 
 

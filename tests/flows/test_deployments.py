@@ -56,6 +56,25 @@ columns = { omega = "shaft_speed" }
     assert reanalyze.entrypoint == "flows.reanalyze.reanalyze"
 
 
+
+def test_served_runs_start_their_process_ahead_of_time(monkeypatch):
+    import flows.serve
+    from prefect.runner import Runner
+
+    seen = {}
+    monkeypatch.setattr(flows.serve, "serve", lambda *deployments, **options: seen.update(options))
+    from prefect.settings import PREFECT_RUNNER_POLL_FREQUENCY, temporary_settings
+
+    with temporary_settings(updates={PREFECT_RUNNER_POLL_FREQUENCY: 7}):
+        flows.serve.serve_deployments([])
+    # runs due within the poll interval plus the margin are taken: each is picked up at least
+    # SPAWN_AHEAD_SECONDS before it is due, whenever the runner polls
+    assert seen["query_seconds"] == 7.0
+    assert seen["prefetch_seconds"] == 7.0 + flows.serve.SPAWN_AHEAD_SECONDS
+    assert flows.serve.SPAWN_AHEAD_SECONDS >= 10
+    runner = Runner(**seen)                    # Prefect's runner takes these options
+    assert runner.query_seconds == 7.0
+
 def test_notification_message():
     from flows.hooks import compose_message
 
