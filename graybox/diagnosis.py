@@ -84,7 +84,7 @@ from typing import Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
@@ -418,7 +418,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     effective = n_eff(best.residuals if best is not None else healthy)
     weights = effective / counts
     penalty = float(np.log(max(effective.sum(), 1.0)))
-    z = float(stats.norm.ppf(0.5 + level / 2))
+    z = float(special.ndtri(0.5 + level / 2))                     # scipy.stats.norm.ppf
     # the baseline's level is an estimate too: a window compared with a baseline of as many
     # samples (and the same autocorrelation) has twice the variance
     compared = weights / (1.0 + counts / np.array([max(levels[c].n_obs, 1) for c in channels]))
@@ -643,8 +643,9 @@ def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[fl
                         else fit.evidence_samples), 1.0)
         tail = (1 - level) / 2
         q = fit.value ** 2
-        return (float(np.sqrt(q * dof / stats.chi2.ppf(1 - tail, dof))),
-                float(np.sqrt(q * dof / stats.chi2.ppf(tail, dof))))
+        # scipy.stats.chi2.ppf(p, dof) is 2 * gammaincinv(dof / 2, p)
+        return (float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, 1 - tail)))),
+                float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, tail)))))
     information = float(np.sum(weights * fit.sensitivity))
     sd = fit.scale / np.sqrt(information) if information > 0 else np.inf
     value = _value(fit)
