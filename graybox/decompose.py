@@ -60,7 +60,8 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
     interval = getattr(window, "sample_interval", None) or infer_sample_interval(frame.index)
     settings = signature.settings
     residuals = residual_frame(model, frame, signature.residual_method, interval,
-                               settings.derivative_window(interval))
+                               settings.derivative_window(interval),
+                               integration=signature.integration_used)
     factor = decimation_factor(signature.analysis_step, interval)
     # a block mean stands at the block's last instant (it covers the interval up to it)
     blocks = residuals.index[factor - 1::factor][: len(residuals) // factor]

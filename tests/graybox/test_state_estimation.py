@@ -137,3 +137,17 @@ def test_a_wrong_constant_is_a_bias_and_a_blow_up_is_divergence():
     blown[-5:] = 50.0                     # > 100 times the magnitude: a blow-up
     with pytest.raises(IntegrationError, match="diverges"):
         check_prediction(WrongSign(), measured, blown, "prediction")
+
+
+def test_a_stiff_baseline_is_decomposed_with_its_own_integrator():
+    # the baseline's plots run a window through the signature (graybox.decompose): with the
+    # default RK4 the armature diverged there and the plots failed
+    from graybox import FitRequest, decompose, fit_signatures
+
+    model, frame = _armature_frame(3 * 3600, 5)
+    days = [frame.iloc[k * 3600:(k + 1) * 3600] for k in range(3)]
+    signature = fit_signatures([FitRequest(model, days, asset_id="M-1")])[0]
+    assert signature.integration_used.method == "rosenbrock"
+    parts = decompose(signature, model, days[0])
+    assert [p.channel for p in parts] == ["i", "w"]
+    assert all(np.isfinite(p.residual).all() for p in parts)
