@@ -167,12 +167,13 @@ def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry,
     artifacts = pathlib.Path(local_file_uri_to_path(registry.backend.store.artifact_root))
     before = sorted(artifacts.rglob("*"))
 
-    def broken(instance):     # the version row fails after the run's rows were written
+    def broken():     # the version's rows fail after the run's rows were written
         raise RuntimeError("the store went away mid-transaction")
 
-    monkeypatch.setattr(writer.registry, "_with_workspace_field", broken)
+    monkeypatch.setattr(writer.registry, "_get_active_workspace", broken)
     with pytest.raises(Exception, match="went away"):
         registry.record_fit(submission)
+    monkeypatch.undo()
     client = registry.backend.client
     experiment = registry.backend.experiment_id("turbine")
     assert client.search_runs([experiment], f"tags.`{naming.TAG_FIT_KEY}` = "
@@ -181,7 +182,6 @@ def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry,
     assert [v.version for v in client.search_model_versions(f"name = '{NAME}'")] == [1]
     assert registry.aliases(ASSET) == {"baseline": 1, "candidate": 1}
     assert sorted(artifacts.rglob("*")) == before
-    monkeypatch.undo()
     record = registry.record_fit(submission)
     assert record.created and record.version == 2
     assert registry.aliases(ASSET) == {"baseline": 1, "candidate": 2}
