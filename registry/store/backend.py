@@ -298,6 +298,10 @@ class Backend:
 
     def version_by_alias(self, asset_id: str, alias: str):
         """The version holding ``alias``, or None."""
+        writer = self.sql_writer()
+        if writer is not None:
+            return call_with_retry(writer.version_by_alias, naming.model_name(asset_id), alias,
+                                   policy=self.retry, what="read a version by its alias")
         try:
             return self.client.get_model_version_by_alias(naming.model_name(asset_id), alias)
         except MlflowException as error:

@@ -129,6 +129,31 @@ class SqlWriter:
                     .limit(limit).all())
             return [row.to_mlflow_entity() for row in rows]
 
+    def version_by_alias(self, name: str, alias: str):
+        """The version holding ``alias`` as MLflow's ``ModelVersion`` entity (what
+        ``get_model_version_by_alias`` returns, its aliases included), or None when the
+        model, the alias or the version is absent: three queries in one session."""
+        from sqlalchemy.orm import selectinload
+
+        SqlModelVersion, SqlAlias = self.r.SqlModelVersion, self.r.SqlRegisteredModelAlias
+        with self.registry.ManagedSessionMaker() as session:
+            row = (session.query(SqlModelVersion)
+                   .options(selectinload(SqlModelVersion.model_version_tags))
+                   .join(SqlAlias, (SqlAlias.name == SqlModelVersion.name)
+                         & (SqlAlias.version == SqlModelVersion.version)
+                         & (SqlAlias.workspace == SqlModelVersion.workspace))
+                   .filter(SqlAlias.name == name, SqlAlias.alias == alias,
+                           SqlModelVersion.current_stage != "Deleted_Internal",
+                           *self.registry._get_workspace_clauses(SqlModelVersion))
+                   .one_or_none())
+            if row is None:
+                return None
+            version = row.to_mlflow_entity()
+            version.aliases = [a for (a,) in session.query(SqlAlias.alias).filter(
+                SqlAlias.name == name, SqlAlias.version == row.version,
+                SqlAlias.workspace == row.workspace)]
+            return version
+
     def model_tag(self, name: str, key: str) -> str | None:
         """The value of a registered model's tag (None when the tag or the model is absent):
         one query of the tag's row, whatever the model's history."""

@@ -115,6 +115,12 @@ def test_the_one_transaction_path_reads_back_as_the_client_path(two_stores, fits
     assert mv_b.tags[naming.TAG_RUN_ID] == new.run_id
     assert mv_b.tags[MANIFEST] == run_b.data.tags[MANIFEST]
     assert mv_b.aliases == ["candidate"] and mv_b.description.startswith("Candidate fit")
+    # the nightly path's direct read of a version by its alias is MLflow's own answer
+    for alias in ("candidate", "baseline"):
+        assert vars(new_registry.backend.version_by_alias(ASSET, alias)) == \
+            vars(b.get_model_version_by_alias(NAME, alias))
+    assert new_registry.backend.version_by_alias(ASSET, "nothing") is None
+    assert new_registry.backend.version_by_alias("T-99", "baseline") is None
     assert b.get_registered_model(NAME).aliases == a.get_registered_model(NAME).aliases == \
         {"baseline": 1, "candidate": 2}
     assert [v.version for v in b.search_model_versions(f"name = '{NAME}'")] == \
@@ -181,6 +187,8 @@ def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry,
                               run_view_type=ViewType.ALL) == []
     assert [v.version for v in client.search_model_versions(f"name = '{NAME}'")] == [1]
     assert registry.aliases(ASSET) == {"baseline": 1, "candidate": 1}
+    assert vars(registry.backend.version_by_alias(ASSET, "baseline")) == \
+        vars(client.get_model_version_by_alias(NAME, "baseline"))     # two aliases
     assert sorted(artifacts.rglob("*")) == before
     record = registry.record_fit(submission)
     assert record.created and record.version == 2
