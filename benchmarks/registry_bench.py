@@ -253,17 +253,37 @@ def main(argv: list[str] | None = None) -> int:
                         help="--nightly: the store to time (e.g. postgresql://host/db, an "
                              "empty database; default an embedded SQLite store in the "
                              "work directory)")
+    parser.add_argument("--postgres", action="store_true",
+                        help="--nightly: on a throw-away PostgreSQL server started for the "
+                             "run (tests/postgres_server.py: initdb + pg_ctl, fsync off)")
     parser.add_argument("--client-path", action="store_true",
                         help="record through MlflowClient's calls only (no one-transaction "
                              "SQL writes: registry/store/sql_writes.py), for A/B")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
+    workdir.mkdir(parents=True, exist_ok=True)
+    server = None
+    if args.postgres:
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+        from postgres_server import PostgresServer, find_initdb
+
+        server = PostgresServer(find_initdb()).start()
+        args.tracking_uri = server.create_database("registry_bench")
+    try:
+        return _run(args, workdir)
+    finally:
+        if server is not None:
+            server.stop()
+
+
+def _run(args, workdir: Path) -> int:
     from benchmarks.langevin_fits import fit_langevin
     from registry import Registry
 
-    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
-    workdir.mkdir(parents=True, exist_ok=True)
     uri = args.tracking_uri or f"sqlite:///{workdir}/mlflow.db"
     print(f"store: {uri}")
     fitted = fit_langevin()
