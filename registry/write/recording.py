@@ -20,6 +20,12 @@ the first one. A recording interrupted half-way is finished or replaced on the n
 an incomplete run (no ``fleet_health.complete`` tag) is deleted and logged again; a complete
 run without a version gets its version; a version without the alias gets the alias.
 
+On an SQLAlchemy store (embedded SQLite, PostgreSQL) a new candidate is written at once
+(:mod:`registry.write.at_once`): its artifacts, then one transaction for the run (already
+complete), its version and the alias, so an interruption leaves either nothing or the whole
+record; the key's runs are found by one direct query. Behind an ``mlflow server`` the
+client calls below do it, and the repairs above apply.
+
 A **reanalysis** records only the run, tagged ``fleet_health.reanalysis``: no model, no
 version, no alias move. Its key also names the baseline version it was compared with.
 

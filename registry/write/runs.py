@@ -11,6 +11,10 @@
    metrics, so a run tagged complete holds everything);
 4. ``set_terminated``.
 
+(The client path: baselines, and every fit behind an ``mlflow server``. A candidate on an
+SQLAlchemy store is written in one transaction instead: :mod:`registry.write.at_once`, with
+the same :func:`write_artifacts`.)
+
 A run without ``fleet_health.complete`` is an interrupted recording: the next attempt deletes
 it and logs the fit again (:mod:`registry.write.recording`).
 """
