@@ -129,6 +129,15 @@ class SqlWriter:
                     .limit(limit).all())
             return [row.to_mlflow_entity() for row in rows]
 
+    def run_exists(self, run_id: str) -> bool:
+        """Whether a run with this id is in the store (deleted or not)."""
+        runs = self.t.SqlRun.__table__
+        from sqlalchemy import select
+
+        with self.tracking.ManagedSessionMaker() as session:
+            return session.connection().execute(
+                select(runs.c.run_uuid).where(runs.c.run_uuid == run_id)).first() is not None
+
     def version_by_alias(self, name: str, alias: str):
         """The version holding ``alias`` as MLflow's ``ModelVersion`` entity (what
         ``get_model_version_by_alias`` returns, its aliases included), or None when the

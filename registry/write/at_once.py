@@ -8,7 +8,8 @@ artifact directory when it is a local one (no scratch copy) before the transacti
 
 Crash safety: until the transaction commits nothing of the fit is in the store, and a
 recording interrupted before it leaves only an artifact directory no run points at (removed
-when the transaction fails in this process); the next attempt writes a new run. After it, the
+when the transaction fails in this process and the run is then surely absent); the next
+attempt writes a new run. After it, the
 fit is complete with its version and alias, and a second recording finds it by its key.
 """
 from __future__ import annotations
@@ -74,10 +75,19 @@ def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit:
         number = call_with_retry(writer.write, run, version, policy=backend.retry,
                                  what="record the fit")
     except BaseException:
-        if local is not None:
+        if local is not None and _surely_absent(writer, run_id):
             shutil.rmtree(local.parent, ignore_errors=True)
         raise
     return run_id, number, manifest_sha
+
+
+def _surely_absent(writer: SqlWriter, run_id: str) -> bool:
+    """Whether the run is known not to be in the store (a commit whose answer was lost may
+    have written it: then its artifacts stay)."""
+    try:
+        return not writer.run_exists(run_id)
+    except Exception:  # noqa: BLE001 - unknown: keep the artifacts
+        return False
 
 
 def _local_root(backend: Backend, artifact_uri: str) -> pathlib.Path | None:

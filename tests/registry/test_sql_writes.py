@@ -204,3 +204,33 @@ def test_no_writer_for_a_server_store():
             return type("R", (), {"store": object()})()
 
     assert SqlWriter.of(Remote()) is None
+
+
+def test_a_commit_whose_answer_is_lost_keeps_its_artifacts_and_is_found_again(registry, fits,
+                                                                               monkeypatch):
+    from registry import FitSubmission
+
+    base = registry.record_fit(ASSET, "turbine", fits.baseline, role="baseline",
+                               calibration=fits.calibration, window_start=DAY0,
+                               window_end=DAY0 + pd.Timedelta(days=4), data_hash="b",
+                               plots=False)
+    registry.promote(ASSET, base.version, reason="healthy")
+    writer = registry.backend.sql_writer()
+    submission = FitSubmission(ASSET, "turbine", fits.candidate, role="candidate",
+                               drift=fits.drift, window_start=NIGHT,
+                               window_end=NIGHT + pd.Timedelta(days=1), data_hash="night-5",
+                               plots=False)
+    written = writer.write
+
+    def committed_then_lost(*args):
+        written(*args)
+        raise ConnectionError("the server's answer to COMMIT never came")
+
+    monkeypatch.setattr(writer, "write", committed_then_lost)
+    with pytest.raises(Exception, match="never came"):
+        registry.record_fit(submission)
+    monkeypatch.undo()
+    again = registry.record_fit(submission)
+    assert not again.created and again.version == 2
+    assert registry.load_version(ASSET, 2).signature == fits.candidate   # artifacts kept
+    assert registry.aliases(ASSET) == {"baseline": 1, "candidate": 2}
