@@ -12,6 +12,12 @@ the UI) is what the client path writes (tests/registry/test_sql_writes.py compar
 One transaction is also safer than five: the run, its version and the alias appear together or
 not at all, so no half-recorded fit is ever left behind by this path.
 
+The same class answers the nightly path's other look-ups in one query or session each, with
+MLflow's entities where MLflow returns entities: a fit key's runs (:meth:`SqlWriter.runs_with_tag`),
+the version holding an alias (:meth:`SqlWriter.version_by_alias`), and the watermark, a
+registered model's tag, read and advanced (:meth:`SqlWriter.model_tag`,
+:meth:`SqlWriter.advance_model_tag`).
+
 Any other store (an ``mlflow server``) has no writer (:meth:`SqlWriter.of` is None) and keeps
 the client path. Like :mod:`registry.store.model_headers`, this reads MLflow's store
 internals; a layout it does not know gives no writer either.
