@@ -212,7 +212,10 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
     n = len(times[NIGHTLY_CALLS[0]])
     print()
     how = f"record_fits of {args.batch} assets" if args.batch else "record_fit per asset"
-    print(f"nightly path, embedded SQLite store (WAL): {args.assets} assets x {args.nights} "
+    store = "embedded SQLite store (WAL)" if not args.tracking_uri else \
+        args.tracking_uri.split("://")[0]
+    path = "client path" if args.client_path else "SQL writes where the store allows"
+    print(f"nightly path, {store}, {path}: {args.assets} assets x {args.nights} "
           f"nights = {n} asset-nights, {how}, {args.history} nights of history, "
           f"{args.warmup} untimed night(s) first; ms per "
           f"asset-night (wall, and CPU of the calling thread)")
@@ -246,19 +249,49 @@ def main(argv: list[str] | None = None) -> int:
                         help="--nightly: filler runs and versions per asset before timing")
     parser.add_argument("--warmup", type=int, default=0,
                         help="--nightly: nights recorded untimed before the timed ones")
+    parser.add_argument("--tracking-uri",
+                        help="--nightly: the store to time (e.g. postgresql://host/db, an "
+                             "empty database; default an embedded SQLite store in the "
+                             "work directory)")
+    parser.add_argument("--postgres", action="store_true",
+                        help="--nightly: on a throw-away PostgreSQL server started for the "
+                             "run (tests/postgres_server.py: initdb + pg_ctl, fsync off)")
+    parser.add_argument("--client-path", action="store_true",
+                        help="record through MlflowClient's calls only (no one-transaction "
+                             "SQL writes: registry/store/sql_writes.py), for A/B")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
+    workdir.mkdir(parents=True, exist_ok=True)
+    server = None
+    if args.postgres:
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+        from postgres_server import PostgresServer, find_initdb
+
+        server = PostgresServer(find_initdb()).start()
+        args.tracking_uri = server.create_database("registry_bench")
+    try:
+        return _run(args, workdir)
+    finally:
+        if server is not None:
+            server.stop()
+
+
+def _run(args, workdir: Path) -> int:
     from benchmarks.langevin_fits import fit_langevin
     from registry import Registry
 
-    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="registry-bench-"))
-    workdir.mkdir(parents=True, exist_ok=True)
-    print(f"store: sqlite:///{workdir}/mlflow.db")
+    uri = args.tracking_uri or f"sqlite:///{workdir}/mlflow.db"
+    print(f"store: {uri}")
     fitted = fit_langevin()
     fits = {"candidate": fitted.candidate, "drift": fitted.drift, "night": fitted.night}
 
-    registry = Registry(f"sqlite:///{workdir}/mlflow.db", user="bench")
+    registry = Registry(uri, workdir=workdir, user="bench")
+    if args.client_path:
+        registry.backend.sql_writes = False
     if args.nightly:
         fits.update(baseline=fitted.baseline, calibration=fitted.calibration)
         print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,

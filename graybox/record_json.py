@@ -34,6 +34,7 @@ Merlion's ``PostRuleBase``: a config is its constructor's arguments.)
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import types
@@ -99,7 +100,7 @@ def from_dict(cls: type, data: Any):
         raise ArtifactError(f"{name}: unknown field(s) {sorted(unknown)}")
     if missing:
         raise ArtifactError(f"{name}: missing field(s) {sorted(missing)}")
-    hints = get_type_hints(cls)
+    hints = _type_hints(cls)
     non_finite = getattr(cls, "non_finite_fields", frozenset())
     values = {f.name: _decode(hints[f.name], data[f.name], f"{name}.{f.name}",
                               f.name not in non_finite)
@@ -108,6 +109,12 @@ def from_dict(cls: type, data: Any):
         return cls(**values)
     except (TypeError, ValueError) as error:
         raise ArtifactError(f"{name}: {error}") from None
+
+
+@functools.lru_cache(maxsize=None)
+def _type_hints(cls: type) -> dict:
+    # a record class's hints never change, and resolving them is most of a record's read
+    return get_type_hints(cls)
 
 
 def to_json(record: Any, indent: int | None = None) -> str:

@@ -7,9 +7,9 @@ methods and the public names below, nothing else of the registry. Layout, by con
 ``records``       the typed records it returns (FitRecord, VersionInfo, AssetSummary, LoadedVersion)
 ``exceptions``    the registry's errors, the store's failures among them
 ``store/``        where the registry lives and how it talks to MLflow: naming, tracking_store,
-                  retry, locks, boundary, backend, model_headers, probe
+                  retry, locks, boundary, backend, model_headers, sql_writes, probe
 ``write/``        recording a fit: submission, run_content, artifacts, model_files, plots,
-                  runs, recording, watermarks
+                  runs, at_once, recording, watermarks
 ``read/``         reading back: loading (a version, verified), history (zetas and alerts)
 ``review``        promote, reject, rollback, list, history, the reference of a run
 ``fleet_nights``  the fleet's nights: worst ratios per asset and night, fleet-level runs

@@ -177,19 +177,24 @@ def load(backend: Backend, asset_id: str, mv, model=None,
         raise ArtifactError(f"{where}: no manifest digest recorded with the version; it was "
                             f"not recorded by fleet-health and cannot be verified")
     source = backend.store.local_artifact_uri(mv.source)    # rebased if the store moved
-    with tempfile.TemporaryDirectory(prefix="fleet-health-load-") as scratch:
-        local = None if keep is not None else _in_place(source)
-        if local is None:
+    local = None if keep is not None else _in_place(source)
+    if local is not None:       # read where it is: no scratch directory to make and remove
+        bundle = _verified(local, where, expected, asset_id)
+    else:
+        with tempfile.TemporaryDirectory(prefix="fleet-health-load-") as scratch:
             target = keep if keep is not None else pathlib.Path(scratch)
-            local = _download(backend, source, target, where)
-        bundle_dir = verify_model_dir(local, where)
-        bundle = read_bundle(bundle_dir, where=where, expected_manifest_sha256=expected,
-                             expected_asset_id=asset_id)
+            bundle = _verified(_download(backend, source, target, where), where, expected,
+                               asset_id)
     loaded = LoadedVersion(version_info(backend, asset_id, mv, model), bundle.signature,
                            bundle.calibration, bundle.manifest_sha256)
     if models is not None:
         check_model(loaded, models, where)
     return loaded
+
+
+def _verified(local: pathlib.Path, where: str, expected: str, asset_id: str):
+    return read_bundle(verify_model_dir(local, where), where=where,
+                       expected_manifest_sha256=expected, expected_asset_id=asset_id)
 
 
 def load_version(backend: Backend, asset_id: str, version: int | str | None = None,

@@ -21,6 +21,7 @@ from registry.store import naming
 from registry.exceptions import NotFoundError, RegistryError
 from registry.store.model_headers import ModelHeader, read_headers
 from registry.store.retry import RetryingClient, RetryPolicy, call_with_retry
+from registry.store.sql_writes import SqlWriter
 from registry.store.tracking_store import Store, prepare_store, relax_commit_sync, resolve_store
 
 logger = logging.getLogger(__name__)
@@ -87,6 +88,10 @@ class Backend:
             self._relax_commit_sync()
         self._experiments: dict[str, str] = {}          # vehicle class -> experiment id
         self._models: dict[str, tuple[str, str]] = {}   # asset -> (vehicle class, experiment id)
+        #: record candidates in one SQL transaction when the store allows it
+        #: (:mod:`registry.store.sql_writes`); False keeps MlflowClient's calls
+        self.sql_writes = True
+        self._writer: SqlWriter | None | bool = False   # False: not looked for yet
 
     @property
     def tracking_uri(self) -> str:
@@ -102,6 +107,15 @@ class Backend:
             return
         for engine in engines.values():
             relax_commit_sync(engine)
+
+    def sql_writer(self) -> SqlWriter | None:
+        """The one-transaction writer of this store, or None (an ``mlflow server``, or
+        :attr:`sql_writes` off)."""
+        if not self.sql_writes:
+            return None
+        if self._writer is False:
+            self._writer = SqlWriter.of(self.client.wrapped)
+        return self._writer
 
     # -- writes that skip MlflowClient's prompt check -------------------------------------------
     def _registry_client(self):
@@ -284,6 +298,10 @@ class Backend:
 
     def version_by_alias(self, asset_id: str, alias: str):
         """The version holding ``alias``, or None."""
+        writer = self.sql_writer()
+        if writer is not None:
+            return call_with_retry(writer.version_by_alias, naming.model_name(asset_id), alias,
+                                   policy=self.retry, what="read a version by its alias")
         try:
             return self.client.get_model_version_by_alias(naming.model_name(asset_id), alias)
         except MlflowException as error:

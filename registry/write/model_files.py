@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import logging
 import pathlib
-import shutil
 import tempfile
 import uuid
 
@@ -79,11 +78,16 @@ class PyfuncTemplate:
         """Write the model of the bundle ``bundle`` (a ``signature`` dir) into ``path``."""
         if self._files is None:
             self._prepare(bundle)
-        path.mkdir(parents=True)
-        shutil.copytree(bundle, path / "data" / BUNDLE_DIR)
-        for name, data in self._files.items():
-            (path / name).write_bytes(data)
-        size = sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+        data_dir = path / "data" / BUNDLE_DIR
+        data_dir.mkdir(parents=True)
+        size = 0
+        for source in bundle.iterdir():     # the bundle's files (it has no sub-directory)
+            content = source.read_bytes()
+            (data_dir / source.name).write_bytes(content)
+            size += len(content)
+        for name, content in self._files.items():
+            (path / name).write_bytes(content)
+            size += len(content)
         mlmodel = dict(self._mlmodel, run_id=run_id, model_uuid=uuid.uuid4().hex,
                        model_id=None, model_size_bytes=size,
                        utc_time_created=str(pd.Timestamp.now(tz="UTC").tz_localize(None)))

@@ -20,6 +20,12 @@ the first one. A recording interrupted half-way is finished or replaced on the n
 an incomplete run (no ``fleet_health.complete`` tag) is deleted and logged again; a complete
 run without a version gets its version; a version without the alias gets the alias.
 
+On an SQLAlchemy store (embedded SQLite, PostgreSQL) a new candidate is written at once
+(:mod:`registry.write.at_once`): its artifacts, then one transaction for the run (already
+complete), its version and the alias, so an interruption leaves either nothing or the whole
+record; the key's runs are found by one direct query. Behind an ``mlflow server`` the
+client calls below do it, and the repairs above apply.
+
 A **reanalysis** records only the run, tagged ``fleet_health.reanalysis``: no model, no
 version, no alias move. Its key also names the baseline version it was compared with.
 
@@ -37,7 +43,9 @@ from mlflow.exceptions import MlflowException
 
 from registry.store import naming
 from registry.store.backend import Backend, is_not_found
+from registry.store.retry import call_with_retry
 from registry.records import FitRecord
+from registry.write.at_once import record_at_once
 from registry.write.model_files import PyfuncTemplate, model_source
 from registry.write.run_content import describe, version_tags
 from registry.write.runs import log_run
@@ -86,6 +94,10 @@ class _Alias:
     def new_version(self, version: int) -> None:
         self.pending = version
 
+    def moved(self, version: int) -> None:
+        """The alias was moved to ``version`` (the newest) with its version's transaction."""
+        self.pending = None
+
     def flush(self) -> None:
         if self.pending is not None:
             self.backend.set_alias(self.asset_id, naming.CANDIDATE, self.pending)
@@ -108,7 +120,7 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
     experiment_id = backend.experiment_id(s.vehicle_class, create=True)
     run, seen_complete = _find_runs(backend, experiment_id, fit.key)
     alarm = None if s.drift is None else s.drift.alarmed
-    if s.reanalysis:
+    if s.reanalysis and not (run is None and backend.sql_writer() is not None):
         created = run is None
         run_id = _log(backend, experiment_id, fit, s.baseline_version, template).run_id \
             if created else run.info.run_id
@@ -129,6 +141,27 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
     if s.drift is not None and baseline_version is None:
         model = backend.registered_model(s.asset_id)
         baseline_version = (model.aliases or {}).get(naming.BASELINE) if model else None
+    writer = backend.sql_writer()
+    if run is None and writer is not None and s.role == naming.CANDIDATE:
+        try:
+            run_id, version, _ = record_at_once(backend, writer, experiment_id, fit,
+                                                baseline_version, template)
+        except MlflowException as error:
+            if not is_not_found(error):
+                # perhaps the experiment was deleted since this backend saw it
+                backend.forget(s.asset_id, s.vehicle_class)
+                raise
+            # the registered model was deleted since this backend saw it
+            backend.forget(s.asset_id)
+            backend.ensure_registered_model(s.asset_id, s.vehicle_class, experiment_id)
+            run_id, version, _ = record_at_once(backend, writer, experiment_id, fit,
+                                                baseline_version, template)
+        if version is None:
+            return FitRecord(s.asset_id, s.vehicle_class, s.role, None, run_id, "", fit.key,
+                             fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
+        alias.moved(version)
+        return FitRecord(s.asset_id, s.vehicle_class, s.role, version, run_id, "", fit.key,
+                         fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
     if run is None:
         logged = _log(backend, experiment_id, fit, baseline_version, template)
         run_id, model_id, manifest_sha, source = (logged.run_id, logged.model_id,
@@ -162,9 +195,14 @@ def _log(backend: Backend, experiment_id: str, fit: ResolvedFit, baseline_versio
 def _find_runs(backend: Backend, experiment_id: str, key: str):
     """The active complete run of ``key`` (or None), and whether any complete run of it,
     deleted ones included, exists; incomplete active runs are deleted on the way."""
-    runs = backend.client.search_runs([experiment_id],
-                                      f"tags.`{naming.TAG_FIT_KEY}` = {naming.quote(key)}",
-                                      run_view_type=ViewType.ALL, max_results=50)
+    writer = backend.sql_writer()
+    if writer is not None:
+        runs = call_with_retry(writer.runs_with_tag, experiment_id, naming.TAG_FIT_KEY, key,
+                               policy=backend.retry, what="find the fit's runs")
+    else:
+        runs = backend.client.search_runs([experiment_id],
+                                          f"tags.`{naming.TAG_FIT_KEY}` = {naming.quote(key)}",
+                                          run_view_type=ViewType.ALL, max_results=50)
     complete, seen_complete = None, False
     for run in runs:
         done = run.data.tags.get(naming.TAG_COMPLETE) == "true"

@@ -11,6 +11,10 @@
    metrics, so a run tagged complete holds everything);
 4. ``set_terminated``.
 
+(The client path: baselines, and every fit behind an ``mlflow server``. A candidate on an
+SQLAlchemy store is written in one transaction instead: :mod:`registry.write.at_once`, with
+the same :func:`write_artifacts`.)
+
 A run without ``fleet_health.complete`` is an interrupted recording: the next attempt deletes
 it and logs the fit again (:mod:`registry.write.recording`).
 """
@@ -68,23 +72,13 @@ def log_run(backend: Backend, experiment_id: str, fit: ResolvedFit,
     try:
         with tempfile.TemporaryDirectory(prefix="fleet-health-") as scratch:
             root = pathlib.Path(scratch) / "artifacts"
-            bundle = root / BUNDLE_DIR
-            manifest_sha = write_bundle(bundle, s.signature, s.calibration, s.asset_id)
-            if s.drift is not None:
-                (root / DRIFT_FILE).write_text(
-                    json.dumps(drift_document(s.drift, baseline_version), indent=2))
-            if s.diagnosis is not None:
-                (root / DIAGNOSIS_FILE).write_text(
-                    json.dumps(diagnosis_document(s.diagnosis), indent=2))
-            in_run_model = s.role == naming.CANDIDATE and not s.reanalysis
-            if in_run_model:
-                template.write(root / MODEL_DIR, bundle, run_id)
-            if s.plots:
-                _draw_plots(backend, fit, root / "plots")
+            manifest_sha = write_artifacts(backend, fit, baseline_version, template, root,
+                                           run_id)
             backend.log_artifacts(run.info.artifact_uri, str(root))
             model_id = ""
             if s.role == naming.BASELINE:
-                model_id = log_logged_model(backend, experiment_id, run_id, s.asset_id, bundle,
+                model_id = log_logged_model(backend, experiment_id, run_id, s.asset_id,
+                                            root / BUNDLE_DIR,
                                             pathlib.Path(scratch) / "logged-model")
         tags = {naming.TAG_MANIFEST_SHA256: manifest_sha}
         if model_id:
@@ -101,6 +95,27 @@ def log_run(backend: Backend, experiment_id: str, fit: ResolvedFit,
         raise
     source = "" if s.reanalysis else model_source(backend, run, model_id)
     return LoggedRun(run_id, model_id, manifest_sha, source)
+
+
+def write_artifacts(backend: Backend, fit: ResolvedFit, baseline_version: int | None,
+                    template: PyfuncTemplate, root: pathlib.Path, run_id: str) -> str:
+    """Write a run's artifacts into ``root`` (created): the bundle, ``drift.json``,
+    ``diagnosis.json``, a candidate's pyfunc model and the plots; returns the bundle's
+    manifest digest."""
+    s = fit.submission
+    bundle = root / BUNDLE_DIR
+    manifest_sha = write_bundle(bundle, s.signature, s.calibration, s.asset_id)
+    if s.drift is not None:
+        (root / DRIFT_FILE).write_text(
+            json.dumps(drift_document(s.drift, baseline_version), indent=2))
+    if s.diagnosis is not None:
+        (root / DIAGNOSIS_FILE).write_text(
+            json.dumps(diagnosis_document(s.diagnosis), indent=2))
+    if s.role == naming.CANDIDATE and not s.reanalysis:
+        template.write(root / MODEL_DIR, bundle, run_id)
+    if s.plots:
+        _draw_plots(backend, fit, root / "plots")
+    return manifest_sha
 
 
 def _log_batched(backend: Backend, run_id: str, params: dict[str, str],

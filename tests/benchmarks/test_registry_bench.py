@@ -12,3 +12,10 @@ def test_nightly_path_with_history_and_an_untimed_night(tmp_path, capsys):
             "1 untimed night(s) first") in out
     for call in ("watermark", "baseline", "record", "commit_watermark", "total"):
         assert f"| {call:<16} |" in out
+
+
+def test_nightly_path_through_the_client_calls(tmp_path, capsys):
+    assert main(["--nightly", "--assets", "1", "--nights", "1", "--client-path",
+                 "--workdir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "embedded SQLite store (WAL), client path: 1 assets x 1 nights" in out

@@ -488,12 +488,18 @@ def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
         with file_lock(alerts_lock, timeout=5):
             process = _start_cli(workspace, "run", "--as-of", day(DAYS).isoformat())
             deadline = time.monotonic() + 600
-            while _watermarks_committed(workspace.db) < committed:
+            while True:
                 assert process.poll() is None, process.communicate()
                 assert time.monotonic() < deadline
-                time.sleep(0.01)
-            connection.execute("BEGIN EXCLUSIVE")
-            at_kill = _watermarks_committed(workspace.db)
+                # looked at under SQLite's lock, so none is committed between looking and
+                # killing (a watermark's commit takes a few ms: polling without the lock
+                # could see all of them at once)
+                connection.execute("BEGIN EXCLUSIVE")
+                at_kill = _watermarks_committed(workspace.db)
+                if at_kill >= committed:
+                    break
+                connection.execute("ROLLBACK")
+                time.sleep(0.001)
             os.kill(process.pid, signal.SIGKILL)
             process.communicate()
             connection.execute("ROLLBACK")

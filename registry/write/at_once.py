@@ -1,0 +1,109 @@
+"""A new candidate recorded at once: its artifacts, then one transaction for the run, its
+version and the ``candidate`` alias (:class:`registry.store.sql_writes.SqlWriter`).
+
+The records are those of the client path (:func:`registry.write.runs.log_run` then
+``create_model_version`` and the alias), with the same tags, params, metrics, artifacts and
+version. The run id is chosen here, so the artifacts are written straight into the run's
+artifact directory when it is a local one (no scratch copy) before the transaction.
+
+Crash safety: until the transaction commits nothing of the fit is in the store, and a
+recording interrupted before it leaves only an artifact directory no run points at (removed
+when the transaction fails in this process and the run is then surely absent); the next
+attempt writes a new run. After it, the
+fit is complete with its version and alias, and a second recording finds it by its key.
+"""
+from __future__ import annotations
+
+import pathlib
+import shutil
+import tempfile
+import uuid
+
+from registry.store import naming
+from registry.store.backend import Backend
+from registry.store.retry import call_with_retry
+from registry.store.sql_writes import RunRows, SqlWriter, VersionRows, now_ms
+from registry.write.model_files import MODEL_DIR, PyfuncTemplate
+from registry.write.run_content import (describe, fit_metrics, run_tags, structure_params,
+                                        version_tags)
+from registry.write.runs import write_artifacts
+from registry.write.submission import ResolvedFit
+
+ARTIFACTS_FOLDER = "artifacts"      # MLflow's: <experiment location>/<run id>/artifacts
+
+
+def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit: ResolvedFit,
+                   baseline_version: int | None, template: PyfuncTemplate
+                   ) -> tuple[str, int | None, str]:
+    """Record a new candidate (or reanalysis) fit; returns its run id, its version (None for
+    a reanalysis) and its manifest digest.
+
+    Raises
+    ------
+    mlflow.exceptions.MlflowException
+        From the store; ``RESOURCE_DOES_NOT_EXIST`` when the registered model is gone.
+    """
+    from mlflow.utils.uri import append_to_uri_path
+
+    s = fit.submission
+    run_id = uuid.uuid4().hex
+    started = now_ms()
+    location = call_with_retry(writer.artifact_location, experiment_id, policy=backend.retry,
+                               what="read the experiment")
+    artifact_uri = append_to_uri_path(location, run_id, ARTIFACTS_FOLDER)
+    local = _local_root(backend, artifact_uri)
+    if local is not None:
+        local.mkdir(parents=True)
+        manifest_sha = _write_here(backend, fit, baseline_version, template, local, run_id)
+    else:
+        with tempfile.TemporaryDirectory(prefix="fleet-health-") as scratch:
+            root = pathlib.Path(scratch) / ARTIFACTS_FOLDER
+            manifest_sha = write_artifacts(backend, fit, baseline_version, template, root,
+                                           run_id)
+            backend.log_artifacts(artifact_uri, str(root))
+    tags = dict(run_tags(fit, baseline_version))
+    tags[naming.TAG_MANIFEST_SHA256] = manifest_sha
+    tags[naming.TAG_COMPLETE] = "true"
+    run = RunRows(run_id, experiment_id, fit.run_name, artifact_uri, started, tags,
+                  structure_params(s.signature),
+                  fit_metrics(s.signature, s.calibration, s.drift))
+    version = None if s.reanalysis else VersionRows(
+        naming.model_name(s.asset_id), f"{artifact_uri.rstrip('/')}/{MODEL_DIR}",
+        version_tags(fit, run_id, "", manifest_sha, baseline_version),
+        describe(fit, baseline_version), alias=naming.CANDIDATE)
+    try:
+        number = call_with_retry(writer.write, run, version, policy=backend.retry,
+                                 what="record the fit")
+    except BaseException:
+        if local is not None and _surely_absent(writer, run_id):
+            shutil.rmtree(local.parent, ignore_errors=True)
+        raise
+    return run_id, number, manifest_sha
+
+
+def _surely_absent(writer: SqlWriter, run_id: str) -> bool:
+    """Whether the run is known not to be in the store (a commit whose answer was lost may
+    have written it: then its artifacts stay)."""
+    try:
+        return not writer.run_exists(run_id)
+    except Exception:  # noqa: BLE001 - unknown: keep the artifacts
+        return False
+
+
+def _local_root(backend: Backend, artifact_uri: str) -> pathlib.Path | None:
+    """The run's artifact directory when the artifact store is local, else None."""
+    from mlflow.utils.file_utils import local_file_uri_to_path
+
+    local = backend.store.local_artifact_uri(artifact_uri)
+    return pathlib.Path(local_file_uri_to_path(local)) if local.startswith("file:") else None
+
+
+def _write_here(backend: Backend, fit: ResolvedFit, baseline_version, template, root, run_id):
+    try:
+        return write_artifacts(backend, fit, baseline_version, template, root, run_id)
+    except BaseException:
+        shutil.rmtree(root.parent, ignore_errors=True)
+        raise
+
+
+__all__ = ["record_at_once"]
