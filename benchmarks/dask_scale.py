@@ -172,22 +172,7 @@ class Postgres:
         self.server.socket_dir = self.server.base / "socket"
 
     def start(self) -> "Postgres":
-        server = self.server
-        if (server.data / "PG_VERSION").exists():
-            server.socket_dir.mkdir(exist_ok=True)
-            if server.as_root:
-                shutil.chown(server.socket_dir, PG_USER)
-            options = (f"-p {server.port} -k {server.socket_dir} "
-                       f"-c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off "
-                       f"-c full_page_writes=off -c max_connections=200")
-            server._run(str(server.bin_dir / "pg_ctl"), "-D", str(server.data), "-o", options,
-                        "-l", str(server.base / "server.log"), "-w", "-t", "60", "start")
-            server.started = True
-        else:
-            server.base.mkdir(parents=True, exist_ok=True)
-            if server.as_root:
-                shutil.chown(server.base, PG_USER)
-            server.start()
+        self.server.start()    # a --reuse work directory's cluster starts again as it was
         return self
 
     @property

@@ -71,12 +71,16 @@ class PostgresServer:
                                f"{done.stdout}{done.stderr}{tail}")
 
     def start(self) -> "PostgresServer":
-        self.socket_dir.mkdir()
+        """Start the server, creating its cluster first unless ``data`` holds one (a
+        cluster stopped earlier starts again with its databases)."""
+        self.base.mkdir(parents=True, exist_ok=True)
+        self.socket_dir.mkdir(exist_ok=True)
         if self.as_root:
             shutil.chown(self.base, SERVER_USER)
             shutil.chown(self.socket_dir, SERVER_USER)
-        self._run(str(self.bin_dir / "initdb"), "-D", str(self.data), "-U", SERVER_USER,
-                  "--auth=trust", "-E", "UTF8", "--locale=C", "--no-sync")
+        if not (self.data / "PG_VERSION").exists():
+            self._run(str(self.bin_dir / "initdb"), "-D", str(self.data), "-U", SERVER_USER,
+                      "--auth=trust", "-E", "UTF8", "--locale=C", "--no-sync")
         options = (f"-p {self.port} -k {self.socket_dir} -c listen_addresses=127.0.0.1 "
                    f"-c fsync=off -c synchronous_commit=off -c full_page_writes=off "
                    f"-c max_connections=200")

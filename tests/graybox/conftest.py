@@ -1,5 +1,6 @@
 """Small shared builders for graybox tests (records made by hand, no fitting)."""
 import numpy as np
+import pandas as pd
 import pytest
 
 from graybox.linear_tier import LinearTier
@@ -8,6 +9,15 @@ from graybox.noise_tier import NoiseTier
 from graybox.nonlinear_tier import NonlinearTier
 from graybox.settings import GrayBoxSettings
 from graybox.signature import ChannelSignature, ChannelStructure, Selection, Signature
+
+
+def raw_frame(**channels) -> pd.DataFrame:
+    """Raw rows of ``channels`` every 10 s from 2026-01-04, tagged with file and row."""
+    n = len(next(iter(channels.values())))
+    frame = pd.DataFrame({"timestamp": pd.date_range("2026-01-04", periods=n, freq="10s",
+                                                     tz="UTC"), **channels})
+    frame["_file"], frame["_row"] = "/t/part-0.parquet", np.arange(n)
+    return frame
 
 
 def make_channel(name="omega", a=(0.5, -0.2), w=None, W=None, moments=(0.0, 1.0, 0.0, 0.0),

@@ -3,24 +3,16 @@ how far it went against its limit (known answers on 10-s telemetry)."""
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from graybox.alert import SENSOR, sensor_alert
 from graybox.exceptions import TelemetryError
 from graybox.severity import SeverityScale
 from graybox.telemetry import GridPolicy, validate
+from tests.graybox.conftest import raw_frame
 
 NIGHT = dict(vehicle_class="pump", window_start="2026-01-04T00:00:00+00:00",
              window_end="2026-01-05T00:00:00+00:00")
-
-
-def _raw(**channels) -> pd.DataFrame:
-    n = len(next(iter(channels.values())))
-    frame = pd.DataFrame({"timestamp": pd.date_range("2026-01-04", periods=n, freq="10s",
-                                                     tz="UTC"), **channels})
-    frame["_file"], frame["_row"] = "/t/part-0.parquet", np.arange(n)
-    return frame
 
 
 def _error(frame, policy=GridPolicy()) -> TelemetryError:
@@ -36,7 +28,7 @@ def _speed():
 def test_a_stuck_sensor_is_an_alert_of_its_channel_graded_by_how_long_it_held():
     speed = _speed()
     speed[100:190] = speed[100]            # 90 samples of 10 s hold one value: 900 s
-    error = _error(_raw(speed=speed, flow=_speed()))
+    error = _error(raw_frame(speed=speed, flow=_speed()))
     assert (error.kind, error.channel, error.row) == ("stuck_channel", "speed", 100)
     assert error.excess == (900.0, 600.0)  # held 15 min, stuck_after 10 min
     alert = sensor_alert(error, **NIGHT)
@@ -53,7 +45,7 @@ def test_a_stuck_sensor_is_an_alert_of_its_channel_graded_by_how_long_it_held():
 def test_an_impossible_reading_is_an_alert_graded_by_its_distance_from_the_range():
     speed = _speed()
     speed[50] = 1150.0
-    error = _error(_raw(speed=speed), GridPolicy(ranges={"speed": [900, 1100]}))
+    error = _error(raw_frame(speed=speed), GridPolicy(ranges={"speed": [900, 1100]}))
     assert (error.kind, error.channel, error.row) == ("out_of_range", "speed", 50)
     assert error.excess == (150.0, 100.0)  # 150 from the range's centre 1000, 100 allowed
     alert = sensor_alert(error, **NIGHT)
@@ -63,7 +55,7 @@ def test_an_impossible_reading_is_an_alert_graded_by_its_distance_from_the_range
 
 
 def test_the_data_s_faults_are_not_a_sensor_s():
-    frame = _raw(speed=_speed()).drop(index=range(300, 330)).reset_index(drop=True)
+    frame = raw_frame(speed=_speed()).drop(index=range(300, 330)).reset_index(drop=True)
     error = _error(frame)
     assert error.kind == "gap" and error.channel is None
     assert sensor_alert(error, **NIGHT) is None

@@ -2,19 +2,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from graybox.exceptions import TelemetryError
 from graybox.telemetry import GridPolicy, validate
-
-
-def _raw(**channels) -> pd.DataFrame:
-    n = len(next(iter(channels.values())))
-    frame = pd.DataFrame({"timestamp": pd.date_range("2026-01-04", periods=n, freq="10s",
-                                                     tz="UTC"), **channels})
-    frame["_file"], frame["_row"] = "/t/part-0.parquet", np.arange(n)
-    return frame
+from tests.graybox.conftest import raw_frame
 
 
 RNG = np.random.default_rng(0)
@@ -23,14 +15,14 @@ SPEED = 1000 + RNG.normal(0, 5, 720)
 
 def test_healthy_channels_pass():
     step = np.where(np.arange(720) < 700, 100.0, 120.0)     # a setpoint step, 3 % of samples
-    validate(_raw(speed=SPEED, setpoint=step), "A-1", GridPolicy(stuck_after=0))
+    validate(raw_frame(speed=SPEED, setpoint=step), "A-1", GridPolicy(stuck_after=0))
 
 
 def test_fault_huge_sample_is_out_of_range_at_its_row():
     speed = SPEED.copy()
     speed[321] = 1e10
     with pytest.raises(TelemetryError) as caught:
-        validate(_raw(speed=speed), "A-1")
+        validate(raw_frame(speed=speed), "A-1")
     error = caught.value
     assert (error.kind, error.file, error.row, error.asset_id) == \
         ("out_of_range", "/t/part-0.parquet", 321, "A-1")
@@ -42,15 +34,15 @@ def test_fault_value_outside_the_configured_range():
     speed[50] = 1100.0                                      # plausible by spread, not by range
     policy = GridPolicy(ranges={"speed": [900, 1090]})
     with pytest.raises(TelemetryError, match=r"outside its range \[900, 1090\]") as caught:
-        validate(_raw(speed=speed), "A-1", policy)
+        validate(raw_frame(speed=speed), "A-1", policy)
     assert caught.value.row == 50
-    validate(_raw(speed=speed), "A-1", GridPolicy())         # the default spread accepts it
+    validate(raw_frame(speed=speed), "A-1", GridPolicy())         # the default spread accepts it
 
 
 def test_spread_check_off_and_bad_ranges():
     speed = SPEED.copy()
     speed[321] = 1e10
-    validate(_raw(speed=speed), "A-1", GridPolicy(plausible_spread=0))
+    validate(raw_frame(speed=speed), "A-1", GridPolicy(plausible_spread=0))
     for ranges in ({"speed": [2, 1]}, {"speed": [0]}, {"speed": [0, float("inf")]}):
         with pytest.raises(ValueError, match="ranges"):
             GridPolicy(ranges=ranges)

@@ -156,8 +156,9 @@ def test_the_one_transaction_path_reads_back_as_the_client_path(two_stores, fits
     assert (again.created, again.version, again.run_id) == (False, 2, new.run_id)
 
 
-def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry, fits,
-                                                                       monkeypatch):
+def _promoted_baseline_and_a_night(registry, fits):
+    """The asset's baseline recorded and promoted; the store's SQL writer and the night's
+    candidate submission, not yet recorded."""
     from registry import FitSubmission
 
     base = registry.record_fit(ASSET, "turbine", fits.baseline, role="baseline",
@@ -165,11 +166,15 @@ def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry,
                                window_end=DAY0 + pd.Timedelta(days=4), data_hash="b",
                                plots=False)
     registry.promote(ASSET, base.version, reason="healthy")
-    writer = registry.backend.sql_writer()
-    submission = FitSubmission(ASSET, "turbine", fits.candidate, role="candidate",
-                               drift=fits.drift, window_start=NIGHT,
-                               window_end=NIGHT + pd.Timedelta(days=1), data_hash="night-5",
-                               plots=False)
+    return registry.backend.sql_writer(), FitSubmission(
+        ASSET, "turbine", fits.candidate, role="candidate", drift=fits.drift,
+        window_start=NIGHT, window_end=NIGHT + pd.Timedelta(days=1), data_hash="night-5",
+        plots=False)
+
+
+def test_a_failed_transaction_leaves_no_run_version_alias_or_artifacts(registry, fits,
+                                                                       monkeypatch):
+    writer, submission = _promoted_baseline_and_a_night(registry, fits)
     artifacts = pathlib.Path(local_file_uri_to_path(registry.backend.store.artifact_root))
     before = sorted(artifacts.rglob("*"))
 
@@ -208,18 +213,7 @@ def test_no_writer_for_a_server_store():
 
 def test_a_commit_whose_answer_is_lost_keeps_its_artifacts_and_is_found_again(registry, fits,
                                                                                monkeypatch):
-    from registry import FitSubmission
-
-    base = registry.record_fit(ASSET, "turbine", fits.baseline, role="baseline",
-                               calibration=fits.calibration, window_start=DAY0,
-                               window_end=DAY0 + pd.Timedelta(days=4), data_hash="b",
-                               plots=False)
-    registry.promote(ASSET, base.version, reason="healthy")
-    writer = registry.backend.sql_writer()
-    submission = FitSubmission(ASSET, "turbine", fits.candidate, role="candidate",
-                               drift=fits.drift, window_start=NIGHT,
-                               window_end=NIGHT + pd.Timedelta(days=1), data_hash="night-5",
-                               plots=False)
+    writer, submission = _promoted_baseline_and_a_night(registry, fits)
     written = writer.write
 
     def committed_then_lost(*args):
