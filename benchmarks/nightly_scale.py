@@ -18,6 +18,11 @@ For each N, in a fresh work directory:
 Every child gets its own ``PREFECT_HOME`` in the work directory and 180 s for Prefect's
 server to start (the default 20 s is missed on a loaded machine). Raw results go to
 ``<workdir>/nightly_scale.json``; ``--rerender FILE`` renders a saved one again.
+
+``--keep`` also keeps, in ``<workdir>/n<N>/after-baseline/``, the store as the baseline left
+it; ``--reuse`` then starts each N from there (the telemetry and baselines of that earlier
+run, its baseline figures reported) and measures only the nights: a 1,000-asset baseline
+takes half an hour, and the night is best measured on a quiet machine.
 """
 from __future__ import annotations
 
@@ -43,6 +48,7 @@ REPO = pathlib.Path(__file__).resolve().parents[1]
 START = datetime.date(2026, 1, 1)
 SIMULATION_CHUNK = 8        # vehicles simulated at once (bounds the parent's memory)
 STARTUP_TIMEOUT = "180"
+AFTER_BASELINE = "after-baseline"   # the store as the baseline left it (--keep, --reuse)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -65,7 +71,12 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workdir", help="where the fleets go (default: a temporary "
                                           "directory, removed afterwards)")
-    parser.add_argument("--keep", action="store_true", help="keep each N's work directory")
+    parser.add_argument("--keep", action="store_true",
+                        help="keep each N's work directory and its store right after the "
+                             "baseline (for --reuse)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="start each N from the baseline a --keep run left in the same "
+                             "--workdir (its figures reported again); measure the nights only")
     parser.add_argument("--out", help="write the Markdown report here (docs/performance.md)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: N = 2, 3 baseline days at 10-s samples")
@@ -107,6 +118,33 @@ def generate(root: pathlib.Path, n: int, days: int, seed: int, sample_interval: 
     config = config.replace("\n[schedule]", f'memory_budget = "{memory_budget}"\n\n[schedule]')
     (root / "fleet.toml").write_text(config)
     return time.perf_counter() - began
+
+
+def keep_baseline(workdir: pathlib.Path, generated: float, baseline: dict) -> None:
+    """Copy the store (everything but the telemetry) and the baseline's figures into
+    ``workdir/after-baseline``."""
+    kept = workdir / AFTER_BASELINE
+    shutil.copytree(workdir, kept, ignore=lambda d, names: [
+        name for name in names if d == str(workdir) and name in ("telemetry", AFTER_BASELINE)])
+    (kept / "baseline.json").write_text(json.dumps({"generate_seconds": generated,
+                                                    "baseline": baseline}))
+
+
+def restore_baseline(workdir: pathlib.Path) -> tuple[float, dict]:
+    """Put back the store :func:`keep_baseline` kept; returns its generation seconds and
+    baseline figures."""
+    kept = workdir / AFTER_BASELINE
+    saved = kept / "baseline.json"
+    if not saved.exists():
+        raise SystemExit(f"--reuse: {saved} does not exist; run with --keep and the same "
+                         "--workdir and --sizes first")
+    for path in workdir.iterdir():
+        if path.name not in ("telemetry", AFTER_BASELINE):
+            shutil.rmtree(path) if path.is_dir() else path.unlink()
+    shutil.copytree(kept, workdir, dirs_exist_ok=True,
+                    ignore=lambda d, names: ["baseline.json"] if d == str(kept) else [])
+    figures = json.loads(saved.read_text())
+    return figures["generate_seconds"], figures["baseline"]
 
 
 def child_environment(workdir: pathlib.Path) -> dict:
@@ -156,13 +194,20 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
     days = args.baseline_days + warmup + 1
     base_end = START + datetime.timedelta(days=args.baseline_days)
     as_of = START + datetime.timedelta(days=days)
-    say(f"N = {n}: simulating {n} x {days} days at {args.sample_interval:g} s ...")
-    generated = generate(workdir, n, days, args.seed, args.sample_interval, args.batch_size,
-                         args.memory_budget, args.candidate_nights)
-    say(f"N = {n}: baseline fit ({n} x {args.baseline_days} asset-days) ...")
-    baseline = fleet_health(workdir, "baseline", "baseline", "fit", "--all",
-                            "--start", START.isoformat(), "--end", base_end.isoformat(),
-                            "--promote", "--reason", "nightly_scale benchmark")
+    kept = workdir / AFTER_BASELINE
+    if args.reuse:
+        say(f"N = {n}: the store as the baseline left it, from {kept} ...")
+        generated, baseline = restore_baseline(workdir)
+    else:
+        say(f"N = {n}: simulating {n} x {days} days at {args.sample_interval:g} s ...")
+        generated = generate(workdir, n, days, args.seed, args.sample_interval,
+                             args.batch_size, args.memory_budget, args.candidate_nights)
+        say(f"N = {n}: baseline fit ({n} x {args.baseline_days} asset-days) ...")
+        baseline = fleet_health(workdir, "baseline", "baseline", "fit", "--all",
+                                "--start", START.isoformat(), "--end", base_end.isoformat(),
+                                "--promote", "--reason", "nightly_scale benchmark")
+        if args.keep:
+            keep_baseline(workdir, generated, baseline)
     if warmup:
         say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; {warmup} night(s) before the "
             "measured one ...")
@@ -211,9 +256,9 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
                "sizes": []}
     for n in args.sizes:
         workdir = root / f"n{n}"
-        if workdir.exists():
+        if workdir.exists() and not args.reuse:
             shutil.rmtree(workdir)
-        workdir.mkdir()
+        workdir.mkdir(exist_ok=True)
         results["sizes"].append(run_size(workdir, n, args))
         if not args.keep:
             shutil.rmtree(workdir)

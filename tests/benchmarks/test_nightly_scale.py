@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from benchmarks.measured_process import run_measured
-from benchmarks.nightly_scale import parse_args
+from benchmarks.nightly_scale import keep_baseline, parse_args, restore_baseline
 from benchmarks.scale_floor import Structure, flops_per_asset_night, matmul_rate
 from benchmarks.scale_report import derive, render_markdown, render_text, target_checks
 
@@ -69,6 +69,30 @@ def test_quick_is_two_assets_at_ten_seconds():
     assert (args.sizes, args.baseline_days, args.sample_interval) == ([2], 3, 10.0)
     with pytest.raises(SystemExit):
         parse_args(["--baseline-days", "2"])
+
+
+def test_the_store_after_the_baseline_is_kept_and_restored(tmp_path):
+    # --keep saves everything but the telemetry; --reuse puts it back as it was and removes
+    # what the nights added, leaving the telemetry alone
+    work = tmp_path / "n3"
+    (work / "telemetry" / "asset_id=A").mkdir(parents=True)
+    (work / "telemetry" / "asset_id=A" / "day.parquet").write_text("rows")
+    (work / "mlartifacts" / "1").mkdir(parents=True)
+    (work / "mlflow.db").write_text("baselines")
+    (work / "mlartifacts" / "1" / "signature.json").write_text("{}")
+    with pytest.raises(SystemExit, match="run with --keep"):
+        restore_baseline(work)
+    keep_baseline(work, 1.5, {"wall": 40.0})
+    assert not (work / "after-baseline" / "telemetry").exists()
+    (work / "mlflow.db").write_text("baselines and a night")
+    (work / "mlartifacts" / "2").mkdir()
+    (work / "fleet-alerts.jsonl").write_text("{}")
+    assert restore_baseline(work) == (1.5, {"wall": 40.0})
+    assert (work / "mlflow.db").read_text() == "baselines"
+    assert sorted(p.name for p in (work / "mlartifacts").iterdir()) == ["1"]
+    assert not (work / "fleet-alerts.jsonl").exists() and not (work / "baseline.json").exists()
+    assert (work / "telemetry" / "asset_id=A" / "day.parquet").read_text() == "rows"
+    assert restore_baseline(work) == (1.5, {"wall": 40.0})      # as often as one likes
 
 
 @pytest.mark.slow
