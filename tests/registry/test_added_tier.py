@@ -6,21 +6,17 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from graybox import FitRequest, GrayBox, compute_drift, fit_signatures, load_model
-from graybox.simulation import FleetSpec, VehicleSpec, simulate_fleet
+from graybox import FitRequest, GrayBox, compute_drift, fit_signatures
 from graybox.tiers import TIER_KINDS, TIERS
 from registry.write.plots import zeta_trend_figure
-from tests.graybox.test_new_tier import MeanAbsoluteTier
+from tests.graybox.test_new_tier import MeanAbsoluteTier, simulated_days
 
 KINDS = TIER_KINDS + (MeanAbsoluteTier(),)
 
 
 @pytest.fixture(scope="module")
 def added():
-    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 41),), days=4))["V-1"]
-    frames = frames.set_index("timestamp")
-    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
-    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    model, days = simulated_days(41, 4)
     box = GrayBox(model, kinds=KINDS).fit(days[:3])
     candidate = fit_signatures([FitRequest(model, days[3:], baseline=box.signature_)],
                                kinds=KINDS)[0]
