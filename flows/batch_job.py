@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import asdict, dataclass, field, replace
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from graybox.stage_clock import StageClock
 
 from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef
 from flows.results import AssetResult
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the pipeline imports the batching, it this)
+    from flows.pipeline import BatchPlan
 
 
 @dataclass
@@ -121,9 +124,27 @@ class BatchJob:
         module, name = BATCH_FLOWS[self.flow].planner.split(":")
         return getattr(importlib.import_module(module), name)
 
+    def plan(self, clock: StageClock | None = None) -> tuple[FleetConfig, BatchPlan]:
+        """Load the configuration and plan the batch with the flow's planner.
+
+        Parameters
+        ----------
+        clock : StageClock, optional
+            Accumulates the seconds of the planning's stages.
+
+        Returns
+        -------
+        config : FleetConfig
+            The fleet.toml's configuration, on the job's registry.
+        plan : BatchPlan
+            The batch's plan, for :func:`flows.pipeline.execute`.
+        """
+        config = load_config(self.config_path).with_tracking_uri(self.tracking_uri)
+        return config, self.planner()(config, list(self.refs), **self.options, clock=clock)
+
     def run(self) -> BatchOutput:
-        """Process the batch: load the configuration, plan the batch with the flow's
-        planner and execute the plan.
+        """Plan the batch (:meth:`plan`) and execute the plan, as the batch task does with the
+        job it is given (:func:`flows.batching.batch_task`).
 
         Returns
         -------
@@ -132,7 +153,6 @@ class BatchJob:
         """
         from flows.pipeline import execute   # the pipeline imports the batching, and it this
 
-        config = load_config(self.config_path).with_tracking_uri(self.tracking_uri)
         clock = StageClock()
-        plan = self.planner()(config, list(self.refs), **self.options, clock=clock)
+        config, plan = self.plan(clock)
         return BatchOutput(execute(config, plan, clock), clock.to_dict())

@@ -67,8 +67,13 @@ def batch_task(flow: str) -> Task:
     names = BATCH_FLOWS[flow]
 
     def run_batch(job: dict, label: str) -> dict:
-        """One batch of assets (a Prefect task: retried on transient errors)."""
-        return BatchJob.from_dict(job).run().to_dict()
+        """One batch of assets (a Prefect task: retried on transient errors): its flow's
+        planner plans it, :func:`flows.pipeline.execute` runs the plan."""
+        from flows.pipeline import execute   # the pipeline imports this module
+
+        clock = StageClock()
+        config, plan = BatchJob.from_dict(job).plan(clock)
+        return BatchOutput(execute(config, plan, clock), clock.to_dict()).to_dict()
 
     # Dask names a task's keys after its function: one name per flow, e.g. nightly_batch
     run_batch.__name__ = run_batch.__qualname__ = f"{flow}_batch"

@@ -52,6 +52,17 @@ class ChannelSignature:
     #: written only when present, so signatures without the tiers read and write as before
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"level", "tiers"})
 
+    def tier_names(self) -> tuple[str, ...]:
+        """The names of the tiers this channel holds, read from its records: the built-in
+        tiers present (in :data:`TIERS` order), then the added ones kept in ``tiers``.
+
+        Returns
+        -------
+        tuple of str
+        """
+        built_in = tuple(kind.name for kind in TIER_KINDS if kind.present(self))
+        return built_in + tuple(name for name in (self.tiers or {}) if name not in built_in)
+
 
 @dataclass(frozen=True)
 class HiddenStart:

@@ -17,7 +17,7 @@ from graybox.tiers.noise import NoiseTierKind
 from graybox.tiers.nonlinear import NonlinearTierKind, network_function, reference_set
 
 __all__ = ["Tier", "LinearTierKind", "NonlinearTierKind", "NoiseTierKind", "LevelTierKind",
-           "TIER_KINDS", "TIERS", "tier_kind", "network_function", "reference_set"]
+           "TIER_KINDS", "TIERS", "tier_kind", "tier_order", "network_function", "reference_set"]
 
 #: the tier kinds, in the order of every table, plot and parameter vector
 TIER_KINDS: tuple[Tier, ...] = (LinearTierKind(), NonlinearTierKind(), NoiseTierKind(),
@@ -25,6 +25,22 @@ TIER_KINDS: tuple[Tier, ...] = (LinearTierKind(), NonlinearTierKind(), NoiseTier
 
 #: their names, in the same order
 TIERS: tuple[str, ...] = tuple(kind.name for kind in TIER_KINDS)
+
+
+def tier_order(tier: str) -> tuple[int, str]:
+    """Where the tier called ``tier`` sorts in a table or plot: the built-in tiers in
+    :data:`TIERS` order, then tiers added through ``kinds=`` by name.
+
+    Parameters
+    ----------
+    tier : str
+
+    Returns
+    -------
+    tuple of (int, str)
+        A sort key.
+    """
+    return (TIERS.index(tier), "") if tier in TIERS else (len(TIERS), tier)
 
 
 def tier_kind(tier: str, kinds: tuple[Tier, ...] = TIER_KINDS) -> Tier:

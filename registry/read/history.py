@@ -20,7 +20,7 @@ from mlflow.exceptions import MlflowException
 
 from graybox.drift import Drift
 from graybox.exceptions import ArtifactError
-from graybox.signature import TIERS
+from graybox.tiers import tier_order
 from registry.store import naming
 from graybox.alert import NIGHTLY, Alert, alerts_from_drift
 from graybox.severity import SeverityScale
@@ -92,9 +92,8 @@ def zeta_history(backend: Backend, asset_id: str, last: int | None = None) -> pd
                          "run_id": run.info.run_id,
                          "baseline_version": tags.get(naming.TAG_BASELINE_VERSION)})
     frame = pd.DataFrame(rows, columns=list(HISTORY_COLUMNS))
-    order = {tier: i for i, tier in enumerate(TIERS)}
     if len(frame):
-        frame = frame.assign(_t=frame["tier"].map(order)).sort_values(
+        frame = frame.assign(_t=frame["tier"].map(tier_order)).sort_values(
             ["window_end", "channel", "_t"]).drop(columns="_t").reset_index(drop=True)
     return frame
 

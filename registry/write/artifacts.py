@@ -75,8 +75,10 @@ def sha256_bytes(data: bytes) -> str:
 
 
 def weight_tensors(signature: Signature) -> dict[str, np.ndarray]:
-    """Every tier's parameters as float64 arrays, named ``<channel>.<tier>.<part>``; each tier
-    kind names its parts (:meth:`graybox.tiers.Tier.tensors`).
+    """Every built-in tier's parameters as float64 arrays, named ``<channel>.<tier>.<part>``;
+    each tier kind names its parts (:meth:`graybox.tiers.Tier.tensors`). A tier added through
+    ``kinds=`` is kept in ``signature.json`` (pinned by the manifest) only: its arrays need its
+    kind, which the registry is not given.
 
     ``<channel>.nonlinear.input_weights`` has shape (J, m), ``.output_weights`` (J,),
     ``<channel>.linear.coefficients`` (n,), ``<channel>.noise.moments`` (4,) and, when the
@@ -198,8 +200,7 @@ def read_bundle(directory: str | pathlib.Path, where: str | None = None,
         except ArtifactError as error:
             raise fail(CALIBRATION_FILE, str(error)) from None
     if calibration is not None:
-        needed = {(c.channel, kind.name) for c in signature.channels for kind in TIER_KINDS
-                  if kind.present(c)}
+        needed = {(c.channel, tier) for c in signature.channels for tier in c.tier_names()}
         given = {(t.channel, t.tier) for t in calibration.thresholds}
         if given != needed:
             raise fail(CALIBRATION_FILE, f"thresholds must cover exactly the signature's "

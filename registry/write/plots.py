@@ -27,7 +27,8 @@ from matplotlib.figure import Figure
 from graybox.autocovariance import autocorrelation as series_autocorrelation
 from graybox.decompose import ChannelDecomposition
 from graybox.diagnosis import Diagnosis
-from graybox.signature import TIERS, Signature
+from graybox.signature import Signature
+from graybox.tiers import TIERS, tier_order
 from graybox.alert_diagnosis import NO_SINGLE_CAUSE, cause_text, hypothesis_entry
 
 ZOOM_SAMPLES = 400
@@ -141,10 +142,12 @@ def zeta_trend_figure(history: pd.DataFrame, title: str = "") -> Figure:
         ``Registry.zeta_history``).
     """
     channels = list(dict.fromkeys(history["channel"])) if len(history) else ["(none)"]
-    figure = _figure(4.2 * len(TIERS), 2.8 * len(channels))
-    axes = figure.subplots(len(channels), len(TIERS), squeeze=False, sharex=True)
+    # the built-in tiers always, and any tier added through ``kinds=`` that has nights
+    tiers = sorted(set(TIERS) | set(history["tier"] if len(history) else ()), key=tier_order)
+    figure = _figure(4.2 * len(tiers), 2.8 * len(channels))
+    axes = figure.subplots(len(channels), len(tiers), squeeze=False, sharex=True)
     for row, channel in zip(axes, channels):
-        for axis, tier in zip(row, TIERS):
+        for axis, tier in zip(row, tiers):
             part = history[(history["channel"] == channel) & (history["tier"] == tier)] \
                 if len(history) else history
             part = part.sort_values("window_end")

@@ -21,7 +21,7 @@ from typing import Any
 
 from graybox.calibration import Calibration
 from graybox.drift import Drift
-from graybox.signature import TIERS, Signature
+from graybox.signature import Signature
 from registry.store import naming
 from graybox.alert_diagnosis import diagnosis_document
 from registry.write.submission import ResolvedFit
@@ -89,11 +89,12 @@ def parse_entry_metric(name: str) -> tuple[str, str, str] | None:
     """``(kind, channel, tier)`` of a metric named by :func:`entry_metric`, else None.
 
     The channel is as it appears in the name (characters MLflow does not allow in a key are
-    replaced by ``_``); ``drift.json`` holds the exact names.
+    replaced by ``_``); ``drift.json`` holds the exact names. Any tier name is read, so a tier
+    added through ``kinds=`` is read back like the built-in ones.
     """
     kind, _, rest = name.partition(".")
     channel, _, tier = rest.rpartition(".")
-    if kind not in ENTRY_METRICS or tier not in TIERS or not channel:
+    if kind not in ENTRY_METRICS or not tier or not channel:
         return None
     return kind, channel, tier
 

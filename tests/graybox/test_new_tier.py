@@ -41,12 +41,18 @@ class MeanAbsoluteTier(Tier):
 KINDS = TIER_KINDS + (MeanAbsoluteTier(),)
 
 
+def simulated_days(seed: int, days: int):
+    """The turbine model and vehicle V-1 (of ``seed``) simulated for ``days`` days, a frame
+    per day."""
+    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", seed),), days=days))["V-1"]
+    frames = frames.set_index("timestamp")
+    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    return model, [day for _, day in frames.groupby(frames.index.floor("1D"))]
+
+
 @pytest.fixture(scope="module")
 def fits():
-    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 40),), days=3))["V-1"]
-    frames = frames.set_index("timestamp")
-    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
-    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    model, days = simulated_days(40, 3)
     plain = fit_signatures([FitRequest(model, days[:2], asset_id="V-1")])[0]
     baseline = fit_signatures([FitRequest(model, days[:2], asset_id="V-1")], kinds=KINDS)[0]
     candidate = fit_signatures([FitRequest(model, days[2:], baseline=baseline)],
@@ -97,10 +103,7 @@ def test_the_new_tier_has_its_drift(fits):
 
 
 def test_the_new_tier_is_calibrated_like_the_others():
-    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 41),), days=4))["V-1"]
-    frames = frames.set_index("timestamp")
-    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
-    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    model, days = simulated_days(41, 4)
     (baseline, calibration), = fit_baselines([FitRequest(model, days[:3], asset_id="V-1")],
                                              kinds=KINDS)
     threshold = calibration.threshold("omega", "mean_abs")
@@ -114,10 +117,7 @@ def test_the_new_tier_is_calibrated_like_the_others():
 
 
 def test_the_estimator_fits_calibrates_and_compares_the_tiers_it_is_given():
-    frames = simulate_fleet(FleetSpec((VehicleSpec("V-1", 41),), days=4))["V-1"]
-    frames = frames.set_index("timestamp")
-    days = [day for _, day in frames.groupby(frames.index.floor("1D"))]
-    model = load_model("graybox.models:GasTurbineShaft", {}, {"omega": "shaft_speed"})
+    model, days = simulated_days(41, 4)
     box = GrayBox(model, kinds=KINDS).fit(days[:3])
     assert box.kinds is KINDS  # stored as given (scikit-learn's rule)
     # the same baseline and calibration as the fleet form with the same kinds
