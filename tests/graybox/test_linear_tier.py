@@ -75,3 +75,17 @@ def test_segments_are_pooled_without_crossing_borders():
     np.testing.assert_allclose(acov_two, acov_one, rtol=0.02)
     with pytest.raises(InsufficientDataError):
         fit_ar([np.ones(50)], order=2)
+
+
+def test_a_starved_window_names_the_setting_that_helps():
+    from graybox.settings import GrayBoxSettings
+    from graybox.tiers.linear import _what_helps
+    # 1 s samples: 201 s of operation fit in a window, so a longer window (or period) helps
+    fast = _what_helps(GrayBoxSettings(), 1.0, 120)
+    assert "more than 201 s" in fast and "use longer windows ([nightly] window)" in fast
+    # a 15-minute logger: 201 samples need 50 h, longer than the longest window (a day), so
+    # the advice is the class's min_samples (a day holds 96 samples), never a longer window
+    slow = _what_helps(GrayBoxSettings(), 900.0, 95)
+    assert "more than 180900 s" in slow and "windows are at most a day" in slow
+    assert "settings.min_samples" in slow and "a day holds 96 at 900 s" in slow
+    assert "use longer windows" not in slow
