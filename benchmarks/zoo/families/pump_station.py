@@ -9,7 +9,10 @@ and the motor's 0.93; the system curve ``z + level + clear-well drop + r Q^2`` (
 400 m^3/h); with ``n`` pumps running the flow solves ``H0 - k (Q / n)^2 = z(level) + r Q^2``.
 Each start ramps over a minute (a soft starter). The level controller (on the level sensor)
 starts the duty pump below 2.6 m and stops it above 5.4 m, the assist pump below 2.0 m until
-3.6 m; in the cheap night tariff (0-6 h) it fills to 5.8 m; duty and assist alternate daily.
+3.6 m; in the cheap night tariff (20-6 h) it fills the tank (both pumps below 4.5 m) and holds
+it between 5.65 and 5.8 m; duty and assist alternate daily. Each day is simulated from noon
+the day before (the zoo's contract), so the level at midnight is only as continuous as the
+night's hold makes it: a few cm, more on a day whose evening peak kept the tank low.
 The district draws through a metered main: a diurnal demand (morning peak 6-9 h, evening peak
 18-21 h, a night minimum of 35-45 % of the mean), the day's mean 110-190 m^3/h by weather and
 weekday, with minute-scale noise and a slow wander.
@@ -155,10 +158,12 @@ class PumpStation(Family):
             for j in range(SUBSTEPS):
                 s = k * SUBSTEPS + j
                 reading = level + drift[:, k]
-                cheap = hs[s] < 6.0
-                top = np.where(cheap, 5.8, 5.4)
-                duty = np.where(duty, reading < top, reading < 2.6)
-                assist = np.where(assist, reading < 3.6, reading < 2.0)
+                if hs[s] < 6.0 or hs[s] >= 20.0:                # the night tariff: fill and hold
+                    duty = np.where(duty, reading < 5.8, reading < 5.65)
+                    assist = np.where(assist, reading < 5.3, reading < 4.5)
+                else:
+                    duty = np.where(duty, reading < 5.4, reading < 2.6)
+                    assist = np.where(assist, reading < 3.6, reading < 2.0)
                 running = np.stack([duty, assist], axis=1).astype(float)
                 running = np.where(duty_first[:, None], running, running[:, ::-1])
                 ramp = ramp + (running - ramp) * (1 - np.exp(-H / 60.0))
