@@ -16,6 +16,11 @@ HEAVY = {"ev_battery", "traction_drive", "cooling_loop"}
 #: docs/benchmarks.md): the bus's ridership falls at weekends, and the reduced run's two
 #: nights are a Saturday and a Sunday against a Monday-to-Friday baseline
 MISSES = {"bus_longitudinal"}
+#: families whose telemetry the defaults cannot read at all (issue 18's blind families, a
+#: finding): the 15-min SCADA export's pumps stand still for hours (pump_flow 0.0 for 10+
+#: samples) and a fixed-speed pump's power holds one 0.5-kW value for hours, both read as
+#: stuck sensors; its 96 samples a day are also fewer than a baseline window needs
+UNREADABLE = {"pump_station"}
 
 
 def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
@@ -25,11 +30,11 @@ def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
 
 @pytest.mark.slow
 def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
-    assert HEAVY <= set(FAMILIES) and MISSES <= set(FAMILIES)
+    assert HEAVY <= set(FAMILIES) and MISSES <= set(FAMILIES) and UNREADABLE <= set(FAMILIES)
     # 5 baseline days, the zoo protocol's own: day-to-day variation is estimated from them
     results = [run_family(family, healthy_assets=2, baseline_days=5, nights=2, faulty_per_cell=0,
                           seed=3) for family in FAMILIES.values()
-               if family.name not in HEAVY | MISSES]
+               if family.name not in HEAVY | MISSES | UNREADABLE]
     for result in results:
         assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
         assert result["failed_baselines"] == {}, result["family"]
@@ -55,3 +60,13 @@ def test_a_slow_thermal_fleet_at_60_s_baselines_and_detects_a_fault_with_the_def
     insulation = result["detection"]["insulation", "large"]
     assert insulation["detected"] == insulation["assets"] == 1
     assert insulation["alarmed_before_onset"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 18 finding: a 15-min SCADA export's idle pump "
+                   "and steady power read as stuck sensors; remove when the defaults read it")
+def test_a_fifteen_minute_scada_pump_station_baselines_with_the_defaults():
+    result = run_family(FAMILIES["pump_station"], healthy_assets=2, baseline_days=5, nights=2,
+                        faulty_per_cell=0, seed=3)
+    assert result["failed_reads"] == {} and result["failed_baselines"] == {}
+    assert result["baselines_fitted"] == 2
