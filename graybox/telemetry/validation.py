@@ -352,7 +352,10 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
               + ("" if policy.intermittent else (
                   "; if the machine stands still then (parked, switched off), declare its "
                   "operating periods in the class's grid (running = {channel = [low, high]}, "
-                  "intermittent = true) so that a pause is not read as a stuck sensor")), i,
+                  "intermittent = true) so that a pause is not read as a stuck sensor"))
+              + f"; if {rows.channels[j]!r} holds its value while the machine runs (a coarse "
+                f"reading of a steady machine), give it a longer limit in the class's grid "
+                f"(stuck_after = {{ {rows.channels[j]} = \"6h\" }})", i,
               channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
 
 

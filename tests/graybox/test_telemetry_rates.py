@@ -103,6 +103,16 @@ def test_a_held_setpoint_is_fine_a_stuck_sensor_is_not(tmp_path):
     assert "'setpoint'" in info.value.message
 
 
+def test_a_stuck_message_names_the_channels_own_limit_and_that_limit_reads_it(tmp_path):
+    # a fixed-speed pump's power logged to 0.5 kW holds for hours while running: the message
+    # gives the line that lets this channel hold, and that line reads the window
+    stuck = hold(make_frame(1.0, hours=2), "sensor", 1200.0, 601.0)
+    error = telemetry_error("stuck_channel", tmp_path, stuck)
+    assert "give it a longer limit in the class's grid" in error.message
+    assert 'stuck_after = { sensor = "6h" }' in error.message
+    read(tmp_path / "again", stuck, policy=GridPolicy(stuck_after={"sensor": "6h"}))
+
+
 def test_a_state_stuck_just_under_stuck_after_is_fine(tmp_path):
     frame = hold(make_frame(1.0, hours=2), "sensor", 1200.0, 599.0)
     read(tmp_path, frame)
