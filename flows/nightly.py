@@ -204,12 +204,13 @@ def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark:
               if earliest <= s and e <= watermark]
     if not bounds:
         return []
-    # every candidate recorded in the look-back is among the newest this many windows
-    newest = int(-(-(utc(as_of) - earliest) // window)) + 1
+    # every candidate recorded in the look-back is among the newest this many versions (one
+    # a night, and room for baselines refitted in between)
+    newest = 2 * (int(-(-(utc(as_of) - earliest) // window)) + 1)
     with timed(clock, "registry"):
-        history = registry.zeta_history(asset_id, last=newest)
+        recorded = registry.recorded_windows(asset_id, last=newest)
     starts: dict[pd.Timestamp, list[pd.Timestamp]] = {}
-    for s, e in zip(history["window_start"], history["window_end"]):
+    for s, e in recorded:
         starts.setdefault(utc(e), []).append(utc(s))
     reach = (config.nightly.candidate_nights - 1) * window
     return [(s, e) for s, e in bounds

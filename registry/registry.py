@@ -203,6 +203,12 @@ class Registry:
         again with other data keeps its latest record."""
         return history.zeta_history(self._backend, asset_id, last)
 
+    def recorded_windows(self, asset_id: str, last: int) -> list[tuple[str, str]]:
+        """``(window_start, window_end)`` (ISO strings) of the nightly candidates among the
+        asset's ``last`` newest versions, newest first: what :meth:`zeta_history` would list,
+        read without the runs' metrics."""
+        return history.recorded_windows(self._backend, asset_id, last)
+
     def alerts(self, since=None, *, scale: SeverityScale = SeverityScale()) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.
 

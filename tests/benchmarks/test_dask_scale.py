@@ -78,19 +78,18 @@ def test_options():
 @pytest.mark.slow
 def test_one_small_run_end_to_end(tmp_path):
     """One gas-turbine asset at 60-s samples: baseline, then the sequential and the
-    one-worker night, each with its idle run (about a minute)."""
+    one-worker night (the idle runs and the cost model they feed are checked on known numbers
+    above: each run here is a child process with its own Prefect server)."""
     out = tmp_path / "runs.json"
     env = dict(os.environ, PYTHONPATH=str(REPO))
     done = subprocess.run([sys.executable, "-m", "benchmarks.dask_scale", "--assets", "1",
-                           "--batch-size", "1", "--workers", "1", "--repeats", "1", "--idle",
+                           "--batch-size", "1", "--workers", "1", "--repeats", "1",
                            "--sample-interval", "60", "--workdir", str(tmp_path / "work"),
                            "--json", str(out)],
                           cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(out.read_text())
-    nights = [r for r in result["runs"] if not r.get("idle")]
-    assert [r["runner"] for r in nights] == ["sequential", "dask-1"]
-    assert all(r["windows"] == 1 for r in nights)
-    assert all(r["windows"] == 0 for r in result["runs"] if r.get("idle"))
-    assert set(result["model"]["check"]) == {"1"}           # JSON keys
+    assert [r["runner"] for r in result["runs"]] == ["sequential", "dask-1"]
+    assert all(r["windows"] == 1 and not r.get("idle") for r in result["runs"])
+    assert result.get("model") is None                       # it needs the idle runs
     assert "| dask-1 | 1 |" in done.stdout

@@ -192,6 +192,12 @@ def test_zeta_history_and_alerts(rec, registry, fits):
     latest = registry.zeta_history("T-01", last=1)
     assert len(latest) == 4 and set(latest["window_end"]) == {history["window_end"].iloc[-1]}
     assert latest["exceeded"].all()
+    # the same windows without the metrics, newest first; the baseline is not a candidate
+    windows = history.drop_duplicates("window_end")[["window_start", "window_end"]]
+    assert registry.recorded_windows("T-01", last=5) == \
+        [tuple(w) for w in windows.to_numpy()][::-1]
+    assert registry.recorded_windows("T-01", last=1) == [tuple(windows.to_numpy()[-1])]
+    assert registry.recorded_windows("T-99", last=3) == []
     # one Alert per exceeded (channel, tier) of each alarmed window, oldest window first
     alerts = registry.alerts()
     exceeded = len(fits.alarmed.alarms)
