@@ -23,12 +23,12 @@ window's length at the analysis interval), for the asset's baseline windows, and
 from __future__ import annotations
 
 import hashlib
-from typing import Callable, TypeVar
+from typing import Callable, Sequence, TypeVar
 
 import numpy as np
 
 from graybox.integration import Integration
-from graybox.state_estimation import WindowStates, estimate_states
+from graybox.state_estimation import WindowStates, estimate_states, initial_hidden_together
 
 Value = TypeVar("Value")
 
@@ -48,6 +48,7 @@ class SegmentCache:
     def __init__(self, storing: bool = True):
         self.storing = storing
         self._starts: dict[tuple, np.ndarray] = {}
+        self._initial: dict[tuple, np.ndarray] = {}
         self._results: dict[tuple, object] = {}
         self._models: dict[int, object] = {}
 
@@ -64,9 +65,26 @@ class SegmentCache:
         if not model.hidden_states:
             return estimate_states(model, y, u, dt, integration)
         key = self._key("states", model, (y, u), float(dt), integration)
-        states = estimate_states(model, y, u, dt, integration, self._starts.get(key))
+        states = estimate_states(model, y, u, dt, integration, self._starts.get(key),
+                                 self._initial.pop(key, None))
         self._starts[key] = states.chunk_starts
         return states
+
+    def fit_starts(self, model, segments: Sequence[tuple[np.ndarray, np.ndarray]], dt: float,
+                   integration: Integration) -> None:
+        """Fit the initial hidden states of the segments (outputs, inputs) not seen yet in one
+        batched problem (:func:`~graybox.state_estimation.initial_hidden_together`); their
+        :meth:`estimate` then runs from them without fitting again."""
+        if not model.hidden_states:
+            return
+        new = {}
+        for y, u in segments:
+            key = self._key("states", model, (y, u), float(dt), integration)
+            if len(y) >= 2 and key not in self._starts and key not in self._initial:
+                new[key] = (y, u)
+        if new:
+            starts = initial_hidden_together(model, list(new.values()), dt, integration)
+            self._initial.update(zip(new, starts))
 
     def remember(self, kind: str, model, segment: WindowStates, details: tuple,
                  compute: Callable[[], Value]) -> Value:

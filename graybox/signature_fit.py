@@ -175,6 +175,38 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
     return prepared
 
 
+def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings,
+                       cache: SegmentCache | None) -> None:
+    """The initial hidden states of every candidate's segments, fitted together per white box
+    and integrator (:meth:`SegmentCache.fit_starts`) before each request is prepared alone.
+
+    A new baseline's integrator is chosen from its own estimates, so only candidates (their
+    baseline's integrator) are gathered; a request whose windows are not usable is left to
+    :func:`_prepare` to report.
+    """
+    if cache is None:
+        return
+    groups: dict[tuple, tuple] = {}
+    for request in requests:
+        if request.baseline is None or not request.model.hidden_states:
+            continue
+        try:
+            parts = [_window_parts(w) for w in request.windows]
+            interval = parts[0][1]
+            frames, _ = _operating_segments(parts, settings, interval)
+            arrays = [window_arrays(request.model, frame) for frame in frames]
+        except Exception:  # noqa: BLE001 - _prepare raises it for this request
+            continue
+        integration = request.baseline.integration_used
+        key = (id(request.model), round(interval, 9), integration)
+        groups.setdefault(key, (request.model, interval, integration, []))[3].extend(arrays)
+    for model, interval, integration, arrays in groups.values():
+        try:
+            cache.fit_starts(model, arrays, interval, integration)
+        except Exception:  # noqa: BLE001 - each segment is then fitted (and fails) alone
+            continue
+
+
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
                cache: SegmentCache | None) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
@@ -328,11 +360,24 @@ def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
                chunk_size: int, clock: StageClock | None, cache: SegmentCache | None,
                kinds: Sequence[Tier]) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
-    prepared, positions = [], []
+    tuned: list[tuple[FitRequest, ParameterEstimate | None] | None] = [None] * len(requests)
     for position, request in enumerate(requests):
         try:
             with timed(clock, "tuning"):
-                request, tuning = tuned_request(request)
+                tuned[position] = tuned_request(request)
+        except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
+            results[position] = _as_graybox_error(error, request)
+    if cache is None and any(t is not None and t[0].baseline is not None
+                             and t[0].model.hidden_states for t in tuned):
+        cache = SegmentCache(storing=False)
+    with timed(clock, "residual"):
+        _fit_hidden_starts([t[0] for t in tuned if t is not None], settings, cache)
+    prepared, positions = [], []
+    for position, request in enumerate(requests):
+        if tuned[position] is None:
+            continue
+        try:
+            request, tuning = tuned[position]
             prepared.append(_prepare(request, settings, clock, cache, kinds))
             prepared[-1].tuning = tuning
             positions.append(position)
