@@ -177,18 +177,18 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
 
 def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings,
                        cache: SegmentCache | None) -> None:
-    """The initial hidden states of every candidate's segments, fitted together per white box
+    """The initial hidden states of every request's segments, fitted together per white box
     and integrator (:meth:`SegmentCache.fit_starts`) before each request is prepared alone.
 
-    A new baseline's integrator is chosen from its own estimates, so only candidates (their
-    baseline's integrator) are gathered; a request whose windows are not usable is left to
-    :func:`_prepare` to report.
+    A candidate's are fitted with its baseline's integrator, a new baseline's with the one its
+    first estimate uses (:func:`_integrate`; a different choice afterwards is fitted alone); a
+    request whose windows are not usable is left to :func:`_prepare` to report.
     """
     if cache is None:
         return
     groups: dict[tuple, tuple] = {}
     for request in requests:
-        if request.baseline is None or not request.model.hidden_states:
+        if not request.model.hidden_states:
             continue
         try:
             parts = [_window_parts(w) for w in request.windows]
@@ -197,7 +197,8 @@ def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings
             arrays = [window_arrays(request.model, frame) for frame in frames]
         except Exception:  # noqa: BLE001 - _prepare raises it for this request
             continue
-        integration = request.baseline.integration_used
+        integration = (_first_integration(request.model) if request.baseline is None
+                       else request.baseline.integration_used)
         key = (id(request.model), round(interval, 9), integration)
         groups.setdefault(key, (request.model, interval, integration, []))[3].extend(arrays)
     for model, interval, integration, arrays in groups.values():
@@ -205,6 +206,11 @@ def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings
             cache.fit_starts(model, arrays, interval, integration)
         except Exception:  # noqa: BLE001 - each segment is then fitted (and fails) alone
             continue
+
+
+def _first_integration(model) -> Integration:
+    """The integrator of a new baseline's first hidden-state estimate."""
+    return Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
 
 
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
@@ -223,7 +229,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
         integration = request.baseline.integration_used
         return integration, [estimate(model, y, u, interval, integration)
                              for y, u in arrays]
-    first = Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
+    first = _first_integration(model)
     try:
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
     except IntegrationError:
@@ -367,8 +373,7 @@ def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
                 tuned[position] = tuned_request(request)
         except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
             results[position] = _as_graybox_error(error, request)
-    if cache is None and any(t is not None and t[0].baseline is not None
-                             and t[0].model.hidden_states for t in tuned):
+    if cache is None and any(t is not None and t[0].model.hidden_states for t in tuned):
         cache = SegmentCache(storing=False)
     with timed(clock, "residual"):
         _fit_hidden_starts([t[0] for t in tuned if t is not None], settings, cache)
