@@ -6,6 +6,8 @@ structure frozen by the baseline, a window's hidden states, its residual at the 
 interval and its level tier's k-step predictions depend only on its data, the white box, the
 integrator and the analysis interval, all the same in every one of those fits. So:
 
+* the initial hidden states of all segments of a fit call are fitted together first
+  (:meth:`SegmentCache.fit_starts`), and each segment's estimate starts from its own;
 * the hidden-state estimate's chained multiple-shooting starts (a few numbers per 10 minutes
   of data) are kept for every segment, and later fits run the hidden states once from them
   instead of fitting the initial state and chaining the chunks again

@@ -8,7 +8,10 @@ voltages) is run through the window as an open-loop predictor of them:
    (``scipy.optimize.least_squares``) over the window's first :data:`INITIAL_FIT_SECONDS`
    (at least :data:`INITIAL_FIT_MIN_SAMPLES` samples): the hidden start that makes the model
    reproduce the computed outputs (and the measured states' one-step changes) best, each
-   scaled by its spread. The model's ``initial_state`` gives the search's start.
+   scaled by its spread. The model's ``initial_state`` gives the search's start. The
+   segments of one fit call (a calibration's pieces, a night's candidates of every asset)
+   are fitted side by side (:func:`initial_hidden_together`): each by its own fit, their
+   function evaluations batched into one run of every segment.
 2. **From it the hidden states run through the window** by the model's own dynamics, the
    measured states reset to the telemetry at every sample (so only the hidden part is
    open-loop). Sequential in time, this is computed by multiple shooting: the window is cut
@@ -34,6 +37,7 @@ from scipy.optimize import least_squares
 
 from graybox.exceptions import InsufficientDataError
 from graybox.integration import Integration, IntegrationError, advance
+from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
 INITIAL_FIT_MIN_SAMPLES = 20
@@ -46,9 +50,8 @@ MAX_PASSES = 6
 #: chained chunk starts agree with their predecessors' ends to this fraction of the hidden
 #: state's scale
 CHAIN_TOLERANCE = 1e-6
-#: segments whose initial hidden states are fitted as one problem
-#: (:func:`initial_hidden_together`); its dense Jacobian has this many squared times
-#: n_hidden squared times the fitted samples' errors (16 battery segments of 15 minutes: 11 MB)
+#: segments whose initial hidden states are fitted side by side
+#: (:func:`initial_hidden_together`)
 SEGMENTS_TOGETHER = 16
 #: a prediction further than this many times the channel's range from the data diverges
 DIVERGENCE_RANGES = 100.0
@@ -237,6 +240,16 @@ class _StartFit:
                                else np.ones(len(layout.measured_outputs)))
         self.out_scale, self.step_scale = np.array(out_scales), np.array(step_scales)
 
+    def own_rows(self, piece: int) -> np.ndarray:
+        """Where segment ``piece``'s own errors sit in a row of :meth:`errors` (the rest is
+        padding), in the order it has alone."""
+        length, n = int(self.n.max()), int(self.n[piece])
+        computed, measured = len(self.layout.computed_outputs), len(self.layout.measured)
+        rows = [np.arange(n * computed)]
+        if measured and length > 1:
+            rows.append(length * computed + np.arange((n - 1) * measured))
+        return np.concatenate(rows)
+
     def errors(self, batch: np.ndarray, piece: np.ndarray) -> np.ndarray:
         """Scaled errors (R, n_errors) of the trial starts ``batch[r]`` of segments
         ``piece[r]``."""
@@ -269,14 +282,16 @@ class _StartFit:
             parts.append(np.where(valid[:, 1:, None], error, 0.0).reshape(len(batch), -1))
         return np.concatenate(parts, axis=1)
 
-    def errors_and_jacobians(self, z: np.ndarray, delta: np.ndarray
-                             ) -> tuple[np.ndarray, np.ndarray]:
-        """Every segment's errors at its start ``z[b]`` (B, n_errors) and their forward-
-        difference Jacobians (B, n_errors, n_hidden), in one batched run."""
+    def errors_and_jacobians(self, z: np.ndarray, delta: np.ndarray,
+                             pieces: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The errors of segments ``pieces[b]`` (default all) at starts ``z[b]``
+        (B, n_errors) and their forward-difference Jacobians (B, n_errors, n_hidden), in one
+        batched run."""
         count, n_hidden = z.shape
+        pieces = np.arange(count) if pieces is None else np.asarray(pieces)
         batch = np.concatenate([z] + [z + delta[i] * np.eye(n_hidden)[i]
                                       for i in range(n_hidden)])
-        e = self.errors(batch, np.tile(np.arange(count), n_hidden + 1))
+        e = self.errors(batch, np.tile(pieces, n_hidden + 1))
         e = np.where(np.isfinite(e), e, 1e6)
         base = e[:count]
         jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
@@ -305,45 +320,47 @@ def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray
 def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray]], dt: float,
                             integration: Integration) -> np.ndarray:
     """The initial hidden states of several segments (outputs ``y`` and inputs ``u`` each, as
-    :func:`estimate_states` takes them), fitted :data:`SEGMENTS_TOGETHER` at a time as one
-    least-squares problem: (B, n_hidden).
+    :func:`estimate_states` takes them), :data:`SEGMENTS_TOGETHER` at a time: (B, n_hidden).
 
-    Each segment's start is the minimiser of its own errors (as :func:`estimate_states`
-    fits it), and the problems are independent, so their sum is minimised over the stacked
-    starts with a block-diagonal Jacobian: a function evaluation runs every segment's trial
-    start side by side, and a Jacobian is one batched run of all segments' forward
-    differences, instead of one least-squares fit after another. The trust-region steps are
-    solved exactly (dense): with scipy's iterative sparse solver (LSMR) a weakly determined
-    start (RC voltages while parked) stopped elsewhere. Each segment has at least 2 samples.
+    Each segment's start is fitted by its own ``least_squares``, exactly as
+    :func:`estimate_states` fits it alone, but the fits run in lockstep
+    (:func:`graybox.lockstep.run_in_lockstep`): their function evaluations (each a run of
+    the start and its forward differences) are batched into one run of every segment side by
+    side. One problem over the stacked starts (a block-diagonal Jacobian) was tried first:
+    its trust region is shared, and a start the data do not determine (a state of charge
+    above the OCV table's last breakpoint) wandered to another, equally good, minimum.
+    Each segment has at least 2 samples.
     """
     layout = _Layout(model)
     n_hidden = len(layout.hidden)
     scale = np.maximum(1.0, np.abs(layout.guess))
     starts = []
     for group in range(0, len(pieces), SEGMENTS_TOGETHER):
-        part = pieces[group:group + SEGMENTS_TOGETHER]
-        count = len(part)
-        problem = _StartFit(model, layout, part, dt, integration)
-        cache = {}
+        problem = _StartFit(model, layout, pieces[group:group + SEGMENTS_TOGETHER], dt,
+                            integration)
+        own = [problem.own_rows(b) for b in range(len(problem.n))]
 
-        def evaluate(flat, problem=problem, count=count, cache=cache):
-            key = flat.tobytes()
-            if key not in cache:
-                e, jacobian = problem.errors_and_jacobians(flat.reshape(count, n_hidden),
-                                                           1e-6 * scale)
-                rows = e.shape[1]
-                dense = np.zeros((count * rows, count * n_hidden))
-                for b in range(count):
-                    dense[b * rows:(b + 1) * rows, b * n_hidden:(b + 1) * n_hidden] = jacobian[b]
-                cache.clear()
-                cache[key] = (e.reshape(-1), dense)
-            return cache[key]
+        def batch(indices, points, problem=problem, own=own):
+            e, jacobian = problem.errors_and_jacobians(np.array(points), 1e-6 * scale,
+                                                       np.array(indices))
+            return [(e[k, own[b]], jacobian[k, own[b]]) for k, b in enumerate(indices)]
 
-        fit = least_squares(lambda z: evaluate(z)[0], np.tile(layout.guess, count),
-                            jac=lambda z: evaluate(z)[1], x_scale=np.tile(scale, count),
-                            max_nfev=50)
-        starts.append(fit.x.reshape(count, n_hidden))
-    return np.concatenate(starts) if starts else np.zeros((0, n_hidden))
+        def solver(evaluate_at):
+            cache = {}
+
+            def evaluate(z):
+                key = z.tobytes()
+                if key not in cache:
+                    value = evaluate_at(z.copy())
+                    cache.clear()
+                    cache[key] = value
+                return cache[key]
+
+            return least_squares(lambda z: evaluate(z)[0], layout.guess,
+                                 jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50).x
+
+        starts.extend(run_in_lockstep([solver] * len(problem.n), batch))
+    return np.array(starts).reshape(len(pieces), n_hidden)
 
 
 def _chunks(total: int) -> tuple[np.ndarray, int]:
