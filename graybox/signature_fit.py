@@ -177,8 +177,8 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
 
 def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings,
                        cache: SegmentCache | None) -> None:
-    """The initial hidden states of every request's segments, fitted together per white box
-    and integrator (:meth:`SegmentCache.fit_starts`) before each request is prepared alone.
+    """The initial hidden states of every request's segments, fitted side by side per white
+    box and integrator (:meth:`SegmentCache.fit_starts`) before each request is prepared alone.
 
     A candidate's are fitted with its baseline's integrator, a new baseline's with the one its
     first estimate uses (:func:`_integrate`; a different choice afterwards is fitted alone); a
@@ -186,7 +186,6 @@ def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings
     """
     if cache is None:
         return
-    groups: dict[tuple, tuple] = {}
     for request in requests:
         if not request.model.hidden_states:
             continue
@@ -194,18 +193,17 @@ def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings
             parts = [_window_parts(w) for w in request.windows]
             interval = parts[0][1]
             frames, _ = _operating_segments(parts, settings, interval)
-            arrays = [window_arrays(request.model, frame) for frame in frames]
         except Exception:  # noqa: BLE001 - _prepare raises it for this request
             continue
         integration = (_first_integration(request.model) if request.baseline is None
                        else request.baseline.integration_used)
-        key = (id(request.model), round(interval, 9), integration)
-        groups.setdefault(key, (request.model, interval, integration, []))[3].extend(arrays)
-    for model, interval, integration, arrays in groups.values():
-        try:
-            cache.fit_starts(model, arrays, interval, integration)
-        except Exception:  # noqa: BLE001 - each segment is then fitted (and fails) alone
-            continue
+        for frame in frames:
+            try:
+                y, u = window_arrays(request.model, frame)
+            except Exception:  # noqa: BLE001 - as above
+                break
+            cache.stage_start(request.model, y, u, interval, integration)
+    cache.fit_starts()
 
 
 def _first_integration(model) -> Integration:

@@ -213,6 +213,11 @@ def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
     return out
 
 
+def start_fit_samples(dt: float) -> int:
+    """Samples at a segment's start that its initial hidden state is fitted to (at most)."""
+    return max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt)))
+
+
 class _StartFit:
     """The least-squares problem of the initial hidden states of several segments at once.
 
@@ -225,8 +230,7 @@ class _StartFit:
     def __init__(self, model, layout: _Layout, pieces: Sequence[tuple[np.ndarray, np.ndarray]],
                  dt: float, integration: Integration):
         self.model, self.layout, self.dt, self.integration = model, layout, dt, integration
-        want = max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt)))
-        self.n = np.array([min(len(y), want) for y, _ in pieces])
+        self.n = np.array([min(len(y), start_fit_samples(dt)) for y, _ in pieces])
         self.offset = np.concatenate([[0], np.cumsum(self.n)[:-1]])
         self.y = np.concatenate([y[:n] for (y, _), n in zip(pieces, self.n)])
         self.u = np.concatenate([u[:n] for (_, u), n in zip(pieces, self.n)])

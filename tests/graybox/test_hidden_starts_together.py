@@ -128,7 +128,8 @@ def test_a_cached_start_is_used_without_fitting_again(monkeypatch):
     drive = np.repeat(rng.uniform(-3, 3, 21), 60)[:1200, None]
     y, u = _segment(model, [3.0, 20.0], drive, [0.05, 0.02], rng)
     cache = SegmentCache(storing=False)
-    cache.fit_starts(model, [(y, u)], 1.0, RK4)
+    cache.stage_start(model, y, u, 1.0, RK4)
+    cache.fit_starts()
     fits = []
     monkeypatch.setattr(state_estimation, "_initial_hidden", lambda *a: fits.append(1))
     states = cache.estimate(model, y, u, 1.0, RK4)
