@@ -6,6 +6,9 @@ structure frozen by the baseline, a window's hidden states, its residual at the 
 interval and its level tier's k-step predictions depend only on its data, the white box, the
 integrator and the analysis interval, all the same in every one of those fits. So:
 
+* the initial hidden states of all segments of a fit call are fitted side by side first
+  (:meth:`SegmentCache.stage_start`, :meth:`SegmentCache.fit_starts`), and each segment's
+  estimate starts from its own;
 * the hidden-state estimate's chained multiple-shooting starts (a few numbers per 10 minutes
   of data) are kept for every segment, and later fits run the hidden states once from them
   instead of fitting the initial state and chaining the chunks again
@@ -28,7 +31,8 @@ from typing import Callable, TypeVar
 import numpy as np
 
 from graybox.integration import Integration
-from graybox.state_estimation import WindowStates, estimate_states
+from graybox.state_estimation import (WindowStates, estimate_states, initial_hidden_together,
+                                      start_fit_samples)
 
 Value = TypeVar("Value")
 
@@ -48,6 +52,8 @@ class SegmentCache:
     def __init__(self, storing: bool = True):
         self.storing = storing
         self._starts: dict[tuple, np.ndarray] = {}
+        self._initial: dict[tuple, np.ndarray] = {}
+        self._staged: dict[tuple, tuple] = {}
         self._results: dict[tuple, object] = {}
         self._models: dict[int, object] = {}
 
@@ -64,9 +70,39 @@ class SegmentCache:
         if not model.hidden_states:
             return estimate_states(model, y, u, dt, integration)
         key = self._key("states", model, (y, u), float(dt), integration)
-        states = estimate_states(model, y, u, dt, integration, self._starts.get(key))
+        states = estimate_states(model, y, u, dt, integration, self._starts.get(key),
+                                 self._initial.pop(key, None))
         self._starts[key] = states.chunk_starts
         return states
+
+    def stage_start(self, model, y: np.ndarray, u: np.ndarray, dt: float,
+                    integration: Integration) -> None:
+        """Note a segment (outputs, inputs) whose initial hidden state :meth:`fit_starts`
+        is to fit, unless it has been estimated already; only its first samples (those the
+        fit uses) are kept."""
+        if not model.hidden_states or len(y) < 2:
+            return
+        key = self._key("states", model, (y, u), float(dt), integration)
+        if key in self._starts or key in self._initial:
+            return
+        n = start_fit_samples(dt)
+        group = self._staged.setdefault((id(model), float(dt), integration),
+                                        (model, float(dt), integration, {}))
+        group[3][key] = (y[:n].copy(), u[:n].copy())
+
+    def fit_starts(self) -> None:
+        """Fit the staged segments' initial hidden states, each white box's and integrator's
+        side by side (:func:`~graybox.state_estimation.initial_hidden_together`); their
+        :meth:`estimate` then runs from them without fitting again. A white box whose batched
+        fit fails leaves its segments to be fitted (and to fail) one by one."""
+        staged, self._staged = self._staged, {}
+        for model, dt, integration, segments in staged.values():
+            try:
+                starts = initial_hidden_together(model, list(segments.values()), dt,
+                                                 integration)
+            except Exception:  # noqa: BLE001 - each segment's own fit reports it
+                continue
+            self._initial.update(zip(segments, starts))
 
     def remember(self, kind: str, model, segment: WindowStates, details: tuple,
                  compute: Callable[[], Value]) -> Value:

@@ -175,6 +175,42 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
     return prepared
 
 
+def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings,
+                       cache: SegmentCache | None) -> None:
+    """The initial hidden states of every request's segments, fitted side by side per white
+    box and integrator (:meth:`SegmentCache.fit_starts`) before each request is prepared alone.
+
+    A candidate's are fitted with its baseline's integrator, a new baseline's with the one its
+    first estimate uses (:func:`_integrate`; a different choice afterwards is fitted alone); a
+    request whose windows are not usable is left to :func:`_prepare` to report.
+    """
+    if cache is None:
+        return
+    for request in requests:
+        if not request.model.hidden_states:
+            continue
+        try:
+            parts = [_window_parts(w) for w in request.windows]
+            interval = parts[0][1]
+            frames, _ = _operating_segments(parts, settings, interval)
+        except Exception:  # noqa: BLE001 - _prepare raises it for this request
+            continue
+        integration = (_first_integration(request.model) if request.baseline is None
+                       else request.baseline.integration_used)
+        for frame in frames:
+            try:
+                y, u = window_arrays(request.model, frame)
+            except Exception:  # noqa: BLE001 - as above
+                break
+            cache.stage_start(request.model, y, u, interval, integration)
+    cache.fit_starts()
+
+
+def _first_integration(model) -> Integration:
+    """The integrator of a new baseline's first hidden-state estimate."""
+    return Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
+
+
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
                cache: SegmentCache | None) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
@@ -191,7 +227,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
         integration = request.baseline.integration_used
         return integration, [estimate(model, y, u, interval, integration)
                              for y, u in arrays]
-    first = Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
+    first = _first_integration(model)
     try:
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
     except IntegrationError:
@@ -328,11 +364,23 @@ def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
                chunk_size: int, clock: StageClock | None, cache: SegmentCache | None,
                kinds: Sequence[Tier]) -> list[Signature | GrayBoxError]:
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
-    prepared, positions = [], []
+    tuned: list[tuple[FitRequest, ParameterEstimate | None] | None] = [None] * len(requests)
     for position, request in enumerate(requests):
         try:
             with timed(clock, "tuning"):
-                request, tuning = tuned_request(request)
+                tuned[position] = tuned_request(request)
+        except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
+            results[position] = _as_graybox_error(error, request)
+    if cache is None and any(t is not None and t[0].model.hidden_states for t in tuned):
+        cache = SegmentCache(storing=False)
+    with timed(clock, "residual"):
+        _fit_hidden_starts([t[0] for t in tuned if t is not None], settings, cache)
+    prepared, positions = [], []
+    for position, request in enumerate(requests):
+        if tuned[position] is None:
+            continue
+        try:
+            request, tuning = tuned[position]
             prepared.append(_prepare(request, settings, clock, cache, kinds))
             prepared[-1].tuning = tuning
             positions.append(position)

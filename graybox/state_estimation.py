@@ -8,7 +8,10 @@ voltages) is run through the window as an open-loop predictor of them:
    (``scipy.optimize.least_squares``) over the window's first :data:`INITIAL_FIT_SECONDS`
    (at least :data:`INITIAL_FIT_MIN_SAMPLES` samples): the hidden start that makes the model
    reproduce the computed outputs (and the measured states' one-step changes) best, each
-   scaled by its spread. The model's ``initial_state`` gives the search's start.
+   scaled by its spread. The model's ``initial_state`` gives the search's start. The
+   segments of one fit call (a calibration's pieces, a night's candidates of every asset)
+   are fitted side by side (:func:`initial_hidden_together`): each by its own fit, their
+   function evaluations batched into one run of every segment.
 2. **From it the hidden states run through the window** by the model's own dynamics, the
    measured states reset to the telemetry at every sample (so only the hidden part is
    open-loop). Sequential in time, this is computed by multiple shooting: the window is cut
@@ -26,6 +29,7 @@ The fitted initial hidden state is recorded with the signature.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -33,6 +37,7 @@ from scipy.optimize import least_squares
 
 from graybox.exceptions import InsufficientDataError
 from graybox.integration import Integration, IntegrationError, advance
+from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
 INITIAL_FIT_MIN_SAMPLES = 20
@@ -45,6 +50,9 @@ MAX_PASSES = 6
 #: chained chunk starts agree with their predecessors' ends to this fraction of the hidden
 #: state's scale
 CHAIN_TOLERANCE = 1e-6
+#: segments whose initial hidden states are fitted side by side
+#: (:func:`initial_hidden_together`)
+SEGMENTS_TOGETHER = 16
 #: a prediction further than this many times the channel's range from the data diverges
 DIVERGENCE_RANGES = 100.0
 
@@ -94,12 +102,13 @@ def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
-                    integration: Integration, chunk_starts: np.ndarray | None = None
-                    ) -> WindowStates:
+                    integration: Integration, chunk_starts: np.ndarray | None = None,
+                    start: np.ndarray | None = None) -> WindowStates:
     """The full state over one segment (see the module docstring).
 
     ``chunk_starts``, an earlier estimate's of the same data, model and integration, skips
-    the fit and the chaining: the hidden states are run once from them.
+    the fit and the chaining: the hidden states are run once from them. ``start``, the
+    initial hidden state already fitted (:func:`initial_hidden_together`), skips the fit.
 
     Raises
     ------
@@ -116,7 +125,8 @@ def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
     if len(y) < 2:
         raise InsufficientDataError("estimating hidden states needs at least 2 samples")
     if chunk_starts is None:
-        start = _initial_hidden(model, layout, y, u, dt, integration)
+        if start is None:
+            start = _initial_hidden(model, layout, y, u, dt, integration)
         hidden, chunk_starts = _run_hidden(model, layout, y, u, dt, integration, start)
     else:
         start = chunk_starts[0]
@@ -183,11 +193,11 @@ class _Layout:
 
 
 def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
-         first: np.ndarray, length: int) -> np.ndarray:
+         first: np.ndarray, length: int, last: np.ndarray | int | None = None) -> np.ndarray:
     """Hidden states of runs ``b`` from sample ``first[b]`` for ``length`` steps, the measured
-    states reset to the telemetry at each sample: (B, length + 1, n_hidden). Runs past the
-    window's end repeat its last sample."""
-    last = len(y) - 1
+    states reset to the telemetry at each sample: (B, length + 1, n_hidden). Runs past their
+    ``last`` sample (default: the window's end) repeat it."""
+    last = len(y) - 1 if last is None else last
     out = np.empty((len(starts), length + 1, len(layout.hidden)))
     out[:, 0] = starts
     full = np.zeros((len(starts), layout.n_states))
@@ -203,51 +213,158 @@ def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
     return out
 
 
-def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray:
-    n = min(len(y), max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt))))
-    part_y, part_u = y[:n], u[:n]
-    computed = part_y[:, layout.computed_outputs]
-    measured = part_y[:, layout.measured_outputs]
-    out_scale = np.maximum(np.std(computed, axis=0), 1e-6 * np.maximum(1, np.abs(computed).max(axis=0, initial=0)))
-    change = np.diff(measured, axis=0)
-    step_scale = np.maximum(np.std(change, axis=0), 1e-9) if len(change) else np.ones(0)
-    scale = np.maximum(1.0, np.abs(layout.guess))
-    cache = {}
+def start_fit_samples(dt: float) -> int:
+    """Samples at a segment's start that its initial hidden state is fitted to (at most)."""
+    return max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt)))
 
-    def errors(batch: np.ndarray) -> np.ndarray:
-        hidden = _run(model, layout, part_y, part_u, dt, integration, batch,
-                      np.zeros(len(batch), dtype=int), n - 1)
+
+class _StartFit:
+    """The least-squares problem of the initial hidden states of several segments at once.
+
+    Segment ``b``'s errors are those of its first :data:`INITIAL_FIT_SECONDS` (its computed
+    outputs and its measured states' one-step changes, each scaled by the segment's own
+    spread); a batch of trial starts, each for one segment, is run side by side, the shorter
+    segments' rows padded with zero errors.
+    """
+
+    def __init__(self, model, layout: _Layout, pieces: Sequence[tuple[np.ndarray, np.ndarray]],
+                 dt: float, integration: Integration):
+        self.model, self.layout, self.dt, self.integration = model, layout, dt, integration
+        self.n = np.array([min(len(y), start_fit_samples(dt)) for y, _ in pieces])
+        self.offset = np.concatenate([[0], np.cumsum(self.n)[:-1]])
+        self.y = np.concatenate([y[:n] for (y, _), n in zip(pieces, self.n)])
+        self.u = np.concatenate([u[:n] for (_, u), n in zip(pieces, self.n)])
+        out_scales, step_scales = [], []
+        for (y, _), n in zip(pieces, self.n):
+            computed = y[:n, layout.computed_outputs]
+            out_scales.append(np.maximum(np.std(computed, axis=0), 1e-6 * np.maximum(
+                1, np.abs(computed).max(axis=0, initial=0))))
+            change = np.diff(y[:n, layout.measured_outputs], axis=0)
+            step_scales.append(np.maximum(np.std(change, axis=0), 1e-9) if len(change)
+                               else np.ones(len(layout.measured_outputs)))
+        self.out_scale, self.step_scale = np.array(out_scales), np.array(step_scales)
+
+    def own_rows(self, piece: int) -> np.ndarray:
+        """Where segment ``piece``'s own errors sit in a row of :meth:`errors` (the rest is
+        padding), in the order it has alone."""
+        length, n = int(self.n.max()), int(self.n[piece])
+        computed, measured = len(self.layout.computed_outputs), len(self.layout.measured)
+        rows = [np.arange(n * computed)]
+        if measured and length > 1:
+            rows.append(length * computed + np.arange((n - 1) * measured))
+        return np.concatenate(rows)
+
+    def errors(self, batch: np.ndarray, piece: np.ndarray) -> np.ndarray:
+        """Scaled errors (R, n_errors) of the trial starts ``batch[r]`` of segments
+        ``piece[r]``."""
+        layout, length = self.layout, int(self.n.max())
+        first, last = self.offset[piece], self.offset[piece] + self.n[piece] - 1
+        hidden = _run(self.model, layout, self.y, self.u, self.dt, self.integration, batch,
+                      first, length - 1, last)
+        at = np.minimum(first[:, None] + np.arange(length), last[:, None])     # (R, length)
+        valid = np.arange(length)[None] < self.n[piece][:, None]
         full = np.zeros(hidden.shape[:2] + (layout.n_states,))
-        full[..., layout.measured] = measured[None]
+        full[..., layout.measured] = self.y[at][..., layout.measured_outputs]
         full[..., layout.hidden] = hidden
+        u = self.u[at]
         parts = []
         if layout.computed_outputs.size:
-            predicted = model.output(full.reshape(-1, layout.n_states),
-                                     np.tile(part_u, (len(batch), 1)))
-            predicted = predicted.reshape(len(batch), n, -1)[..., layout.computed_outputs]
-            parts.append(((computed[None] - predicted) / out_scale).reshape(len(batch), -1))
-        if layout.measured.size and n > 1:
-            onestep = advance(model.derivatives, full[:, :-1].reshape(-1, layout.n_states),
-                              np.tile(part_u[:-1], (len(batch), 1)),
-                              np.tile(part_u[1:], (len(batch), 1)), dt, integration)
-            onestep = onestep.reshape(len(batch), n - 1, -1)[..., layout.measured]
-            parts.append(((measured[None, 1:] - onestep) / step_scale).reshape(len(batch), -1))
+            predicted = self.model.output(full.reshape(-1, layout.n_states),
+                                          u.reshape(-1, u.shape[-1]))
+            predicted = predicted.reshape(len(batch), length, -1)[..., layout.computed_outputs]
+            error = ((self.y[at][..., layout.computed_outputs] - predicted)
+                     / self.out_scale[piece][:, None])
+            parts.append(np.where(valid[..., None], error, 0.0).reshape(len(batch), -1))
+        if layout.measured.size and length > 1:
+            onestep = advance(self.model.derivatives,
+                              full[:, :-1].reshape(-1, layout.n_states),
+                              u[:, :-1].reshape(-1, u.shape[-1]),
+                              u[:, 1:].reshape(-1, u.shape[-1]), self.dt, self.integration)
+            onestep = onestep.reshape(len(batch), length - 1, -1)[..., layout.measured]
+            error = ((self.y[at[:, 1:]][..., layout.measured_outputs] - onestep)
+                     / self.step_scale[piece][:, None])
+            parts.append(np.where(valid[:, 1:, None], error, 0.0).reshape(len(batch), -1))
         return np.concatenate(parts, axis=1)
+
+    def errors_and_jacobians(self, z: np.ndarray, delta: np.ndarray,
+                             pieces: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The errors of segments ``pieces[b]`` (default all) at starts ``z[b]``
+        (B, n_errors) and their forward-difference Jacobians (B, n_errors, n_hidden), in one
+        batched run."""
+        count, n_hidden = z.shape
+        pieces = np.arange(count) if pieces is None else np.asarray(pieces)
+        batch = np.concatenate([z] + [z + delta[i] * np.eye(n_hidden)[i]
+                                      for i in range(n_hidden)])
+        e = self.errors(batch, np.tile(pieces, n_hidden + 1))
+        e = np.where(np.isfinite(e), e, 1e6)
+        base = e[:count]
+        jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
+                             for i in range(n_hidden)], axis=-1)
+        return base, jacobian
+
+
+def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray:
+    problem = _StartFit(model, layout, [(y, u)], dt, integration)
+    scale = np.maximum(1.0, np.abs(layout.guess))
+    cache = {}
 
     def evaluate(z):
         key = z.tobytes()
         if key not in cache:
-            delta = 1e-6 * scale
-            batch = np.vstack([z, z + np.diag(delta)])
-            e = errors(batch)
-            e = np.where(np.isfinite(e), e, 1e6)
+            e, jacobian = problem.errors_and_jacobians(z[None], 1e-6 * scale)
             cache.clear()
-            cache[key] = (e[0], ((e[1:] - e[0]) / delta[:, None]).T)
+            cache[key] = (e[0], jacobian[0])
         return cache[key]
 
     fit = least_squares(lambda z: evaluate(z)[0], layout.guess, jac=lambda z: evaluate(z)[1],
                         x_scale=scale, max_nfev=50)
     return fit.x
+
+
+def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray]], dt: float,
+                            integration: Integration) -> np.ndarray:
+    """The initial hidden states of several segments (outputs ``y`` and inputs ``u`` each, as
+    :func:`estimate_states` takes them), :data:`SEGMENTS_TOGETHER` at a time: (B, n_hidden).
+
+    Each segment's start is fitted by its own ``least_squares``, exactly as
+    :func:`estimate_states` fits it alone, but the fits run in lockstep
+    (:func:`graybox.lockstep.run_in_lockstep`): their function evaluations (each a run of
+    the start and its forward differences) are batched into one run of every segment side by
+    side. One problem over the stacked starts (a block-diagonal Jacobian) was tried first:
+    its trust region is shared, and a start the data do not determine (a state of charge
+    above the OCV table's last breakpoint) wandered to another, equally good, minimum.
+    Each segment has at least 2 samples.
+    """
+    layout = _Layout(model)
+    n_hidden = len(layout.hidden)
+    scale = np.maximum(1.0, np.abs(layout.guess))
+    starts = []
+    for group in range(0, len(pieces), SEGMENTS_TOGETHER):
+        problem = _StartFit(model, layout, pieces[group:group + SEGMENTS_TOGETHER], dt,
+                            integration)
+        own = [problem.own_rows(b) for b in range(len(problem.n))]
+
+        def batch(indices, points, problem=problem, own=own):
+            e, jacobian = problem.errors_and_jacobians(np.array(points), 1e-6 * scale,
+                                                       np.array(indices))
+            return [(e[k, own[b]], jacobian[k, own[b]]) for k, b in enumerate(indices)]
+
+        def solver(evaluate_at):
+            cache = {}
+
+            def evaluate(z):
+                key = z.tobytes()
+                if key not in cache:
+                    value = evaluate_at(z.copy())
+                    cache.clear()
+                    cache[key] = value
+                return cache[key]
+
+            return least_squares(lambda z: evaluate(z)[0], layout.guess,
+                                 jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50).x
+
+        starts.extend(run_in_lockstep([solver] * len(problem.n), batch))
+    return np.array(starts).reshape(len(pieces), n_hidden)
 
 
 def _chunks(total: int) -> tuple[np.ndarray, int]:
