@@ -12,9 +12,8 @@ from graybox.linear_tier import LinearTier, fit_ar
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import choose_differencing
 from graybox.tiers.base import Tier
+from graybox.telemetry.layout import NS_PER_DAY, NS_PER_SECOND
 from graybox.tiers.fit_state import AssetFit, per_window
-
-SECONDS_PER_DAY = 86_400.0    # the longest window a flow analyses ([nightly] window)
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from graybox.signature import ChannelSignature
@@ -94,12 +93,13 @@ def _what_helps(settings: GrayBoxSettings, interval: float, shortest: int) -> st
         return (f"the class's settings fix analysis_interval = {settings.analysis_interval:g} s; "
                 f"use \"auto\" (the default), which keeps enough samples, or a shorter interval")
     needed = (settings.min_samples + 1) * interval
-    if needed > SECONDS_PER_DAY:
+    day = NS_PER_DAY / NS_PER_SECOND
+    if needed > day:
         # a window is at most a day: only fewer samples per fit can help at this logging rate
         return (f"a window must cover more than {needed:g} s of operation at this rate, "
                 f"longer than a day, and windows are at most a day ([nightly] window): log "
                 f"faster, or lower the class's settings.min_samples below the samples a window "
-                f"holds (a day holds {int(SECONDS_PER_DAY // interval)} at {interval:g} s; "
+                f"holds (a day holds {int(day // interval)} at {interval:g} s; "
                 f"fewer samples give wider thresholds)")
     return (f"a window must cover more than {needed:g} s of operation at this rate ("
             f"{shortest} samples cover {shortest * interval:g} s): use longer windows "
