@@ -260,7 +260,7 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
             shutil.rmtree(workdir)
         workdir.mkdir(exist_ok=True)
         results["sizes"].append(run_size(workdir, n, args))
-        if not args.keep:
+        if not (args.keep or args.reuse):    # a reused baseline is never thrown away
             shutil.rmtree(workdir)
         (root / "nightly_scale.json").write_text(json.dumps(results, indent=1))
     results["matmul_after"] = matmul_rate().to_dict()
