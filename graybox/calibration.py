@@ -272,8 +272,9 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             # a fragment must be as long as the fit asks of any operating period, and a
             # piece as long as its frozen structure needs
             shortest = int(np.ceil(settings.shortest_period / sig.sample_interval))
-            pieces = _split(window, calibration_pieces(sig, _length(window), settings), shortest)
-            for piece in _merge_short(pieces, sig, settings) + [window]:
+            pieces = _split(window, calibration_pieces(sig, _length(window), sig.settings),
+                            shortest)
+            for piece in _merge_short(pieces, sig, sig.settings) + [window]:
                 requests.append(replace(fresh[p], windows=[piece], baseline=sig, warm_start=warm))
                 owners.append((p, first + k, piece is window))
     fitted = fit_signatures(requests, settings, chunk_size, clock, cache, kinds)
@@ -313,8 +314,8 @@ def _piece_need(baseline: Signature, settings: GrayBoxSettings) -> int:
     for channel in baseline.channels:
         s = channel.structure
         need = max(need, s.differencing.lost
-                   + max(settings.min_samples, s.ar_order + s.embedding_dim * s.tau
-                         + settings.min_samples // 2) + 2)
+                   + max(settings.min_sample_count, s.ar_order + s.embedding_dim * s.tau
+                         + settings.min_sample_count // 2) + 2)
     return factor * need
 
 
@@ -370,7 +371,7 @@ def _merge_short(pieces: list, baseline: Signature, settings: GrayBoxSettings) -
                + c.structure.embedding_dim * c.structure.tau for c in baseline.channels)
 
     def enough(fragments: tuple) -> bool:
-        return sum(max(0, len(f) // factor - loss) for f in fragments) > settings.min_samples + 2
+        return sum(max(0, len(f) // factor - loss) for f in fragments) > settings.min_sample_count + 2
 
     merged, pending = [], ()
     for piece in pieces:

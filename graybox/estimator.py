@@ -8,6 +8,8 @@ here with :class:`~graybox.settings.GrayBoxSettings` and :class:`~graybox.signat
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from typing import Sequence
 
 import pandas as pd
@@ -88,6 +90,9 @@ class GrayBox:
         windows = [windows] if isinstance(windows, pd.DataFrame) or hasattr(windows, "frame") else list(windows)
         settings = self.settings
         if self.baseline is not None:
+            if settings is not None and settings.min_samples == "auto":
+                # "auto" was resolved by the baseline's own windows
+                settings = replace(settings, min_samples=self.baseline.settings.min_samples)
             if settings is not None and settings != self.baseline.settings:
                 raise GrayBoxError("a candidate must be fitted with its baseline's settings "
                                    "(leave settings out, or pass baseline.settings)")

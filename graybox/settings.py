@@ -8,7 +8,7 @@ Counts that remain are statistical (how many samples an estimate needs), not dur
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Mapping
 
 from graybox import record_json
@@ -18,6 +18,14 @@ from graybox.residual import RESIDUAL_METHODS
 #: keys of settings stored before the method was rate-invariant; such baselines were fitted
 #: at their native sample interval with these counts, which their frozen structures keep
 LEGACY_KEYS = ("max_ar_order", "max_delay")
+
+#: residual samples per window ``min_samples = "auto"`` asks for where the windows hold them
+MIN_SAMPLES_TARGET = 200
+#: the fewest residual samples ``"auto"`` ever accepts (half a day at 15 minutes)
+MIN_SAMPLES_FLOOR = 48
+#: telemetry samples ``"auto"`` leaves a window for the structure (differencing, AR order,
+#: network delays: a few samples at a slow logger's interval)
+STRUCTURE_ROOM = 50
 
 
 @dataclass(frozen=True)
@@ -54,9 +62,14 @@ class GrayBoxSettings:
     nn_scale_factor : float
         The network sees the AR residual divided by this many of its baseline standard
         deviations, which keeps targets well inside tanh's (-1, 1).
-    min_samples : int
+    min_samples : int or "auto"
         Fewest residual samples (at the analysis interval) per window after differencing and
         embedding: a statistical floor for the estimates, so a count and not a duration.
+        ``"auto"`` (the default) is resolved by each new baseline from its own windows
+        (:meth:`for_windows`): 200 wherever the shortest window holds 250 samples or more,
+        as a fixed 200 did; a slow logger's shorter windows (a day at 15 minutes holds 96)
+        keep 50 samples for the structure and use the rest, down to 48. The baseline
+        records the resolved count, and its candidates use it.
     calibration_splits : int
         Most pieces each healthy window is cut into for calibrating epsilon; fewer when the
         pieces would hold less than the structure plus ``min_samples`` (slow telemetry).
@@ -99,7 +112,7 @@ class GrayBoxSettings:
     min_heldout_gain: float = 0.01
     network: FitSettings = FitSettings()
     nn_scale_factor: float = 4.0
-    min_samples: int = 200
+    min_samples: int | str = "auto"
     calibration_splits: int = 8
     derivative_span: float = 60.0
     null_network: str = "fixed_features"
@@ -141,6 +154,10 @@ class GrayBoxSettings:
                 raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
         if self.calibration_splits < 1:
             raise ValueError(f"calibration_splits must be >= 1, got {self.calibration_splits}")
+        count = self.min_samples
+        if count != "auto" and (isinstance(count, (bool, str)) or not isinstance(count, int)
+                                or count < 1):
+            raise ValueError(f"min_samples must be an integer >= 1 or 'auto', got {count!r}")
 
     @property
     def trains_needed_network(self) -> bool:
@@ -153,12 +170,41 @@ class GrayBoxSettings:
         return (self.needed_hidden_units if self.needed_hidden_units is not None
                 and not self.trains_needed_network else self.hidden_units)
 
+    def for_windows(self, shortest_window: int) -> "GrayBoxSettings":
+        """These settings with ``min_samples = "auto"`` resolved for a baseline whose shortest
+        window holds ``shortest_window`` telemetry samples (operating samples); settings with
+        a count are returned as they are.
+
+        ``min(MIN_SAMPLES_TARGET, max(MIN_SAMPLES_FLOOR, shortest_window - STRUCTURE_ROOM))``:
+        200 from 250 samples up (nothing changes where a fixed 200 fitted), fewer for a slow
+        logger's windows, never fewer than 48 (a window too short for that gets the linear
+        tier's error, which names the settings that help).
+
+        Parameters
+        ----------
+        shortest_window : int
+
+        Returns
+        -------
+        GrayBoxSettings
+        """
+        if self.min_samples != "auto":
+            return self
+        count = min(MIN_SAMPLES_TARGET, max(MIN_SAMPLES_FLOOR, int(shortest_window) - STRUCTURE_ROOM))
+        return replace(self, min_samples=count)
+
+    @property
+    def min_sample_count(self) -> int:
+        """``min_samples`` as a count: itself, or for an unresolved ``"auto"`` the target
+        (:data:`MIN_SAMPLES_TARGET`) that :meth:`for_windows` keeps wherever windows hold it."""
+        return MIN_SAMPLES_TARGET if self.min_samples == "auto" else self.min_samples
+
     @property
     def samples_per_window(self) -> int:
         """Analysis samples a window should keep for the tiers and their calibration:
         ``calibration_splits`` pieces of ``min_samples`` (the cap on the analysis interval's
         decimation, :func:`graybox.analysis_rate.choose_analysis_interval`)."""
-        return self.calibration_splits * self.min_samples
+        return self.calibration_splits * self.min_sample_count
 
     def samples(self, seconds: float, interval: float, low: int = 1) -> int:
         """``seconds`` as a whole number of samples of ``interval`` seconds, at least ``low``."""

@@ -29,7 +29,7 @@ from graybox.operating_conditions import operating_conditions
 from graybox.parameter_estimate import ParameterEstimate
 from graybox.parameter_estimation import estimate_parameters, with_parameters
 from graybox.residual import infer_sample_interval, residual_frame
-from graybox.settings import GrayBoxSettings
+from graybox.settings import MIN_SAMPLES_TARGET, STRUCTURE_ROOM, GrayBoxSettings
 from graybox.signature import ChannelSignature, HiddenStart, Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.segment_cache import SegmentCache
@@ -346,7 +346,8 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     default = settings or GrayBoxSettings()
     groups: dict[GrayBoxSettings, list[int]] = {}
     for position, request in enumerate(requests):
-        effective = default if request.baseline is None else request.baseline.settings
+        effective = (_resolved(default, request) if request.baseline is None
+                     else request.baseline.settings)
         groups.setdefault(effective, []).append(position)
     results: list[Signature | GrayBoxError | None] = [None] * len(requests)
     # these are many small vector products: BLAS threads spin-waiting on a busy machine made
@@ -358,6 +359,21 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
                                                               cache, kinds)):
                 results[position] = result
     return results
+
+
+def _resolved(settings: GrayBoxSettings, request: FitRequest) -> GrayBoxSettings:
+    """A new baseline's settings with ``min_samples = "auto"`` resolved from its shortest
+    window's operating samples (:meth:`GrayBoxSettings.for_windows`); windows that cannot be
+    read here get the target count, and :func:`_prepare` reports what is wrong with them."""
+    if settings.min_samples != "auto":
+        return settings
+    try:
+        parts = [_window_parts(w) for w in request.windows]
+        frames, owners = _operating_segments(parts, settings, parts[0][1])
+        shortest = int(per_window([len(f) for f in frames], owners).min())
+    except Exception:  # noqa: BLE001 - _prepare raises it for this request
+        return settings.for_windows(MIN_SAMPLES_TARGET + STRUCTURE_ROOM)
+    return settings.for_windows(shortest)
 
 
 def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,

@@ -187,7 +187,9 @@ def sections() -> list[Section]:
                  "nn_scale_factor": "the network sees the AR residual divided by this many "
                                     "baseline standard deviations",
                  "min_samples": "fewest residual samples per window after differencing (a "
-                                "statistical count, not a duration)",
+                                "statistical count, not a duration); `\"auto\"`: 200, or "
+                                "for a slow logger's short windows what they hold less 50 "
+                                "(at least 48), resolved and recorded by each baseline",
                  "calibration_splits": "most pieces each healthy window is cut into when "
                                        "epsilon is calibrated",
                  "derivative_span": "seconds covered by the Savitzky-Golay window of the inverse "

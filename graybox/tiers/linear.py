@@ -47,14 +47,14 @@ class LinearTierKind(Tier):
             lost = differencing.lost
             # the sample-count checks apply to each window's segments together
             usable = per_window([max(0, len(s) - lost) for s in segments], owners)
-            too_short = [k for k, n in enumerate(usable) if n <= settings.min_samples]
+            too_short = [k for k, n in enumerate(usable) if n <= settings.min_sample_count]
             if too_short:
                 shortest = min(usable[k] for k in too_short) + lost
                 raise InsufficientDataError(
                     f"channel {name!r}: window(s) {too_short} have {shortest} residual samples "
                     f"at the {interval:g}-s analysis interval; the method needs more than "
                     f"{differencing.lost} for differencing plus min_samples = "
-                    f"{settings.min_samples}: {_what_helps(settings, interval, shortest)}")
+                    f"{settings.min_sample_count}: {_what_helps(settings, interval, shortest)}")
             # a segment too short to difference contributes nothing
             y = [differencing.apply(s) if len(s) > lost else s[:0] for s in segments]
             if frozen is None:
@@ -92,7 +92,7 @@ def _what_helps(settings: GrayBoxSettings, interval: float, shortest: int) -> st
     if not isinstance(settings.analysis_interval, str):
         return (f"the class's settings fix analysis_interval = {settings.analysis_interval:g} s; "
                 f"use \"auto\" (the default), which keeps enough samples, or a shorter interval")
-    needed = (settings.min_samples + 1) * interval
+    needed = (settings.min_sample_count + 1) * interval
     day = NS_PER_DAY / NS_PER_SECOND
     if needed > day:
         # a window is at most a day: only fewer samples per fit can help at this logging rate

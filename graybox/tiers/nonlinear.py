@@ -57,11 +57,11 @@ class NonlinearTierKind(Tier):
             structure = channel.structure
             span = structure.embedding_dim * structure.tau
             pairs = per_window([max(0, len(s) - span) for s in w], asset.owners)
-            if pairs.min() <= settings.min_samples // 2:
+            if pairs.min() <= settings.min_sample_count // 2:
                 raise InsufficientDataError(
                     f"channel {channel.name!r}: {int(pairs.min()) + span} samples are too few "
                     f"for the network's {structure.embedding_dim} delays of {structure.tau} plus "
-                    f"min_samples / 2 = {settings.min_samples // 2}: use longer windows or "
+                    f"min_samples / 2 = {settings.min_sample_count // 2}: use longer windows or "
                     f"lower min_samples")
 
     def fit_batch(self, assets: Sequence[AssetFit], settings: GrayBoxSettings,

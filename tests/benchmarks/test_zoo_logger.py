@@ -41,3 +41,19 @@ def test_a_room_logged_every_5_minutes_is_baselined_and_scored(capsys):
     assert cells[1] == "[300.0]"          # the analysis interval: the logger's
     assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
     assert cells[3].split(",")[0].endswith("/4")   # 2 vehicles x 2 nights scored
+
+
+def test_a_room_logged_every_15_minutes_is_baselined_with_the_defaults(capsys):
+    # a day at 15 minutes holds 96 samples, fewer than the 200 a window asks for: the
+    # baselines resolve min_samples = "auto" to 48 (tests/graybox/test_settings.py) instead
+    # of failing every fit, and a large fault is still found
+    assert main(["thermal_room:every=15", "--healthy-assets", "4", "--baseline-days", "3",
+                 "--nights", "3", "--faulty-per-cell", "1"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines()
+                if x.startswith("| thermal_room:every=15"))
+    cells = [c.strip() for c in line.split("|")[1:-1]]
+    assert cells[1] == "[900.0]"
+    assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
+    assert cells[3].endswith("/12")       # 4 vehicles x 3 nights scored
+    large_found, large = (int(x) for x in cells[5].split("/"))
+    assert large == 4 and large_found >= 1

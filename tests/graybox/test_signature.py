@@ -70,7 +70,8 @@ DATA = pathlib.Path(__file__).parent / "data"
 
 #: settings stored before the fixed-feature needed network and the function-space measure
 #: load with these fields None: needed networks trained, drift Eq. 28 on the weights
-BEFORE_FUNCTION_SPACE = dict(needed_network=None, needed_hidden_units=None, reference_points=None)
+BEFORE_FUNCTION_SPACE = dict(needed_network=None, needed_hidden_units=None, reference_points=None,
+                             min_samples=200)  # the file's count (the default before "auto")
 
 
 def _format_1_signature():
