@@ -19,7 +19,7 @@ MISSES = {"bus_longitudinal"}
 #: families whose telemetry the defaults cannot read at all (issue 18's blind families, a
 #: finding): the 15-min SCADA export's pumps stand still for hours (pump_flow 0.0 for 10+
 #: samples) and a fixed-speed pump's power holds one 0.5-kW value for hours, both read as
-#: stuck sensors; its 96 samples a day are also fewer than a baseline window needs
+#: stuck sensors (its 96 samples a day are enough since min_samples = "auto")
 UNREADABLE = {"pump_station"}
 
 

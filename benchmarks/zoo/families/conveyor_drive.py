@@ -2,8 +2,9 @@
 heats.
 
 True plant: the motor's speed ``w`` follows ``J w' = k_t i - T_c sign(w) - b w - r F_belt``,
-where the current ``i`` is set by a PI speed controller (the electrical dynamics, milliseconds,
-are not seen at 1 Hz), the belt force grows with the load on the belt (a belt scale measures it)
+where the current ``i`` is set by a PI speed controller closed every quarter second (the
+electrical dynamics, milliseconds, are not seen at 1 Hz; the drive reports each second's mean
+current), the belt force grows with the load on the belt (a belt scale measures it)
 and with friction that drifts; the winding temperature follows
 ``C T' = R(T) i^2 + k_fe w^2 - (T - T_amb) / R_th(w)``, with the copper resistance rising with
 temperature, iron losses, and a shaft-mounted fan whose cooling grows with speed. The speed
@@ -98,10 +99,14 @@ class ConveyorDrive(Family):
         out = {k: np.empty((len(batch), n)) for k in ("w", "T", "i")}
         h = DT / SUBSTEPS
         for k in range(total):
-            error = reference[:, k] - w
-            integral = np.clip(integral + 2.0 * error * DT, -50.0, 200.0)
-            current = np.clip(8.0 * error + integral, -20.0, 250.0)
+            logged_current = np.zeros(len(batch))
             for _ in range(SUBSTEPS):
+                # the drive closes its speed loop every sub-step (a real one runs at a kHz);
+                # once per 1-s sample, a loop gain of k_t * 8 / J ~ 3 per second made it chatter
+                error = reference[:, k] - w
+                integral = np.clip(integral + 2.0 * error * h, -50.0, 200.0)
+                current = np.clip(8.0 * error + integral, -20.0, 250.0)
+                logged_current += current / SUBSTEPS
                 torque = (p["torque_constant"] * current - coulomb[:, k] * np.sign(w)
                           - p["viscous"] * friction[:, k] * w - p["load_torque"] * load[:, k])
                 r_hot = resistance[:, k] * (1 + 0.0039 * (temp - 20.0))
@@ -112,7 +117,7 @@ class ConveyorDrive(Family):
             w = w + 0.05 * shocks[:, k]                               # belt stick-slip
             if k >= WARMUP:
                 out["w"][:, k - WARMUP], out["T"][:, k - WARMUP] = w, temp
-                out["i"][:, k - WARMUP] = current
+                out["i"][:, k - WARMUP] = logged_current   # the drive reports the second's mean
         day = slice(WARMUP, total)
         encoder = 0.05 * (1 + batch.active("encoder_noise", t[day]))
         return {"speed": out["w"] + batch.normal((n,), 1.0) * encoder,
