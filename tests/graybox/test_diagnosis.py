@@ -279,3 +279,35 @@ def test_the_evidence_holds_the_residual_and_what_the_best_three_leave(levels):
     assert evidence.concerned() == (0, 1)
     assert "evidence" not in record_json.to_dict(diagnosis)
     assert record_json.from_dict(Diagnosis, record_json.to_dict(diagnosis)).evidence is None
+
+
+def test_two_identical_nights_double_the_evidence_and_keep_the_estimate(levels):
+    # the evidence of a candidate's nights adds up: the same night twice (a day apart) gives
+    # each hypothesis twice the log-likelihood gain, so the score gap between the bias and
+    # its runners-up (the temperature's gain, the cooling) doubles, the estimate stays, and
+    # the interval narrows by sqrt((1 + 2 n / N_b) / (2 (1 + n / N_b))): sqrt(1/2) but for
+    # the baseline's own level, which the second night does not estimate again
+    night = drive_frame(Drive(), 12, bias=(0.0, 0.3))
+    again = night.set_axis(night.index + pd.Timedelta(days=1))
+    one = diagnose_window(Drive(), levels, [night])
+    two = diagnose_window(Drive(), levels, [night, again])
+    assert two.n_obs == 2 * one.n_obs
+    assert two.effective_samples == pytest.approx(2 * one.effective_samples, rel=1e-9)
+    assert [h.hypothesis for h in two.hypotheses] == [h.hypothesis for h in one.hypotheses]
+    assert (two.best.kind, two.best.target) == ("bias", "temperature")
+    assert {n.n_obs for n in levels.values()} == {levels["speed"].n_obs}
+    ratio = one.n_obs / 2 / levels["speed"].n_obs     # n / N_b, the same for both channels
+    narrower = np.sqrt((1 + 2 * ratio) / (2 * (1 + ratio)))
+    for h1, h2 in zip(one.hypotheses, two.hypotheses):
+        width1, width2 = h1.interval[1] - h1.interval[0], h2.interval[1] - h2.interval[0]
+        assert h2.log_likelihood_gain == pytest.approx(2 * h1.log_likelihood_gain, rel=1e-6,
+                                                       abs=1e-9)
+        if h1.kind == "noise":
+            continue        # a chi-square interval: narrower, not by a fixed factor
+        assert abs(h2.estimate - h1.estimate) < 1e-3 * width1
+        assert width2 / width1 == pytest.approx(narrower, rel=1e-6)
+    first, second = one.hypotheses[:2]
+    assert second.kind != "noise"                     # the same penalty: the gap is 2 x gain
+    gap1 = first.score - second.score
+    gap2 = two.hypotheses[0].score - two.hypotheses[1].score
+    assert gap2 == pytest.approx(2 * gap1, rel=1e-6)
