@@ -311,3 +311,37 @@ def test_two_identical_nights_double_the_evidence_and_keep_the_estimate(levels):
     gap1 = first.score - second.score
     gap2 = two.hypotheses[0].score - two.hypotheses[1].score
     assert gap2 == pytest.approx(2 * gap1, rel=1e-6)
+
+
+def test_a_fault_that_began_with_the_second_night_is_fitted_from_that_night(levels):
+    # a candidate of two nights on the fault's onset night: the first is healthy, the second
+    # reads 0.5 K high. Fitted as a constant over both nights the bias came back 0.23 K
+    # (-0.13 to 0.59) and the span read "no single cause" (score -2.5); the change is now
+    # fitted from the night it explains best, the second: the one-night estimate (0.506),
+    # said to hold since that night's first sample
+    healthy = drive_frame(Drive(), 20)
+    faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
+    faulty = faulty.set_axis(faulty.index + pd.Timedelta(days=1))
+    alone = diagnose_window(Drive(), levels, [faulty]).best
+    span = diagnose_window(Drive(), levels, [healthy, faulty])
+    best = span.best
+    assert (best.kind, best.target) == ("bias", "temperature")
+    assert best.since == faulty.index[0].isoformat()
+    assert best.interval[0] < 0.5 < best.interval[1]
+    assert best.estimate == pytest.approx(alone.estimate, abs=0.01 * (alone.interval[1]
+                                                                      - alone.interval[0]))
+    assert "since 2026-01-02T00:00:00+00:00" in best.describe()
+    again = record_json.from_dict(Diagnosis, record_json.parse_json(record_json.to_json(span), "d"))
+    assert again == span and again.best.since == best.since
+    # both nights biased: the change is fitted over the whole span, and nothing is "since"
+    both = diagnose_window(Drive(), levels, [faulty.set_axis(healthy.index), faulty])
+    assert (both.best.kind, both.best.target, both.best.since) == ("bias", "temperature", None)
+
+
+def test_a_healthy_span_of_two_nights_has_no_single_cause(levels):
+    # a start to choose is one more way to fit noise: it pays log 2 of the likelihood
+    first = drive_frame(Drive(), 11)
+    second = drive_frame(Drive(), 22)
+    second = second.set_axis(second.index + pd.Timedelta(days=1))
+    diagnosis = diagnose_window(Drive(), levels, [first, second])
+    assert not diagnosis.explained
