@@ -188,13 +188,16 @@ def main(argv=None) -> None:
                     geometry = night_geometry(result[0], parts, white_box(args.model_error),
                                               faulty_from=onset)
                     faulty = geometry["faulty"]
+                    # the whitened errors start after the autoregression's first lags
+                    whitened = faulty[len(faulty) - len(geometry["whitened"]["bias"]):]
                     found[m].append({
                         "nights_in_span": len(days), "onset_in_span": onset > 0,
                         "allowed": allowed_top1(geometry["slopes"], m, rng, faulty),
-                        "allowed_whitened": allowed_top1(geometry["whitened"], m, rng, faulty),
+                        "allowed_whitened": allowed_top1(geometry["whitened"], m, rng,
+                                                         whitened),
                         "collinear": geometry["collinear"],
                         "delta_c": _delta(geometry["slopes"], m, faulty),
-                        "delta_c_whitened": _delta(geometry["whitened"], m, faulty)})
+                        "delta_c_whitened": _delta(geometry["whitened"], m, whitened)})
     print(f"seeds {list(grid.seeds)} x 8 vehicles x {grid.post_nights} nights, model error "
           f"{args.model_error:g} (tuned on {list(TUNED)}); candidates on "
           f"{grid.candidate_nights} night(s)")
