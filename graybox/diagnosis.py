@@ -461,7 +461,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         else:
             screened = []
             for start in starts:
-                objective = _objective(kind, target, model, segments, start,
+                objective = _objective(kind, target, model, segments, start, offsets[start],
                                        functools.partial(remaining, start=start), finite, rows)
                 screened.append((objective, _screen(objective, healthy_weighted)))
             objective, fit = max(screened,
@@ -644,10 +644,11 @@ class _Objective:
                     [raw[a:b] for a, b in spans], sensitivity, start=self.start)
 
 
-def _objective(kind, target, model, segments, start, remaining, finite,
+def _objective(kind, target, model, segments, start, offset, remaining, finite,
                rows: _Rows) -> _Objective:
     """The hypothesis changing the white box or the telemetry from the operating period
-    ``start`` on; ``remaining(trial, trial_segments)`` runs the trial on those periods."""
+    ``start`` on, whose first error is the ``offset``-th; ``remaining(trial,
+    trial_segments)`` runs the trial on those periods."""
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
@@ -661,16 +662,19 @@ def _objective(kind, target, model, segments, start, remaining, finite,
 
     # a gain hypothesis' errors are compared in the units the baseline measured them in:
     # the corrected channel's error y / (1 + g) - yhat times 1 + g is y - (1 + g) yhat (in
-    # the corrected units alone, dividing by 1 + g shrinks every error and any g > 0 pays)
+    # the corrected units alone, dividing by 1 + g shrinks every error and any g > 0 pays);
+    # only the errors from the start on were corrected (the earlier ones are not scaled:
+    # scaled, a gain below 0 shrank a healthy first night and "explained" it)
     gained = model.outputs.index(target) if kind == "gain" else None
+    later = np.arange(len(finite[0])) >= offset
 
     def weighted(x: np.ndarray) -> np.ndarray:
         try:
             residuals, _ = remaining(*transform(float(x[0])))
-            units = [1.0 + scale * float(x[0]) if c == gained else 1.0
-                     for c in range(len(residuals))]
-            parts = [u * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
-                                       neginf=-INVALID_ERROR * s) for r, f, s, u in
+            units = [np.where(later, 1.0 + scale * float(x[0]), 1.0) if c == gained
+                     else np.ones(len(later)) for c in range(len(residuals))]
+            parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
+                                          neginf=-INVALID_ERROR * s) for r, f, s, u in
                      zip(residuals, finite, sigma, units)]
         except (GrayBoxError, FloatingPointError):
             parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]

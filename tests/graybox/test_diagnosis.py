@@ -345,3 +345,23 @@ def test_a_healthy_span_of_two_nights_has_no_single_cause(levels):
     second = second.set_axis(second.index + pd.Timedelta(days=1))
     diagnosis = diagnose_window(Drive(), levels, [first, second])
     assert not diagnosis.explained
+
+
+def test_a_change_from_a_later_night_leaves_the_earlier_nights_errors_as_they_were(levels):
+    # every hypothesis fitted from the second night on leaves the first night's residual
+    # untouched: a gain's errors are taken back to the sensor's units only where the channel
+    # was corrected (scaled on the first night too, a gain below 0 shrank a healthy night's
+    # errors and "explained" it: the crane's healthy spans read "angle sensor gain")
+    healthy = drive_frame(Drive(), 20)
+    faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
+    faulty = faulty.set_axis(faulty.index + pd.Timedelta(days=1))
+    evidence = diagnose_window(Drive(), levels, [healthy, faulty]).evidence
+    later = [fit for fit in evidence.fits if fit.hypothesis.since is not None]
+    assert {(f.hypothesis.kind, f.hypothesis.target) for f in later} >= {
+        ("bias", "temperature"), ("gain", "temperature")}
+    for fit in later:
+        for channel, remaining in zip(evidence.channels, fit.remaining):
+            first = channel.times < np.datetime64(faulty.index[0].tz_localize(None))
+            assert first.sum() > 1000
+            np.testing.assert_allclose(remaining[first], channel.residual[first], rtol=1e-12,
+                                       atol=1e-12)
