@@ -2,8 +2,9 @@
 [--out F.md] [--json F.json]``
 
 Runs :func:`graybox.diagnose` on the alarmed asset-nights of the gas-turbine detection grid
-(and on every healthy night), each on its candidate's nights as the nightly flow does and scores which cause comes first; with ``--zoo``, the same on
-two plant-zoo families with their coarse white boxes. Progress goes to stderr; the
+(and on every healthy night), each on its candidate's nights as the nightly flow does
+(``--candidate-nights``, default the product's), and scores which cause comes first; with
+``--zoo``, the same on two plant-zoo families with their coarse white boxes. Progress goes to stderr; the
 markdown section to ``--out`` (or stdout), the rows and settings to ``--json``.
 """
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""``python -m benchmarks.diagnosis.separability [--seeds 2] [--magnitudes 0.5,2]``
+"""``python -m benchmarks.diagnosis.separability [--seeds 2] [--magnitudes 0.5,2]
+[--candidate-nights N]``
 
 How often the gas-turbine grid's speed-sensor bias *can* rank first: the top-1 rate the
 night's evidence allows, against which the diagnosis' measured top-1 is read.
@@ -25,6 +26,14 @@ score gap; the bias leads a single rival with probability ``Phi(sqrt(delta) / 2)
 same figures under a whitened likelihood (the errors through an autoregression of order
 ``2 k`` fitted to the centred ``r``, over its innovations' spread) say what a
 prediction-error likelihood would gain over the diagnosis' ``N_eff / N`` scaling.
+
+With ``--candidate-nights N`` (default the product's ``[nightly] candidate_nights``) each
+scored night is read over its candidate's span, as the nightly flow diagnoses it: the
+slopes over every night of the span (each hypothesis a constant over it), the bias only in
+the nights from the onset on. Printed apart: the onset nights (the span holds the healthy
+night before; the product now fits a change from the night that explains most, which this
+constant-over-the-span geometry does not follow) and the later ones (every night faulty:
+the non-centrality adds up over the nights). ``--candidate-nights 1`` is one night alone.
 """
 from __future__ import annotations
 
@@ -216,8 +225,9 @@ def main(argv=None) -> None:
             for onset in (True, False):
                 part = [r for r in rows if r["onset_in_span"] == onset]
                 if part:
-                    print(f"  {'onset night (a healthy night in the span)' if onset else 'later nights (every night of the span faulty)'}: "
-                          f"{len(part)} nights, allowed "
+                    which = ("onset night (a healthy night in the span)" if onset
+                             else "later nights (every night of the span faulty)")
+                    print(f"  {which}: {len(part)} nights, allowed "
                           f"{statistics.mean(r['allowed'] for r in part):.0%}, median delta "
                           f"{statistics.median(r['delta_c'] for r in part):.2f}")
 
