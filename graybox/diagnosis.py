@@ -503,7 +503,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                   fit.baseline, _value(fit), _interval(fit, compared, effective,
                                                                        z, level),
                                   float(2 * gain - own_penalty), float(gain),
-                                  _since(frames, fit.start)))
+                                  None if fit.start == starts[0]
+                                  else _since(frames, fit.start)))
     ranked = sorted(zip(results, fits), key=lambda pair: -pair[0].score)
     results = [hypothesis for hypothesis, _ in ranked]
     explained = bool(results and results[0].score > min_score)
@@ -530,10 +531,8 @@ def _window_starts(windows) -> list[int]:
     return starts
 
 
-def _since(frames, start: int) -> str | None:
-    """The first sample of the periods from ``start`` on, when that is not the first."""
-    if not start:
-        return None
+def _since(frames, start: int) -> str:
+    """The first sample of the operating periods from ``start`` on."""
     first = frames[start].index[0]
     return utc(first).isoformat() if isinstance(first, pd.Timestamp) else str(first)
 
