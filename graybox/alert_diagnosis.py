@@ -8,8 +8,9 @@
 :class:`DiagnosisFailure`: recorded and shown as such, never dropped.
 
 The alert's ``diagnosis`` is a ranked tuple of plain dicts, each ``{hypothesis, kind, target,
-baseline, estimate, interval, score}`` (``interval`` a ``[low, high]`` list), at most
-:data:`ALERT_HYPOTHESES` of them:
+baseline, estimate, interval, score}`` (``interval`` a ``[low, high]`` list; ``since``
+too when the change was fitted from a later night of the candidate's span:
+:attr:`graybox.diagnosis.Hypothesis.since`), at most :data:`ALERT_HYPOTHESES` of them:
 
 * **explained** (the best hypothesis scores above the diagnosis' ``min_score``): the best
   hypotheses, best first; ``diagnosis[0]`` is the likely cause.
@@ -65,10 +66,13 @@ def _number(value) -> float | None:
 def hypothesis_entry(hypothesis: Hypothesis) -> dict[str, Any]:
     """One hypothesis as an alert's dict (non-finite numbers as None)."""
     low, high = hypothesis.interval
-    return {"hypothesis": hypothesis.hypothesis, "kind": hypothesis.kind,
-            "target": hypothesis.target, "baseline": _number(hypothesis.baseline),
-            "estimate": _number(hypothesis.estimate), "interval": [_number(low), _number(high)],
-            "score": _number(hypothesis.score)}
+    entry = {"hypothesis": hypothesis.hypothesis, "kind": hypothesis.kind,
+             "target": hypothesis.target, "baseline": _number(hypothesis.baseline),
+             "estimate": _number(hypothesis.estimate), "interval": [_number(low), _number(high)],
+             "score": _number(hypothesis.score)}
+    if hypothesis.since is not None:      # fitted from a later night of the candidate's span
+        entry["since"] = hypothesis.since
+    return entry
 
 
 def _marker(text: str, kind: str, score: float | None = None) -> dict[str, Any]:
@@ -120,7 +124,9 @@ def entries_from_document(document: Mapping[str, Any]) -> tuple[dict, ...]:
         raise ValueError(f"diagnosis status must be one of {STATUSES}, got {state!r}")
     if state == FAILED:
         return (failure_entry(str(document.get("error") or "unknown reason")),)
-    ranked = [{key: entry[key] for key in ENTRY_KEYS} for entry in document["hypotheses"]]
+    ranked = [{**{key: entry[key] for key in ENTRY_KEYS},
+               **({"since": entry["since"]} if entry.get("since") else {})}
+              for entry in document["hypotheses"]]
     if state == EXPLAINED:
         return tuple(ranked[:ALERT_HYPOTHESES])
     marker = _marker(NO_SINGLE_CAUSE, NONE_KIND, _number(document.get("min_score", 0.0)))
@@ -147,9 +153,10 @@ def cause_text(entry: Mapping[str, Any] | None) -> str:
     text += f" {_g(baseline)} -> {_g(estimate)}"
     low, high = entry.get("interval") or (None, None)
     span = f"interval {_g(low)} to {_g(high)}"
+    since = f" since {entry['since']}" if entry.get("since") else ""
     if baseline and entry.get("kind") == "parameter":
-        return text + f" ({(estimate - baseline) / baseline:+.0%}; {span})"
-    return text + f" ({span})"
+        return text + f" ({(estimate - baseline) / baseline:+.0%}; {span}){since}"
+    return text + f" ({span}){since}"
 
 
 def _g(value) -> str:

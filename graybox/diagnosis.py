@@ -72,12 +72,28 @@ parameter and a gain through the same equilibrium; two parameters that only ente
 score alike: the list shows both, and the gap between the first two scores says how sure the
 ranking is.
 
+**Several windows** (a candidate of several nights, ``[nightly] candidate_nights``). Their
+evidence adds up: the same night twice gives every hypothesis twice its log-likelihood gain
+(the score gap between two hypotheses doubles; the interval narrows by
+``sqrt((1 + 2 n / N_base) / (2 (1 + n / N_base)))``, not ``sqrt(2)``: the baseline's level
+is not estimated again). But a fault that began inside the span (the candidate of its onset
+night holds a healthy night first) is not a constant over it: fitted as one, a bias came
+back halved and a span that one night alone diagnoses read "no single cause". Each
+hypothesis is therefore fitted from each window's first operating period on (the errors
+before it keep their healthy values; a noise hypothesis reads the innovations from there
+on) and kept at the start that explains most (``Hypothesis.since``: that window's first
+sample, None for the first). The start is a choice among ``W`` windows: with a uniform prior
+over them it costs ``log W`` of the likelihood, ``2 log W`` of every score (the ranking is
+unchanged; a healthy span is not explained more easily). The interval's baseline term counts
+the errors from the start on.
+
 **Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
 channel and what the best three hypotheses leave of it
 (:class:`graybox.diagnosis_evidence.DiagnosisEvidence`, for a plot; not part of its JSON).
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Callable, ClassVar, Mapping, Sequence
@@ -101,6 +117,7 @@ from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
                                           prediction_errors, with_parameters)
 from graybox.signature import Signature
 from graybox.state_estimation import window_arrays
+from graybox.telemetry.window import window_periods
 from graybox.timestamps import utc
 
 KINDS = ("parameter", "bias", "gain", "noise")
@@ -148,7 +165,14 @@ class Hypothesis:
         ``2 * log_likelihood_gain - log(effective samples)``; positive: preferred to healthy.
     log_likelihood_gain : float
         The log-likelihood over the healthy baseline's (effective-sample scaled).
+    since : str, optional
+        When the change was fitted from: the first sample of the window it starts with (ISO
+        8601), when the telemetry is of several windows (a candidate's nights) and the
+        hypothesis explains it best from a later one on (the fault began inside the span);
+        None: over all of it.
     """
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"since"})
 
     hypothesis: str
     kind: str
@@ -158,6 +182,7 @@ class Hypothesis:
     interval: tuple[float, float]
     score: float
     log_likelihood_gain: float
+    since: str | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -174,7 +199,8 @@ class Hypothesis:
         low, high = self.interval
         relative = (f" ({self.change / self.baseline:+.0%}; interval {low:.4g} to {high:.4g})"
                     if self.baseline else f" (interval {low:.4g} to {high:.4g})")
-        return (f"{self.hypothesis} {self.baseline:.4g} -> {self.estimate:.4g}{relative}, "
+        since = f" since {self.since}" if self.since else ""
+        return (f"{self.hypothesis} {self.baseline:.4g} -> {self.estimate:.4g}{relative}{since}, "
                 f"score {self.score:.3g}")
 
 
@@ -256,6 +282,7 @@ class _Fit:
     sensitivity: np.ndarray       # per channel, sum of (dr/dvalue)^2 / sigma^2
     channel: int | None = None    # the channel a noise hypothesis scales
     evidence_samples: float | None = None   # a noise hypothesis read on the innovations: theirs
+    start: int = 0                # the first operating period the change is fitted on
 
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
@@ -308,31 +335,41 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
                        next(iter(levels.values())).horizon, start_stride(analysis),
                        baseline.integration_used)
     frames, interval = operating_segments(windows)
-    spreads = innovation_spreads(baseline, model, frames, interval)
+    # the innovations from each window on: a noise change may begin with any of them
+    spreads = {start: innovation_spreads(baseline, model, frames[start:], interval)
+               for start in _window_starts(windows)}
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
-                           min_score=min_score, time_budget=time_budget, spreads=spreads)
+                           min_score=min_score, time_budget=time_budget,
+                           spreads=spreads.get(0), spreads_from=spreads)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
                     setup: ErrorSetup | None = None, *,
                     hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
                     min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
-                    spreads: Mapping[str, InnovationSpread] | None = None) -> Diagnosis:
+                    spreads: Mapping[str, InnovationSpread] | None = None,
+                    spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None
+                    ) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
     RK4, the horizon the level tiers'), without a signature.
 
     ``spreads``: each channel's one-step innovation spread
-    (:func:`graybox.innovation_spread.innovation_spreads`), what its noise hypothesis is read
-    on; a channel without one reads it on its k-step errors' spread."""
+    (:func:`graybox.innovation_spread.innovation_spreads`) over all the telemetry, what its
+    noise hypothesis is read on; a channel without one reads it on its k-step errors'
+    spread. ``spreads_from``: the same over the operating periods from a window's first on,
+    by that period's index among them (``spreads`` is the one of index 0): a noise change
+    beginning with a later window is read there; a window without one is not a start of
+    the noise hypothesis."""
     clock = _Deadline(time_budget)
     hypotheses = tuple(hypotheses or candidate_hypotheses(model))
     # many small vector products: BLAS threads spin-waiting cost more than they give (as in
     # graybox.signature_fit.fit_signatures)
     with threadpool_limits(limits=1):
         try:
+            by_start = {**(spreads_from or {}), **({0: spreads} if spreads else {})}
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,
-                                    min_score, clock, spreads or {})
+                                    min_score, clock, by_start)
         except _OutOfTime:
             raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
                                f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
@@ -356,7 +393,8 @@ class _Deadline:
 
 
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
-                     clock: _Deadline, spreads: Mapping[str, InnovationSpread]) -> Diagnosis:
+                     clock: _Deadline,
+                     spreads: Mapping[int, Mapping[str, InnovationSpread]]) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
@@ -371,11 +409,25 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     explanation = [levels[c].level + (data[c][1] - np.asarray(levels[c].center))
                    @ np.asarray(levels[c].slopes) for c in channels]
     positions = data[channels[0]][2]
+    # where a change may begin: the first period of each window with k-step errors, and
+    # each one's first error (the errors are in period order)
+    starts = [s for s in _window_starts(windows) if np.any(positions >= s)] or [0]
+    offsets = {s: int(np.searchsorted(positions, s)) for s in starts}
 
-    def remaining(trial: WhiteBoxModel, trial_segments) -> tuple[list[np.ndarray], np.ndarray]:
+    def remaining(trial: WhiteBoxModel, trial_segments, start: int
+                  ) -> tuple[list[np.ndarray], np.ndarray]:
+        """The residual with ``trial`` run on the periods from ``start`` on (given as
+        ``trial_segments``), the healthy errors before them."""
         clock.check()
-        data = prediction_errors(trial, trial_segments, setup)
-        return [data[c][0] - known for c, known in zip(channels, explanation)], positions
+        errors = prediction_errors(trial, trial_segments, setup)
+        offset = offsets[start]
+        out = []
+        for c, known in zip(channels, explanation):
+            joined = np.concatenate([data[c][0][:offset], errors[c][0]])
+            if len(joined) != len(known):
+                raise GrayBoxError("a hypothesis' errors do not line up with the window's")
+            out.append(joined - known)
+        return out, positions
 
     healthy = [data[c][0] - known for c, known in zip(channels, explanation)]
     finite = [np.isfinite(r) for r in healthy]
@@ -384,6 +436,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         raise InsufficientDataError("too few finite k-step errors to diagnose the window")
     healthy = [r[f] for r, f in zip(healthy, finite)]
     pieces = [positions[f] for f in finite]
+    # the finite errors from each start on, per channel
+    later = {s: np.array([int(f[offsets[s]:].sum()) for f in finite]) for s in starts}
 
     def n_eff(residuals: list[np.ndarray]) -> np.ndarray:
         return np.array([effective_sample_size([(r - r.mean())[p == s] for s in np.unique(p)])
@@ -394,15 +448,26 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                  for n, w, s in zip(counts, weights, sigma)]),
                  np.cumsum([0, *counts]), sigma)
     healthy_weighted = np.concatenate(healthy) * rows.weights
-    # every hypothesis screened (one white-box run each), the best REFINED fitted in full
+    # every hypothesis screened from every start (one white-box run each), at the start that
+    # explains most; the best REFINED fitted in full
     objectives, fits = {}, []
     for kind, target in hypotheses:
         if kind == "noise":
-            fits.append(_noise_fit(target, model, sigma, healthy, spreads.get(target)))
+            # on the innovations from each start on; without them, the k-step errors' spread
+            options = [_noise_fit(target, model, sigma, healthy, spreads[start][target], start)
+                       for start in starts if target in spreads.get(start, {})] or [
+                _noise_fit(target, model, sigma, healthy, None, starts[0])]
+            fits.append(max(options, key=lambda fit: _gain(fit, healthy, sigma, weights)))
         else:
-            objective = _objective(kind, target, model, segments, remaining, finite, rows)
+            screened = []
+            for start in starts:
+                objective = _objective(kind, target, model, segments, start, offsets[start],
+                                       functools.partial(remaining, start=start), finite, rows)
+                screened.append((objective, _screen(objective, healthy_weighted)))
+            objective, fit = max(screened,
+                                 key=lambda pair: _gain(pair[1], healthy, sigma, weights))
             objectives[len(fits)] = objective
-            fits.append(_screen(objective, healthy_weighted))
+            fits.append(fit)
         clock.fitted += 1
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
@@ -417,22 +482,29 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     best = fits[int(np.argmax(first_gains))] if fits else None
     effective = n_eff(best.residuals if best is not None else healthy)
     weights = effective / counts
-    penalty = float(np.log(max(effective.sum(), 1.0)))
+    # BIC's penalty, and the start's: a uniform prior over the windows a change may begin
+    # with costs log(starts) of the likelihood (none for one window)
+    choice = float(2 * np.log(len(starts)))
+    penalty = float(np.log(max(effective.sum(), 1.0))) + choice
     z = float(special.ndtri(0.5 + level / 2))                     # scipy.stats.norm.ppf
-    # the baseline's level is an estimate too: a window compared with a baseline of as many
-    # samples (and the same autocorrelation) has twice the variance
-    compared = weights / (1.0 + counts / np.array([max(levels[c].n_obs, 1) for c in channels]))
+    # the baseline's level is an estimate too: the errors a hypothesis is fitted on (those
+    # from its start), compared with a baseline of as many samples (and the same
+    # autocorrelation), have twice the variance
+    base_counts = np.array([max(levels[c].n_obs, 1) for c in channels])
     results = []
     for fit in fits:
         gain = _gain(fit, healthy, sigma, weights)
         # BIC on the hypothesis' own evidence: a noise hypothesis read on the innovations
         # pays for its free value in their effective samples
         own_penalty = (penalty if fit.evidence_samples is None
-                       else float(np.log(max(fit.evidence_samples, 1.0))))
+                       else float(np.log(max(fit.evidence_samples, 1.0))) + choice)
+        compared = weights / (1.0 + later[fit.start] / base_counts)
         results.append(Hypothesis(_name(fit.kind, fit.target), fit.kind, fit.target,
                                   fit.baseline, _value(fit), _interval(fit, compared, effective,
                                                                        z, level),
-                                  float(2 * gain - own_penalty), float(gain)))
+                                  float(2 * gain - own_penalty), float(gain),
+                                  None if fit.start == starts[0]
+                                  else _since(frames, fit.start)))
     ranked = sorted(zip(results, fits), key=lambda pair: -pair[0].score)
     results = [hypothesis for hypothesis, _ in ranked]
     explained = bool(results and results[0].score > min_score)
@@ -444,6 +516,25 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
               for hypothesis, fit in ranked[:EVIDENCE_HYPOTHESES]))
     return Diagnosis(tuple(results), explained, float(min_score), tuple(channels),
                      int(counts.sum()), float(effective.sum()), evidence)
+
+
+def _window_starts(windows) -> list[int]:
+    """The index, among the operating periods of ``windows`` (as
+    :func:`~graybox.parameter_estimation.operating_segments` lists them), of each window's
+    first period; windows without one left out."""
+    starts, first = [], 0
+    for window in windows:
+        count = len(window_periods(window))
+        if count:
+            starts.append(first)
+        first += count
+    return starts
+
+
+def _since(frames, start: int) -> str:
+    """The first sample of the operating periods from ``start`` on."""
+    first = frames[start].index[0]
+    return utc(first).isoformat() if isinstance(first, pd.Timestamp) else str(first)
 
 
 def _prediction_times(frames, setup: ErrorSetup, positions: np.ndarray) -> np.ndarray:
@@ -482,13 +573,14 @@ def _transform(kind: str, target: str, model: WhiteBoxModel, segments, baseline:
     return corrected
 
 
-def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | None) -> _Fit:
-    """A noise hypothesis in closed form: on the innovations when given, else on the k-step
-    errors' spread."""
+def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | None,
+               start: int = 0) -> _Fit:
+    """A noise hypothesis in closed form: on the innovations when given (those of the periods
+    from ``start`` on), else on the k-step errors' spread (all of them)."""
     channel = model.outputs.index(target)
     if innovations is not None:
         return _Fit("noise", target, 1.0, 1.0, float(np.sqrt(innovations.ratio)), healthy,
-                    np.zeros(0), channel, innovations.effective_samples)
+                    np.zeros(0), channel, innovations.effective_samples, start)
     spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
     return _Fit("noise", target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
 
@@ -516,6 +608,7 @@ class _Objective:
     weighted: Callable[[np.ndarray], np.ndarray]
     bounds: tuple[float, float]
     rows: _Rows
+    start: int = 0                # the first operating period the change applies to
     #: the weighted errors at every value evaluated (one white-box run each), by value
     evaluated: dict = field(default_factory=dict)
 
@@ -547,10 +640,14 @@ class _Objective:
         sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
                                 for (a, b), s in zip(spans, self.rows.sigma)])
         return _Fit(self.kind, self.target, self.baseline, self.scale, float(x),
-                    [raw[a:b] for a, b in spans], sensitivity)
+                    [raw[a:b] for a, b in spans], sensitivity, start=self.start)
 
 
-def _objective(kind, target, model, segments, remaining, finite, rows: _Rows) -> _Objective:
+def _objective(kind, target, model, segments, start, offset, remaining, finite,
+               rows: _Rows) -> _Objective:
+    """The hypothesis changing the white box or the telemetry from the operating period
+    ``start`` on, whose first error is the ``offset``-th; ``remaining(trial,
+    trial_segments)`` runs the trial on those periods."""
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
@@ -559,28 +656,31 @@ def _objective(kind, target, model, segments, remaining, finite, rows: _Rows) ->
     else:
         baseline = 0.0
         scale = float(rows.sigma[model.outputs.index(target)]) if kind == "bias" else 0.01
-    transform = _transform(kind, target, model, segments, baseline, scale)
+    transform = _transform(kind, target, model, segments[start:], baseline, scale)
     sigma = rows.sigma
 
     # a gain hypothesis' errors are compared in the units the baseline measured them in:
     # the corrected channel's error y / (1 + g) - yhat times 1 + g is y - (1 + g) yhat (in
-    # the corrected units alone, dividing by 1 + g shrinks every error and any g > 0 pays)
+    # the corrected units alone, dividing by 1 + g shrinks every error and any g > 0 pays);
+    # only the errors from the start on were corrected (the earlier ones are not scaled:
+    # scaled, a gain below 0 shrank a healthy first night and "explained" it)
     gained = model.outputs.index(target) if kind == "gain" else None
+    later = np.arange(len(finite[0])) >= offset
 
     def weighted(x: np.ndarray) -> np.ndarray:
         try:
             residuals, _ = remaining(*transform(float(x[0])))
-            units = [1.0 + scale * float(x[0]) if c == gained else 1.0
-                     for c in range(len(residuals))]
-            parts = [u * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
-                                       neginf=-INVALID_ERROR * s) for r, f, s, u in
+            units = [np.where(later, 1.0 + scale * float(x[0]), 1.0) if c == gained
+                     else np.ones(len(later)) for c in range(len(residuals))]
+            parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
+                                          neginf=-INVALID_ERROR * s) for r, f, s, u in
                      zip(residuals, finite, sigma, units)]
         except (GrayBoxError, FloatingPointError):
             parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]
         return np.concatenate(parts) * rows.weights
 
     bounds = (-1.0 / scale + 1e-6, np.inf) if kind == "gain" else (-np.inf, np.inf)
-    return _Objective(kind, target, baseline, scale, weighted, bounds, rows)
+    return _Objective(kind, target, baseline, scale, weighted, bounds, rows, start=start)
 
 
 def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:

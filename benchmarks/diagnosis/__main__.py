@@ -2,8 +2,9 @@
 [--out F.md] [--json F.json]``
 
 Runs :func:`graybox.diagnose` on the alarmed asset-nights of the gas-turbine detection grid
-(and on every healthy night) and scores which cause comes first; with ``--zoo``, the same on
-two plant-zoo families with their coarse white boxes. Progress goes to stderr; the
+(and on every healthy night), each on its candidate's nights as the nightly flow does
+(``--candidate-nights``, default the product's), and scores which cause comes first; with
+``--zoo``, the same on two plant-zoo families with their coarse white boxes. Progress goes to stderr; the
 markdown section to ``--out`` (or stdout), the rows and settings to ``--json``.
 """
 from __future__ import annotations
@@ -21,6 +22,7 @@ from benchmarks.detection.grid import DEFAULT_MAGNITUDES
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import SIZES, DiagnosisGrid, run_grid
 from benchmarks.diagnosis.report import render
+from flows.config.settings import NightlySettings
 
 KINDS = tuple(DEFAULT_MAGNITUDES)
 
@@ -57,6 +59,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--pre-nights", type=int, default=2,
                    help="healthy nights between the baseline and the onset (default 2)")
     p.add_argument("--post-nights", type=int, default=3, help="nights from the onset (default 3)")
+    p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
+                   help="nights a candidate is fitted and diagnosed on (default the product's "
+                        "[nightly] candidate_nights: %(default)s)")
     p.add_argument("--zoo", type=_names(tuple(ZOO)), default=(), metavar="F,F",
                    help=f"also the plant-zoo families ({', '.join(ZOO)}), reduced")
     p.add_argument("--zoo-vehicles", type=int, default=3, help="healthy vehicles per family")
@@ -81,7 +86,8 @@ def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
                          model_errors=tuple(args.model_errors),
                          seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
                          baseline_days=args.baseline_days, pre_nights=args.pre_nights,
-                         post_nights=args.post_nights, tune=not args.untuned)
+                         post_nights=args.post_nights, tune=not args.untuned,
+                         candidate_nights=args.candidate_nights)
 
 
 def _uptime() -> str:

@@ -13,10 +13,15 @@ each a healthy asset and one faulty asset per (fault kind, magnitude) on the veh
    inertia, turbine gain and turbine slope stay fixed and ``compressor_linear`` takes up the
    error of ``b + c``);
 2. the baseline on the baseline days (``gb.fit_baselines``, 1 % false alarms per
-   asset-night), a candidate per night (``gb.fit_signatures``) and its drift
+   asset-night), a candidate per night (``gb.fit_signatures``) on the night and the
+   ``candidate_nights - 1`` before it, none before the baseline's end, as the nightly flow
+   fits it (``[nightly] candidate_nights``, the product's default 2; a faulty asset's nights
+   before the onset are its healthy twin's, identical telemetry), and its drift
    (``gb.compute_drift``): the night alarms when a tier exceeds its epsilon;
 3. ``graybox.diagnose`` on every alarmed faulty night after the onset and on every healthy
-   night (alarmed or not: the false-cause rate), timed.
+   night (alarmed or not: the false-cause rate), timed, on the telemetry the candidate was
+   fitted on (every night of its span), as :func:`flows.pipeline.diagnose_alarm` does.
+   On the onset night the span's first night is healthy.
 """
 from __future__ import annotations
 
@@ -32,6 +37,7 @@ import graybox as gb
 from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
 from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
 from graybox.diagnosis import diagnose
+from flows.config.settings import NightlySettings
 from graybox.telemetry.writing import write_telemetry
 
 #: the parameters tuned on the baseline days when the white box is off (an identifiable set)
@@ -61,6 +67,8 @@ class DiagnosisGrid:
     tune : bool, default True
         Tune a white box that is off on the baseline days (False: the known weakness, kept
         for comparison).
+    candidate_nights : int, default the product's ``[nightly] candidate_nights``
+        Nights a candidate is fitted on, and diagnosed on when it alarms.
     """
 
     magnitudes: dict
@@ -74,13 +82,15 @@ class DiagnosisGrid:
     sample_interval: float = 10.0
     false_alarm_rate: float = 0.01
     tune: bool = True
+    candidate_nights: int = NightlySettings().candidate_nights
 
     def detection_grid(self) -> Grid:
         return Grid(magnitudes=dict(self.magnitudes), model_errors=tuple(self.model_errors),
                     seeds=tuple(self.seeds), vehicles=self.vehicles,
                     baseline_days=self.baseline_days, pre_nights=self.pre_nights,
                     post_nights=self.post_nights, sample_interval=self.sample_interval,
-                    false_alarm_rate=self.false_alarm_rate, candidate_nights=1)
+                    false_alarm_rate=self.false_alarm_rate,
+                    candidate_nights=self.candidate_nights)
 
     def to_dict(self) -> dict:
         data = asdict(self)
@@ -122,16 +132,17 @@ def _windows(grid: Grid, vehicles, model) -> dict:
     return windows
 
 
-def diagnosis_fields(signature, window, model, expected: tuple[str, str] | None,
+def diagnosis_fields(signature, windows, model, expected: tuple[str, str] | None,
                      implied: Callable[[object], float]) -> dict:
-    """Diagnose one night; the fields of its row.
+    """Diagnose one night's candidate; the fields of its row.
 
     Parameters
     ----------
     signature : Signature
         The baseline.
-    window : TelemetryWindow
-        The night.
+    windows : sequence of TelemetryWindow
+        The telemetry the night's candidate was fitted on (its ``FitRequest.windows``: the
+        night and the ones before it in its span), what the nightly flow diagnoses.
     model : WhiteBoxModel
         The baseline's white box.
     expected : (kind, target) or None
@@ -140,7 +151,7 @@ def diagnosis_fields(signature, window, model, expected: tuple[str, str] | None,
         The fault's magnitude implied by the expected hypothesis (a :class:`Hypothesis`).
     """
     began = time.perf_counter()
-    diagnosis = diagnose(signature, [window], model)
+    diagnosis = diagnose(signature, list(windows), model)
     seconds = time.perf_counter() - began
     ranked = diagnosis.hypotheses
     names = [(h.kind, h.target) for h in ranked]
@@ -200,13 +211,16 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
                 for kind, magnitude in detection.scenarios()]
             for kind, magnitude, nights in assets:
                 asset = asset_id(v.seed, v.vehicle, kind, magnitude)
+                twin = asset_id(v.seed, v.vehicle)
                 for night in nights:
-                    # the grid's candidates are one night (candidate_nights = 1)
-                    days = trailing_nights(night, 1, detection.baseline_days)
-                    jobs.append((v, kind, magnitude, night, windows[asset, night],
-                                 gb.FitRequest(models[v.vehicle],
-                                               [windows[asset, d] for d in days],
-                                               baseline=signature, asset_id=asset)))
+                    # the candidate's span, as the nightly flow reads it; before the onset a
+                    # faulty asset's telemetry is its healthy twin's
+                    days = trailing_nights(night, detection.candidate_nights,
+                                           detection.baseline_days)
+                    parts = [windows[asset if (asset, d) in windows else twin, d] for d in days]
+                    jobs.append((v, kind, magnitude, night,
+                                 gb.FitRequest(models[v.vehicle], parts, baseline=signature,
+                                               asset_id=asset)))
         began = time.perf_counter()
         candidates = gb.fit_signatures([job[-1] for job in jobs])
         clock[f"candidate_seconds_{error:g}"] = time.perf_counter() - began
@@ -215,7 +229,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
             f"{len(jobs)} nights in "
             f"{clock[f'candidate_seconds_{error:g}']:.0f} s; diagnosing")
         began = time.perf_counter()
-        for (v, kind, magnitude, night, window, _), candidate in zip(jobs, candidates):
+        for (v, kind, magnitude, night, request), candidate in zip(jobs, candidates):
             signature, calibration = baselines[v.vehicle]
             expected = expected_hypothesis(kind) if kind != "healthy" else None
             row = {"seed": seed, "model_error": error, "vehicle": v.vehicle, "fault": kind,
@@ -235,7 +249,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
             if exceeded or kind == "healthy":
                 try:
                     row.update(diagnosis_fields(
-                        signature, window, models[v.vehicle], expected,
+                        signature, request.windows, models[v.vehicle], expected,
                         lambda h: implied_magnitude(kind, h.estimate, h.baseline)))
                     clock["diagnose_seconds"] += row["seconds"]
                     clock["diagnosed"] += 1

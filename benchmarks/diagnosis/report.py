@@ -103,8 +103,9 @@ def render(result: dict | None, command: str, wall_seconds: float, load: tuple[s
                       f"{grid['magnitudes']}; model errors {grid['model_errors']}; baseline "
                       f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before "
                       f"the onset, {grid['post_nights']} nights from it; "
-                      f"{grid['sample_interval']:g} s samples. White box tuned on the baseline "
-                      f"days when off: {result['tuned'] or 'no (untuned)'}.", "",
+                      f"{grid['sample_interval']:g} s samples; candidates fitted and diagnosed "
+                      f"on {grid.get('candidate_nights', 1)} night(s). White box tuned on the "
+                      f"baseline days when off: {result['tuned'] or 'no (untuned)'}.", "",
                   headline(cells), "",
                   *scored(result["rows"], f"{grid['sample_interval']:g} s samples")]
     for family in zoo:
@@ -112,6 +113,7 @@ def render(result: dict | None, command: str, wall_seconds: float, load: tuple[s
                       f"{family['baseline_days']} baseline days, {family['nights']} healthy "
                       f"nights each, {family['faulty_per_cell']} faulty assets per kind and "
                       f"magnitude scored on 3 nights, candidates on {family['candidate_nights']} "
-                      f"night(s); coarse white box tuned on {family['tuned']}):", "",
+                      f"night(s), diagnosed on {family.get('diagnosis_nights', 1)}; coarse white "
+                      f"box tuned on {family['tuned']}):", "",
                   *scored(family["rows"], "1 Hz")]
     return "\n".join(lines) + "\n"

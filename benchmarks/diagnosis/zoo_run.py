@@ -9,7 +9,9 @@ it). Telemetry through the store layout and ``graybox.read_window`` with the fam
 policy. The family's coarse white box is tuned to each vehicle on its baseline days by the
 baseline's fit (``FitRequest.estimate`` = :data:`benchmarks.diagnosis.expected_zoo.ZOO`'s
 ``tuned``, as the product tunes it), then ``graybox.diagnose`` runs on
-every alarmed night after the onset and on every healthy night.
+every alarmed night after the onset and on every healthy night, on the telemetry its
+candidate was fitted on (the night and the ones before it), as
+:func:`flows.pipeline.diagnose_alarm` does.
 """
 from __future__ import annotations
 
@@ -103,7 +105,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
             day = baseline_days + night
             days = [d for d in trailing_nights(day, span, baseline_days)
                     if (plan.asset_id, d) in windows]
-            jobs.append((plan, night, windows[plan.asset_id, day],
+            jobs.append((plan, night,
                          gb.FitRequest(coarse, [windows[plan.asset_id, d] for d in days],
                                        baseline=baselines[base][0], asset_id=plan.asset_id)))
     began = time.perf_counter()
@@ -113,7 +115,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
 
     began = time.perf_counter()
     rows = []
-    for (plan, night, window, _), candidate in zip(jobs, candidates):
+    for (plan, night, request), candidate in zip(jobs, candidates):
         base = vehicle_of[plan.asset_id]
         signature, calibration = baselines[base]
         fault = plan.fault.name if plan.fault else "healthy"
@@ -136,7 +138,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
         if (exceeded and row["after_onset"]) or fault == "healthy":
             implied = expectation.magnitude(fault)
             try:
-                row.update(diagnosis_fields(signature, window, coarse, expected,
+                row.update(diagnosis_fields(signature, request.windows, coarse, expected,
                                             lambda h: implied(h.estimate, h.baseline)))
             except gb.GrayBoxError as error:
                 row.update(diagnosis_error=str(error)[:200])
@@ -147,4 +149,4 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
     return {"family": family.name, "tuned": list(expectation.tuned), "rows": rows,
             "clock": clock, "healthy_assets": healthy_assets, "baseline_days": baseline_days,
             "nights": nights, "faulty_per_cell": faulty_per_cell, "seed": seed,
-            "candidate_nights": span}
+            "candidate_nights": span, "diagnosis_nights": span}

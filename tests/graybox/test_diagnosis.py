@@ -279,3 +279,89 @@ def test_the_evidence_holds_the_residual_and_what_the_best_three_leave(levels):
     assert evidence.concerned() == (0, 1)
     assert "evidence" not in record_json.to_dict(diagnosis)
     assert record_json.from_dict(Diagnosis, record_json.to_dict(diagnosis)).evidence is None
+
+
+def test_two_identical_nights_double_the_evidence_and_keep_the_estimate(levels):
+    # the evidence of a candidate's nights adds up: the same night twice (a day apart) gives
+    # each hypothesis twice the log-likelihood gain, so the score gap between the bias and
+    # its runners-up (the temperature's gain, the cooling) doubles, the estimate stays, and
+    # the interval narrows by sqrt((1 + 2 n / N_b) / (2 (1 + n / N_b))): sqrt(1/2) but for
+    # the baseline's own level, which the second night does not estimate again
+    night = drive_frame(Drive(), 12, bias=(0.0, 0.3))
+    again = night.set_axis(night.index + pd.Timedelta(days=1))
+    one = diagnose_window(Drive(), levels, [night])
+    two = diagnose_window(Drive(), levels, [night, again])
+    assert two.n_obs == 2 * one.n_obs
+    assert two.effective_samples == pytest.approx(2 * one.effective_samples, rel=1e-9)
+    assert [h.hypothesis for h in two.hypotheses] == [h.hypothesis for h in one.hypotheses]
+    assert (two.best.kind, two.best.target) == ("bias", "temperature")
+    assert {n.n_obs for n in levels.values()} == {levels["speed"].n_obs}
+    ratio = one.n_obs / 2 / levels["speed"].n_obs     # n / N_b, the same for both channels
+    narrower = np.sqrt((1 + 2 * ratio) / (2 * (1 + ratio)))
+    for h1, h2 in zip(one.hypotheses, two.hypotheses):
+        width1, width2 = h1.interval[1] - h1.interval[0], h2.interval[1] - h2.interval[0]
+        assert h2.log_likelihood_gain == pytest.approx(2 * h1.log_likelihood_gain, rel=1e-6,
+                                                       abs=1e-9)
+        if h1.kind == "noise":
+            continue        # a chi-square interval: narrower, not by a fixed factor
+        assert abs(h2.estimate - h1.estimate) < 1e-3 * width1
+        assert width2 / width1 == pytest.approx(narrower, rel=1e-6)
+    first, second = one.hypotheses[:2]
+    assert second.kind != "noise"                     # the same penalty: the gap is 2 x gain
+    gap1 = first.score - second.score
+    gap2 = two.hypotheses[0].score - two.hypotheses[1].score
+    assert gap2 == pytest.approx(2 * gap1, rel=1e-6)
+
+
+def test_a_fault_that_began_with_the_second_night_is_fitted_from_that_night(levels):
+    # a candidate of two nights on the fault's onset night: the first is healthy, the second
+    # reads 0.5 K high. Fitted as a constant over both nights the bias came back 0.23 K
+    # (-0.13 to 0.59) and the span read "no single cause" (score -2.5); the change is now
+    # fitted from the night it explains best, the second: the one-night estimate (0.506),
+    # said to hold since that night's first sample
+    healthy = drive_frame(Drive(), 20)
+    faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
+    faulty = faulty.set_axis(faulty.index + pd.Timedelta(days=1))
+    alone = diagnose_window(Drive(), levels, [faulty]).best
+    span = diagnose_window(Drive(), levels, [healthy, faulty])
+    best = span.best
+    assert (best.kind, best.target) == ("bias", "temperature")
+    assert best.since == faulty.index[0].isoformat()
+    assert best.interval[0] < 0.5 < best.interval[1]
+    assert best.estimate == pytest.approx(alone.estimate, abs=0.01 * (alone.interval[1]
+                                                                      - alone.interval[0]))
+    assert "since 2026-01-02T00:00:00+00:00" in best.describe()
+    again = record_json.from_dict(Diagnosis, record_json.parse_json(record_json.to_json(span), "d"))
+    assert again == span and again.best.since == best.since
+    # both nights biased: the change is fitted over the whole span, and nothing is "since"
+    both = diagnose_window(Drive(), levels, [faulty.set_axis(healthy.index), faulty])
+    assert (both.best.kind, both.best.target, both.best.since) == ("bias", "temperature", None)
+
+
+def test_a_healthy_span_of_two_nights_has_no_single_cause(levels):
+    # a start to choose is one more way to fit noise: it pays log 2 of the likelihood
+    first = drive_frame(Drive(), 11)
+    second = drive_frame(Drive(), 22)
+    second = second.set_axis(second.index + pd.Timedelta(days=1))
+    diagnosis = diagnose_window(Drive(), levels, [first, second])
+    assert not diagnosis.explained
+
+
+def test_a_change_from_a_later_night_leaves_the_earlier_nights_errors_as_they_were(levels):
+    # every hypothesis fitted from the second night on leaves the first night's residual
+    # untouched: a gain's errors are taken back to the sensor's units only where the channel
+    # was corrected (scaled on the first night too, a gain below 0 shrank a healthy night's
+    # errors and "explained" it: the crane's healthy spans read "angle sensor gain")
+    healthy = drive_frame(Drive(), 20)
+    faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
+    faulty = faulty.set_axis(faulty.index + pd.Timedelta(days=1))
+    evidence = diagnose_window(Drive(), levels, [healthy, faulty]).evidence
+    later = [fit for fit in evidence.fits if fit.hypothesis.since is not None]
+    assert {(f.hypothesis.kind, f.hypothesis.target) for f in later} >= {
+        ("bias", "temperature"), ("gain", "temperature")}
+    for fit in later:
+        for channel, remaining in zip(evidence.channels, fit.remaining):
+            first = channel.times < np.datetime64(faulty.index[0].tz_localize(None))
+            assert first.sum() > 1000
+            np.testing.assert_allclose(remaining[first], channel.residual[first], rtol=1e-12,
+                                       atol=1e-12)

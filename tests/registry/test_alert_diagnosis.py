@@ -39,6 +39,22 @@ def test_an_explained_diagnosis_ranks_its_hypotheses_as_dicts():
     assert len(diagnosis_document(many)["hypotheses"]) == 9     # the artifact keeps them all
 
 
+def test_a_change_fitted_from_a_later_night_says_since_when():
+    # a candidate of two nights on the fault's onset night: the bias is fitted from the
+    # second night on (graybox.diagnosis.Hypothesis.since); the alert and the likely cause
+    # say so, and diagnosis.json reads back with it
+    since = "2026-03-02T00:00:00+00:00"
+    later = Hypothesis("omega sensor bias", "bias", "omega", 0.0, 0.52, (0.47, 0.57), 30.0,
+                       18.0, since)
+    entries = alert_entries(diagnosis(later, INERTIA))
+    assert entries[0]["since"] == since and "since" not in entries[1]
+    assert cause_text(entries[0]) == ("omega sensor bias 0 -> 0.52 (interval 0.47 to 0.57) "
+                                      f"since {since}")
+    document = json.loads(json.dumps(diagnosis_document(diagnosis(later, INERTIA))))
+    assert document["likely_cause"] == cause_text(entries[0])
+    assert entries_from_document(document) == entries
+
+
 def test_no_single_cause_is_a_marker_ranked_above_the_hypotheses():
     found = diagnosis(NOISE, explained=False)
     entries = alert_entries(found)
