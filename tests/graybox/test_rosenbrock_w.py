@@ -9,13 +9,18 @@ the inputs' term and the stage matrix taken once per sample.
   by 4 +- 0.3.
 * On a stiff linear lag (time constant 1 ms) driven by a ramp, at one sample a second with 2
   sub-steps, the state ends within 1e-3 of its quasi-static value, where RK4 diverges.
+* The choice takes the sub-steps ROS2's own estimate takes, given as ``rosenbrock_w`` where
+  that method's estimate passes there too, and stays ROS2 where it does not (a stiff lag
+  behind ``sin(u)``, whose input term the sample's start does not represent).
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from graybox.integration import Integration, advance
+from graybox.integration import (ERROR_FRACTION, ERROR_POINTS, Integration, advance,
+                                 choose_integration, error_estimate)
+from graybox.models.base import WhiteBoxModel
 
 
 def _linear(x, u):
@@ -62,3 +67,55 @@ def test_a_stiff_lag_relaxes_to_its_quasi_static_value_within_the_sample():
     np.testing.assert_allclose(end, u1 - 1e-3 * (u1 - u0), atol=1e-3)
     with np.errstate(all="ignore"):
         assert not np.all(np.abs(advance(_stiff, x, u0, u1, 1.0, Integration("rk4", 2))) < 1e3)
+
+
+class _Lag(WhiteBoxModel):
+    """A stiff measured lag (1 ms) behind a slow input and a slow state it drives."""
+
+    states = ("x", "y")
+    inputs = ("u",)
+    default_parameters = {"tau": 1e-3}
+
+    def derivatives(self, x, u):
+        return np.stack([(u[..., 0] - x[..., 0]) / self.parameters["tau"],
+                         0.3 * x[..., 0] - 0.2 * x[..., 1] * np.abs(x[..., 1])], axis=-1)
+
+
+def test_the_choice_takes_ros2s_sub_steps_given_as_rosenbrock_w():
+    rng = np.random.default_rng(2)
+    u = np.cumsum(rng.normal(0, 0.3, 400))[:, None]
+    x = np.column_stack([u[:, 0], np.cumsum(rng.normal(0, 0.1, 400))])
+    change = np.sqrt(np.mean(np.diff(x, axis=0) ** 2, axis=0))
+    model = _Lag()
+    chosen = choose_integration(model, x, u, 1.0, change)
+    assert chosen.method == "rosenbrock_w"
+    take = np.unique(np.linspace(0, len(x) - 2, min(ERROR_POINTS, len(x) - 1)).round()
+                     .astype(int))
+    bound = ERROR_FRACTION * change
+
+    def passes(integration):
+        return np.all(error_estimate(model.derivatives, x[take], u[take], u[take + 1], 1.0,
+                                     integration) <= bound)
+
+    # the first sub-step count at which ROS2's own estimate passes, not fewer
+    counts = [s for s in (2, 4, 8, 16, 32) if passes(Integration("rosenbrock", s))]
+    assert chosen.substeps == counts[0]
+    assert passes(chosen)
+
+
+class _SteepLag(_Lag):
+    """The lag behind ``sin(u)``: its input term changes within a sample, so the term of the
+    sample's start is not good enough for ``rosenbrock_w``."""
+
+    def derivatives(self, x, u):
+        out = super().derivatives(x, u)
+        out[..., 0] = (np.sin(u[..., 0]) - x[..., 0]) / self.parameters["tau"]
+        return out
+
+
+def test_where_the_frozen_terms_fail_their_estimate_the_choice_stays_ros2():
+    rng = np.random.default_rng(2)
+    u = np.cumsum(rng.normal(0, 0.3, 400))[:, None]
+    x = np.column_stack([np.sin(u[:, 0]), np.cumsum(rng.normal(0, 0.1, 400))])
+    change = np.sqrt(np.mean(np.diff(x, axis=0) ** 2, axis=0))
+    assert choose_integration(_SteepLag(), x, u, 1.0, change).method == "rosenbrock"
