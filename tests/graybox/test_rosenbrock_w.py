@@ -1,25 +1,27 @@
 """Known answers of ``rosenbrock_w`` (:mod:`graybox.integration`): ROS2 with the Jacobian,
-the inputs' term and the stage matrix taken once per sample.
+the inputs' term and the stage matrix shared by ``JACOBIAN_SUBSTEPS`` sub-steps.
 
 * On a linear model the Jacobian is the same at every sub-step, so it is ROS2 (``rosenbrock``)
   itself: equal to 1e-7 relative (both take the Jacobian by forward differences, at different
   points: 1e-9 relative each).
-* It is second order whatever the Jacobian's error inside the sample (a W-method): on a
-  nonlinear, non-autonomous pair of equations, doubling the sub-steps divides the error
-  by 4 +- 0.3.
+* It is second order whatever the Jacobian's error over the sub-steps sharing it (a
+  W-method): on a nonlinear, non-autonomous pair of equations, doubling the sub-steps divides
+  the error by 4 +- 0.3, with the default sharing and with one Jacobian per sample.
 * On a stiff linear lag (time constant 1 ms) driven by a ramp, at one sample a second with 2
   sub-steps, the state ends within 1e-3 of its quasi-static value, where RK4 diverges.
 * The choice takes the sub-steps ROS2's own estimate takes, given as ``rosenbrock_w`` where
   that method's estimate passes there too, and stays ROS2 where it does not (a stiff lag
-  behind ``sin(u)``, whose input term the sample's start does not represent).
+  behind ``sin(u)`` with one Jacobian per sample, whose input term the sample's start does
+  not represent).
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from graybox.integration import (ERROR_FRACTION, ERROR_POINTS, Integration, advance,
-                                 choose_integration, error_estimate)
+from graybox import integration as integration_module
+from graybox.integration import (ERROR_FRACTION, ERROR_POINTS, JACOBIAN_SUBSTEPS, Integration,
+                                 advance, choose_integration, error_estimate)
 from graybox.models.base import WhiteBoxModel
 
 
@@ -43,14 +45,17 @@ def _nonlinear(x, u):
                      -0.5 * x[..., 1] * x[..., 0]], axis=-1)
 
 
-def test_it_is_second_order_with_the_jacobian_of_the_samples_start():
-    # a sample of 0.1 s: 4, 8 and 16 sub-steps are in the asymptotic range (3.77 and 3.88;
-    # ROS2 itself 3.73 and 3.86)
+@pytest.mark.parametrize("shared", [JACOBIAN_SUBSTEPS, 1000])
+def test_it_is_second_order_with_a_jacobian_shared_by_sub_steps(monkeypatch, shared):
+    # shared by 4 sub-steps (the default) and by all of the sample's (1000): a sample of
+    # 0.1 s, 8, 16 and 32 sub-steps are in the asymptotic range (3.82 and 3.90 with the
+    # default, 3.91 and 3.95 with one per sample)
+    monkeypatch.setattr(integration_module, "JACOBIAN_SUBSTEPS", shared)
     x = np.array([[0.8, 0.3], [0.2, 1.1]])
     u0, u1 = np.array([[0.0], [1.0]]), np.array([[2.0], [-1.0]])
     exact = advance(_nonlinear, x, u0, u1, 0.1, Integration("rk4", 64))
     errors = [np.abs(advance(_nonlinear, x, u0, u1, 0.1, Integration("rosenbrock_w", s))
-                     - exact).max() for s in (4, 8, 16)]
+                     - exact).max() for s in (8, 16, 32)]
     assert errors[0] / errors[1] == pytest.approx(4.0, abs=0.3)
     assert errors[1] / errors[2] == pytest.approx(4.0, abs=0.3)
 
@@ -113,7 +118,9 @@ class _SteepLag(_Lag):
         return out
 
 
-def test_where_the_frozen_terms_fail_their_estimate_the_choice_stays_ros2():
+def test_where_the_shared_terms_fail_their_estimate_the_choice_stays_ros2(monkeypatch):
+    # one Jacobian for the whole sample: the input term of its start does not hold
+    monkeypatch.setattr(integration_module, "JACOBIAN_SUBSTEPS", 1000)
     rng = np.random.default_rng(2)
     u = np.cumsum(rng.normal(0, 0.3, 400))[:, None]
     x = np.column_stack([np.sin(u[:, 0]), np.cumsum(rng.normal(0, 0.1, 400))])
