@@ -1,7 +1,7 @@
 """How the residual integrates the white box over one sample: the method, its sub-steps, and the
 error estimate that chooses them.
 
-Two methods, both vectorised over every starting point of a window at once:
+Three methods, all vectorised over every starting point of a window at once:
 
 ``rk4``
     Classical Runge-Kutta, the seed's integrator (:func:`graybox.rk4.rk4_step`). Accurate and
@@ -39,8 +39,7 @@ prediction with ``s`` sub-steps against one with ``2 s``; the estimate must stay
 The model's ``integrator`` declaration narrows the choice (``"auto"``: RK4 first, then
 Rosenbrock, given as ``rosenbrock_w`` at the sub-steps ROS2's estimate takes where that
 method's estimate passes there too). When no method reaches the bound within
-:data:`MAX_SUBSTEPS` sub-steps the error
-names the model and the channel.
+:data:`MAX_SUBSTEPS` sub-steps the error names the model and the channel.
 """
 from __future__ import annotations
 
@@ -251,11 +250,11 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
             candidate = Integration(method, substeps)
             accurate, error = within(candidate)
             if accurate:
-                # the sub-steps ROS2's estimate takes, each cheaper where the Jacobian of the
-                # sample's start passes its own estimate there too (module docstring)
-                frozen = Integration("rosenbrock_w", substeps)
-                if method == "rosenbrock" and within(frozen)[0]:
-                    return frozen
+                # the sub-steps ROS2's estimate takes, each cheaper with a shared Jacobian
+                # where that passes its own estimate there too (module docstring)
+                shared = Integration("rosenbrock_w", substeps)
+                if method == "rosenbrock" and within(shared)[0]:
+                    return shared
                 return candidate
             ratio = np.where(np.isfinite(error), error / bound, np.inf)
             worst = (method, substeps, int(np.argmax(ratio)), float(np.max(ratio)))
