@@ -208,7 +208,7 @@ def _fit_hidden_starts(requests: Sequence[FitRequest], settings: GrayBoxSettings
 
 def _first_integration(model) -> Integration:
     """The integrator of a new baseline's first hidden-state estimate."""
-    return Integration("rosenbrock" if model.integrator == "rosenbrock" else "rk4")
+    return Integration("rosenbrock_w" if model.integrator == "rosenbrock" else "rk4")
 
 
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
@@ -217,7 +217,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
 
     A new baseline's integrator is chosen at the data's own states
     (:func:`graybox.integration.choose_integration`); hidden states are first estimated with
-    RK4 (the L-stable method where RK4 diverges or the model asks for it), and again if the
+    RK4 (``rosenbrock_w`` where RK4 diverges or the model asks for it), and again if the
     choice differs.
     """
     model = request.model
@@ -234,7 +234,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
         if model.integrator != "auto":
             raise
         # stiff hidden dynamics: RK4 diverged where the L-stable method will not
-        first = Integration("rosenbrock")
+        first = Integration("rosenbrock_w")
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
     x = np.concatenate([s.states for s in states])
     u = np.concatenate([s.u for s in states])

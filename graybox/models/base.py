@@ -43,9 +43,9 @@ class WhiteBoxModel:
         are not outputs are *hidden*: estimated from the data, never read from telemetry.
         Left out, the outputs are the states (every state measured, the identity map).
     ``integrator`` (optional)
-        ``"auto"`` (default: fixed-step RK4 where it is accurate, an exponential integrator
-        where the model is stiff at the telemetry's rate), ``"rk4"`` or ``"exponential"``
-        (:mod:`graybox.integration`).
+        ``"auto"`` (default: fixed-step RK4 where it is accurate, an L-stable Rosenbrock
+        method where the model is stiff at the telemetry's rate), ``"rk4"`` or
+        ``"rosenbrock"`` (:mod:`graybox.integration`).
     ``initial_state`` (optional)
         Typical values of hidden states, where the search for a window's initial hidden
         state starts (default 0).

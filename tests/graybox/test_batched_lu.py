@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graybox.batched_lu import LARGEST, lu_factor
+from graybox.batched_lu import LARGEST, apply_columns, inverse_columns, lu_factor
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 6, LARGEST + 2])
@@ -35,3 +35,24 @@ def test_a_singular_matrix_raises():
     a = np.stack([np.eye(3), np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 1.0]])])
     with pytest.raises(np.linalg.LinAlgError):
         lu_factor(a)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_inverse_columns_apply_as_the_inverse(n):
+    rng = np.random.default_rng(10 + n)
+    a = rng.normal(size=(400, n, n)) + 2.0 * np.eye(n)
+    b = rng.normal(size=(400, n))
+    inverse = inverse_columns(a)
+    assert inverse.shape == (n, n, 400)
+    np.testing.assert_allclose(np.moveaxis(inverse, -1, 0), np.linalg.inv(a), rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(apply_columns(inverse, b),
+                               np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-9)
+
+
+def test_inverse_columns_of_a_known_matrix():
+    a = np.array([[[2.0, 0.0], [1.0, 4.0]]])
+    inverse = inverse_columns(a)
+    np.testing.assert_allclose(inverse[..., 0], [[0.5, 0.0], [-0.125, 0.25]], rtol=1e-15)
+    np.testing.assert_allclose(apply_columns(inverse, np.array([[2.0, 9.0]])), [[1.0, 2.0]],
+                               rtol=1e-15)
