@@ -16,7 +16,7 @@ from __future__ import annotations
 import collections
 import tempfile
 import time
-from typing import Callable
+from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -65,7 +65,8 @@ def vehicles_of(vehicles: list[AssetPlan], faulty: list[AssetPlan]) -> dict[str,
 def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                nights: int = 10, faulty_per_cell: int = 3, seed: int = 1,
                false_alarm_rate: float = 0.01, candidate_nights: int | None = None,
-               progress: Callable[[str], None] | None = None) -> dict:
+               progress: Callable[[str], None] | None = None,
+               frames: Mapping[str, pd.DataFrame] | None = None) -> dict:
     """Run one family; returns the figures and per-asset-night rows.
 
     Parameters
@@ -82,6 +83,11 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
         Nights per candidate; default the product's ``[nightly] candidate_nights``.
     progress : callable, optional
         Called with a line per stage.
+    frames : mapping, optional
+        The telemetry of every asset :func:`plan_fleet` plans (the faulty ones only with
+        ``nights >= 3``), days as simulated here from :data:`START`, simulated beforehand
+        (with other telemetry of the family: :meth:`Family.simulate_together`); default
+        simulated here.
 
     Returns
     -------
@@ -94,12 +100,18 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     vehicles, faulty = plan_fleet(family, healthy_assets, faulty_per_cell, seed, baseline_days)
     clock = {}
     began = time.perf_counter()
-    frames = family.simulate(vehicles, START, baseline_days + nights)
-    if faulty and nights >= HORIZON:
-        frames.update(family.simulate(faulty, START, baseline_days + HORIZON,
-                                      first_day=baseline_days))
-    else:
+    if not (faulty and nights >= HORIZON):
         faulty = []
+    if frames is None:
+        frames = family.simulate(vehicles, START, baseline_days + nights)
+        if faulty:
+            frames.update(family.simulate(faulty, START, baseline_days + HORIZON,
+                                          first_day=baseline_days))
+    else:
+        missing = sorted({p.asset_id for p in vehicles + faulty} - set(frames))
+        if missing:
+            raise ValueError(f"frames: no telemetry of {missing}")
+        frames = {p.asset_id: frames[p.asset_id] for p in vehicles + faulty}
     clock["simulation"] = time.perf_counter() - began
     say(f"{family.name}: simulated {len(vehicles)} vehicles x {baseline_days + nights} days and "
         f"{len(faulty)} faulty assets in {clock['simulation']:.0f} s")

@@ -1,15 +1,19 @@
-"""The plant zoo: its families simulate what they declare (the reduced zoo run is in
-tests/benchmarks/test_zoo_run.py)."""
+"""The plant zoo: its families simulate what they declare, and a reduced zoo run
+(:func:`benchmarks.zoo.run.run_family`) fits every baseline with the defaults and stays within
+the false-alarm bound. One file, so that each family's telemetry for both is simulated once
+(tests/benchmarks/test_zoo_run.py has the other zoo runs)."""
 import functools
 
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import stats
 
 import graybox as gb
+from benchmarks.zoo import run
 from benchmarks.zoo.families import discover
 from benchmarks.zoo.family import AssetPlan
-from benchmarks.zoo.run import plan_fleet
+from benchmarks.zoo.run import plan_fleet, run_family
 
 FAMILIES = discover()
 START = pd.Timestamp("2026-03-01", tz="UTC")
@@ -32,18 +36,50 @@ def test_the_zoo_has_the_families_the_benchmark_promises():
 
 
 ONSET = START + pd.Timedelta(days=1, hours=12)
+#: plants whose simulation (20-Hz drive control loops; a pack's evening before each day) and
+#: hidden-state or stiff fits cost 1-2 minutes per family even reduced: their baselines and
+#: nights run in ``python -m benchmarks.zoo`` (docs/benchmarks.md), not in the suite (the
+#: coolant loop's hidden metal node at 10 s: 2 baselines of 5 days cost about 95 s of CPU)
+HEAVY = {"ev_battery", "traction_drive", "cooling_loop"}
+#: families that miss the false-alarm bound with the protocol's 5-day baseline (a finding,
+#: docs/benchmarks.md): the bus's ridership falls at weekends, and the reduced run's two
+#: nights are a Saturday and a Sunday against a Monday-to-Friday baseline
+MISSES = {"bus_longitudinal"}
+#: families whose telemetry the defaults cannot read at all (issue 18's blind families, a
+#: finding): the 15-min SCADA export's pumps stand still for hours (pump_flow 0.0 for 10+
+#: samples) and a fixed-speed pump's power holds one 0.5-kW value for hours, both read as
+#: stuck sensors (its 96 samples a day are enough since min_samples = "auto")
+UNREADABLE = {"pump_station"}
+#: the reduced zoo run: its families and its fleet (5 baseline days, the zoo protocol's own:
+#: day-to-day variation is estimated from them)
+REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES - UNREADABLE)
+REDUCED_RUN = {"healthy_assets": 2, "baseline_days": 5, "nights": 2, "faulty_per_cell": 0,
+               "seed": 3}
+#: a reduced-zoo family's fleet telemetry, simulated with its _one_batch (taken once)
+_fleets: dict[str, dict[str, pd.DataFrame]] = {}
 
 
 @functools.cache
 def _one_batch(name: str) -> dict[str, pd.DataFrame]:
     """Day 1 of two healthy vehicles, on the first one's seed one copy per fault kind (large,
     from noon), and last the first vehicle again under another id: one simulation, as the
-    drive's 20-Hz loop costs seconds a day."""
+    drive's 20-Hz loop costs seconds a day. A family of the reduced zoo run simulates that
+    run's fleet in the same batch (kept in ``_fleets``): a 1-Hz plant's step loop costs about
+    6 s of CPU a call, for one asset-day as for twenty."""
     family = FAMILIES[name]
     plans = [AssetPlan("A-1", 11), AssetPlan("A-2", 12)] + [
         AssetPlan(kind.name, 11, kind, kind.magnitudes[1], ONSET) for kind in family.faults] + [
         AssetPlan("A-1 again", 11)]
-    return family.simulate(plans, START, 2, first_day=1)
+    requests = [(plans, START, 2, 1)]
+    if name in REDUCED:
+        vehicles, _ = plan_fleet(family, REDUCED_RUN["healthy_assets"], 0, REDUCED_RUN["seed"],
+                                 REDUCED_RUN["baseline_days"])
+        requests.append((vehicles, run.START,
+                         REDUCED_RUN["baseline_days"] + REDUCED_RUN["nights"], 0))
+    frames = family.simulate_together(requests)
+    if name in REDUCED:
+        _fleets[name] = frames[1]
+    return frames[0]
 
 
 @pytest.mark.parametrize("name", sorted(FAMILIES))
@@ -151,3 +187,27 @@ def test_a_parked_bus_reads_with_its_grid_line_and_without_it_is_told_which_sett
                             inputs=model.input_columns)
     # the day's service (about 17 hours) in many periods between stops
     assert len(window.frame) > 6 * 3600 and len(window.periods()) > 10
+
+
+def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
+    """Smallest k with P(Binomial(trials, rate) > k) < level."""
+    return next(k for k in range(trials + 1) if stats.binom.sf(k, trials, rate) < level)
+
+
+@pytest.mark.slow
+def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
+    assert HEAVY <= set(FAMILIES) and MISSES <= set(FAMILIES) and UNREADABLE <= set(FAMILIES)
+    results = []
+    for name in REDUCED:
+        _one_batch(name)
+        # the fleet simulated with the family's checks above (None when already taken: then
+        # run_family simulates it, the same telemetry)
+        results.append(run_family(FAMILIES[name], **REDUCED_RUN, frames=_fleets.pop(name, None)))
+    for result in results:
+        assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
+        assert result["failed_baselines"] == {}, result["family"]
+        assert result["baselines_fitted"] == 2
+        assert result["false_alarms"]["asset_nights"] == 4
+    trials = sum(r["false_alarms"]["asset_nights"] for r in results)
+    alarms = sum(r["false_alarms"]["alarms"] for r in results)
+    assert alarms <= _bound(trials), {r["family"]: r["healthy_tiers"] for r in results}

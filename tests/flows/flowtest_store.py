@@ -16,8 +16,9 @@ def count_records(registry) -> dict:
 
 def committed_state(registry, assets=ASSETS) -> dict:
     """Everything a run commits: watermarks, baseline aliases, and the alerts."""
+    # each baseline loaded (and its artifacts verified) once: a load reads its files
+    baselines = {a: registry.baseline(a) for a in assets}
     return {"watermarks": {a: registry.watermark(a) for a in assets},
-            "baselines": {a: (registry.baseline(a).version if registry.baseline(a) else None)
-                          for a in assets},
+            "baselines": {a: (b.version if b else None) for a, b in baselines.items()},
             "alerts": sorted((a.asset_id, a.window_start, a.channel, a.tier)
                              for a in registry.alerts())}
