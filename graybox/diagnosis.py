@@ -108,7 +108,7 @@ from graybox.diagnosis_evidence import (EVIDENCE_HYPOTHESES, ChannelResidual,
                                        DiagnosisEvidence, HypothesisFit)
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
-from graybox.innovation_spread import InnovationSpread, innovation_spreads
+from graybox.innovation_spread import InnovationSpread, period_innovations, pooled_spreads
 from graybox.integration import Integration
 from graybox.level_tier import LevelTier, start_stride
 from graybox.models.base import WhiteBoxModel
@@ -335,8 +335,10 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
                        next(iter(levels.values())).horizon, start_stride(analysis),
                        baseline.integration_used)
     frames, interval = operating_segments(windows)
-    # the innovations from each window on: a noise change may begin with any of them
-    spreads = {start: innovation_spreads(baseline, model, frames[start:], interval)
+    # the innovations from each window on: a noise change may begin with any of them (each
+    # period's residual computed once)
+    innovations = period_innovations(baseline, model, frames, interval)
+    spreads = {start: pooled_spreads(baseline, innovations, start)
                for start in _window_starts(windows)}
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
                            min_score=min_score, time_budget=time_budget,

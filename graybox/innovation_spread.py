@@ -68,21 +68,42 @@ def innovation_spreads(baseline: Signature, model: WhiteBoxModel, frames: Sequen
     dict of str to InnovationSpread
         Channels whose periods are all too short to difference and filter are left out.
     """
+    return pooled_spreads(baseline, period_innovations(baseline, model, frames, sample_interval))
+
+
+def period_innovations(baseline: Signature, model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
+                       sample_interval: float) -> dict[str, list[np.ndarray | None]]:
+    """Each output channel's one-step innovations per operating period of ``frames`` (None for
+    a period too short to difference and filter): what :func:`pooled_spreads` pools, so that
+    spreads over several runs of the periods (from each window on) integrate each period once.
+    Parameters as :func:`innovation_spreads`."""
     factor = max(1, round(baseline.analysis_step / sample_interval))
     window = baseline.settings.derivative_window(sample_interval)
     residuals = [residual_frame(model, frame, baseline.residual_method, sample_interval, window,
                                 baseline.integration_used) for frame in frames]
-    spreads = {}
+    out = {}
     for name in model.outputs:
         channel = baseline.channel(name)
         structure, linear = channel.structure, channel.linear
-        pieces = []
+        out[name] = []
         for residual in residuals:
             series = decimate(residual[name].to_numpy(), factor)
             if len(series) <= structure.differencing.lost + linear.order + 1:
+                out[name].append(None)
                 continue
             z = (structure.differencing.apply(series) - structure.center) / structure.scale
-            pieces.append(linear.innovations(z))
+            out[name].append(linear.innovations(z))
+    return out
+
+
+def pooled_spreads(baseline: Signature, innovations: dict[str, list[np.ndarray | None]],
+                   first: int = 0) -> dict[str, InnovationSpread]:
+    """:func:`innovation_spreads` from :func:`period_innovations`, over the periods from index
+    ``first`` on."""
+    spreads = {}
+    for name, per_period in innovations.items():
+        linear = baseline.channel(name).linear
+        pieces = [p for p in per_period[first:] if p is not None]
         samples = sum(len(p) for p in pieces)
         if samples < 4:
             continue
