@@ -132,7 +132,7 @@ def _prepare(request: FitRequest, settings: GrayBoxSettings, clock: StageClock |
     with timed(clock, "residual"):
         integration, states = _integrate(request, frames, interval, cache)
         analysis = analysis_interval(request, settings, states, interval,
-                                     int(per_window([len(f) for f in frames], owners).min()))
+                                     _shortest_window(frames, owners))
         factor = decimation_factor(analysis, interval)
         window = settings.derivative_window(interval)
         def residual(frame, segment) -> dict[str, np.ndarray]:
@@ -369,11 +369,15 @@ def _resolved(settings: GrayBoxSettings, request: FitRequest) -> GrayBoxSettings
         return settings
     try:
         parts = [_window_parts(w) for w in request.windows]
-        frames, owners = _operating_segments(parts, settings, parts[0][1])
-        shortest = int(per_window([len(f) for f in frames], owners).min())
+        shortest = _shortest_window(*_operating_segments(parts, settings, parts[0][1]))
     except Exception:  # noqa: BLE001 - _prepare raises it for this request
         return settings.for_windows(MIN_SAMPLES_TARGET + STRUCTURE_ROOM)
     return settings.for_windows(shortest)
+
+
+def _shortest_window(frames: Sequence[pd.DataFrame], owners: Sequence[int]) -> int:
+    """Operating samples of the window with the fewest (:func:`_operating_segments`' output)."""
+    return int(per_window([len(f) for f in frames], owners).min())
 
 
 def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
