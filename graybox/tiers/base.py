@@ -227,13 +227,18 @@ class Tier:
         """
         return conditions
 
+    def discount(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                 conditions: float = 0.0) -> float:
+        """What :meth:`drift_deltas` divides the changes by: :meth:`outside` where that
+        exceeds 1, else 1. A tier's healthy change grows with the distance from the
+        conditions calibration saw, which reached 1 (:mod:`graybox.operating_conditions`);
+        to first order in proportion to it."""
+        return max(1.0, self.outside(candidate, baseline, conditions))
+
     def drift_deltas(self, candidate: ChannelSignature, baseline: ChannelSignature,
                      conditions: float = 0.0) -> np.ndarray:
-        """The changes zeta sums: :meth:`deltas` divided by :meth:`outside` where that
-        exceeds 1. A tier's healthy change grows with the distance from the conditions
-        calibration saw, which reached 1 (:mod:`graybox.operating_conditions`)."""
-        return self.deltas(candidate, baseline) / max(1.0, self.outside(candidate, baseline,
-                                                                        conditions))
+        """The changes zeta sums: :meth:`deltas` divided by :meth:`discount`."""
+        return self.deltas(candidate, baseline) / self.discount(candidate, baseline, conditions)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

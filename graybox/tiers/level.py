@@ -27,9 +27,10 @@ class LevelTierKind(Tier):
     standard deviation. Its :meth:`outside` is the candidate's own
     :func:`~graybox.level_tier.extrapolation` (not the asset's input conditions): a night
     whose operating-condition correction is twice the largest of a baseline day's has its
-    level change halved in :meth:`drift_deltas`, since the slopes that make the correction
-    were only checked up to that reach (a slope's error grows the level error in proportion
-    to the distance). Absent from signatures stored before the tier existed.
+    level change divided by four in :meth:`drift_deltas` (:meth:`discount`), since the
+    correction was only checked up to that reach: beyond it a slope's error grows the level
+    error in proportion to the distance and the model error's curvature, which a linear
+    correction leaves, with its square. Absent from signatures stored before the tier existed.
     """
 
     name = "level"
@@ -89,3 +90,12 @@ class LevelTierKind(Tier):
     def outside(self, candidate: ChannelSignature, baseline: ChannelSignature,
                 conditions: float = 0.0) -> float:
         return extrapolation(candidate.level, baseline.level)
+
+    def discount(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                 conditions: float = 0.0) -> float:
+        """The square of :meth:`outside` where that exceeds 1. The level's correction takes
+        out the first-order dependence on the operating point, so what is left beyond the
+        baseline's reach is a slope's error (growing as the distance ``x``) and the model
+        error's curvature the linear correction cannot follow (growing as ``x²``);
+        calibration bounded their sum at ``x = 1``, so ``x²`` bounds it beyond."""
+        return max(1.0, self.outside(candidate, baseline, conditions)) ** 2

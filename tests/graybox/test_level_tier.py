@@ -215,7 +215,7 @@ def test_an_input_a_controller_sets_does_not_place_a_night_outside_the_range():
     assert extrapolation(fit_level(errors[:800], cold, 12, baseline), baseline) > 1.5
 
 
-def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distance():
+def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distance_squared():
     reference = dataclasses.replace(_level(0.40), operating_point=(100.0, 1.0), reach=0.5)
     # the input's correction at 6.0: |-0.2 * 5| = 1.0, twice the reach (the prediction, the
     # first feature, does not count)
@@ -224,14 +224,19 @@ def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distanc
     candidate = make_signature((dataclasses.replace(make_channel(), level=night),))
     kind = tier_kind("level")
     assert kind.deltas(candidate.channels[0], baseline.channels[0]) == pytest.approx([3.0])
+    # twice the reach: the change divided by 2 squared (a slope's error grows with the
+    # distance, the model error's curvature with its square)
+    assert kind.discount(candidate.channels[0], baseline.channels[0]) == pytest.approx(4.0)
     assert kind.drift_deltas(candidate.channels[0], baseline.channels[0]) == \
-        pytest.approx([1.5])
+        pytest.approx([0.75])
     # the asset's input conditions do not replace the level's own extrapolation
     assert kind.drift_deltas(candidate.channels[0], baseline.channels[0], 6.0) == \
-        pytest.approx([1.5])
+        pytest.approx([0.75])
     entry = compute_drift(candidate, baseline).get("omega", "level")
-    assert entry.zeta == pytest.approx(2.25)
+    assert entry.zeta == pytest.approx(0.5625)
     assert entry.outside == pytest.approx(2.0)
+    # the hint's parameter contribution is discounted alike
+    assert entry.top_changes[0].contribution == pytest.approx(0.5625)
     assert Drift.from_dict(compute_drift(candidate, baseline).to_dict()).get(
         "omega", "level") == entry
     # inside the range: undiscounted and not flagged
@@ -245,7 +250,7 @@ def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distanc
     pair = dataclasses.replace(inside, window_points=((130.0, 1.5), (130.0, 6.0)))
     candidate = make_signature((dataclasses.replace(make_channel(), level=pair),))
     entry = compute_drift(candidate, baseline).get("omega", "level")
-    assert entry.zeta == pytest.approx(2.25) and entry.outside == pytest.approx(2.0)
+    assert entry.zeta == pytest.approx(0.5625) and entry.outside == pytest.approx(2.0)
     assert Signature.from_json(candidate.to_json()) == candidate
 
 
