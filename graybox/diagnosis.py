@@ -416,12 +416,25 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     starts = [s for s in _window_starts(windows) if np.any(positions >= s)] or [0]
     offsets = {s: int(np.searchsorted(positions, s)) for s in starts}
 
-    def remaining(trial: WhiteBoxModel, trial_segments, start: int
-                  ) -> tuple[list[np.ndarray], np.ndarray]:
-        """The residual with ``trial`` run on the periods from ``start`` on (given as
-        ``trial_segments``), the healthy errors before them."""
+    def remaining(trial: WhiteBoxModel, trial_segments, start: int, value: float,
+                  shared: dict) -> tuple[list[np.ndarray], np.ndarray]:
+        """The residual with ``trial`` (at free value ``value``) run on the periods from
+        ``start`` on (given as ``trial_segments``), the healthy errors before them.
+
+        Each period's errors depend on that period alone (a prediction never crosses two;
+        hidden states are estimated per period), so a run from an earlier start holds the
+        errors of a later one: ``shared`` keeps the hypothesis' first run (its screening
+        step from its first start), and the same value from a later start is read from it
+        instead of run again."""
         clock.check()
-        errors = prediction_errors(trial, trial_segments, setup)
+        first = shared.get(value)
+        if first is not None and first[0] <= start:
+            begun, run = first
+            errors = {c: (e[p >= start - begun],) for c, (e, p) in run.items()}
+        else:
+            errors = prediction_errors(trial, trial_segments, setup)
+            if not shared:
+                shared[value] = (start, {c: (e, p) for c, (e, _, p) in errors.items()})
         offset = offsets[start]
         out = []
         for c, known in zip(channels, explanation):
@@ -461,11 +474,13 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                 _noise_fit(target, model, sigma, healthy, None, starts[0])]
             fits.append(max(options, key=lambda fit: _gain(fit, healthy, sigma, weights)))
         else:
-            screened = []
+            screened, shared = [], {}
             for start in starts:
                 objective = _objective(kind, target, model, segments, start, offsets[start],
-                                       functools.partial(remaining, start=start), finite, rows)
+                                       functools.partial(remaining, start=start, shared=shared),
+                                       finite, rows)
                 screened.append((objective, _screen(objective, healthy_weighted)))
+            shared.clear()  # the refinement runs its own values
             objective, fit = max(screened,
                                  key=lambda pair: _gain(pair[1], healthy, sigma, weights))
             objectives[len(fits)] = objective
@@ -649,7 +664,7 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
                rows: _Rows) -> _Objective:
     """The hypothesis changing the white box or the telemetry from the operating period
     ``start`` on, whose first error is the ``offset``-th; ``remaining(trial,
-    trial_segments)`` runs the trial on those periods."""
+    trial_segments, value=x)`` runs the trial (at free value ``x``) on those periods."""
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
@@ -671,7 +686,7 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
 
     def weighted(x: np.ndarray) -> np.ndarray:
         try:
-            residuals, _ = remaining(*transform(float(x[0])))
+            residuals, _ = remaining(*transform(float(x[0])), value=float(x[0]))
             units = [np.where(later, 1.0 + scale * float(x[0]), 1.0) if c == gained
                      else np.ones(len(later)) for c in range(len(residuals))]
             parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
