@@ -85,7 +85,9 @@ on) and kept at the start that explains most (``Hypothesis.since``: that window'
 sample, None for the first). The start is a choice among ``W`` windows: with a uniform prior
 over them it costs ``log W`` of the likelihood, ``2 log W`` of every score (the ranking is
 unchanged; a healthy span is not explained more easily). The interval's baseline term counts
-the errors from the start on.
+the errors from the start on. Each operating period's k-step errors depend on that period
+alone, so a hypothesis is screened from every start on one white-box run (from its first
+start); only a refinement runs the nights from its own start on.
 
 **Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
 channel and what the best three hypotheses leave of it
@@ -463,8 +465,9 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                  for n, w, s in zip(counts, weights, sigma)]),
                  np.cumsum([0, *counts]), sigma)
     healthy_weighted = np.concatenate(healthy) * rows.weights
-    # every hypothesis screened from every start (one white-box run each), at the start that
-    # explains most; the best REFINED fitted in full
+    # every hypothesis screened from every start (one white-box run for all of them: a later
+    # start reads its periods' errors from the first start's run), at the start that explains
+    # most; the best REFINED fitted in full
     objectives, fits = {}, []
     for kind, target in hypotheses:
         if kind == "noise":
