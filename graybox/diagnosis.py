@@ -419,24 +419,23 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     offsets = {s: int(np.searchsorted(positions, s)) for s in starts}
 
     def remaining(trial: WhiteBoxModel, trial_segments, start: int, value: float,
-                  shared: dict) -> tuple[list[np.ndarray], np.ndarray]:
+                  shared: _ScreenRun) -> tuple[list[np.ndarray], np.ndarray]:
         """The residual with ``trial`` (at free value ``value``) run on the periods from
         ``start`` on (given as ``trial_segments``), the healthy errors before them.
 
         Each period's errors depend on that period alone (a prediction never crosses two;
         hidden states are estimated per period), so a run from an earlier start holds the
-        errors of a later one: ``shared`` keeps the hypothesis' first run (its screening
-        step from its first start), and the same value from a later start is read from it
-        instead of run again."""
+        errors of a later one: ``shared`` keeps the hypothesis' first run while it is
+        screened (its screening step from its first start), and the same value from a
+        later start is read from it instead of run again."""
         clock.check()
-        first = shared.get(value)
-        if first is not None and first[0] <= start:
-            begun, run = first
-            errors = {c: (e[p >= start - begun],) for c, (e, p) in run.items()}
+        if shared.errors is not None and shared.value == value and shared.start <= start:
+            errors = {c: (e[p >= start - shared.start],) for c, (e, p) in shared.errors.items()}
         else:
             errors = prediction_errors(trial, trial_segments, setup)
-            if not shared:
-                shared[value] = (start, {c: (e, p) for c, (e, _, p) in errors.items()})
+            if shared.screening and shared.errors is None:
+                shared.start, shared.value = start, value
+                shared.errors = {c: (e, p) for c, (e, _, p) in errors.items()}
         offset = offsets[start]
         out = []
         for c, known in zip(channels, explanation):
@@ -477,13 +476,13 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                 _noise_fit(target, model, sigma, healthy, None, starts[0])]
             fits.append(max(options, key=lambda fit: _gain(fit, healthy, sigma, weights)))
         else:
-            screened, shared = [], {}
+            screened, shared = [], _ScreenRun()
             for start in starts:
                 objective = _objective(kind, target, model, segments, start, offsets[start],
                                        functools.partial(remaining, start=start, shared=shared),
                                        finite, rows)
                 screened.append((objective, _screen(objective, healthy_weighted)))
-            shared.clear()  # the refinement runs its own values
+            shared.screening, shared.errors = False, None   # the refinement runs its own
             objective, fit = max(screened,
                                  key=lambda pair: _gain(pair[1], healthy, sigma, weights))
             objectives[len(fits)] = objective
@@ -603,6 +602,17 @@ def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | No
                     np.zeros(0), channel, innovations.effective_samples, start)
     spread = float(np.sqrt(np.mean(healthy[channel] ** 2)) / sigma[channel])
     return _Fit("noise", target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
+
+
+@dataclass
+class _ScreenRun:
+    """A hypothesis' first screening run (from its first start), while it is screened from
+    the later ones: each k-step error with the position of its period, per channel."""
+
+    screening: bool = True
+    start: int = 0
+    value: float = 0.0
+    errors: dict | None = None
 
 
 @dataclass(frozen=True)
