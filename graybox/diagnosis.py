@@ -85,7 +85,9 @@ on) and kept at the start that explains most (``Hypothesis.since``: that window'
 sample, None for the first). The start is a choice among ``W`` windows: with a uniform prior
 over them it costs ``log W`` of the likelihood, ``2 log W`` of every score (the ranking is
 unchanged; a healthy span is not explained more easily). The interval's baseline term counts
-the errors from the start on.
+the errors from the start on. Each operating period's k-step errors depend on that period
+alone, so a hypothesis is screened from every start on one white-box run (from its first
+start); only a refinement runs the nights from its own start on.
 
 **Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
 channel and what the best three hypotheses leave of it
@@ -416,12 +418,24 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     starts = [s for s in _window_starts(windows) if np.any(positions >= s)] or [0]
     offsets = {s: int(np.searchsorted(positions, s)) for s in starts}
 
-    def remaining(trial: WhiteBoxModel, trial_segments, start: int
-                  ) -> tuple[list[np.ndarray], np.ndarray]:
-        """The residual with ``trial`` run on the periods from ``start`` on (given as
-        ``trial_segments``), the healthy errors before them."""
+    def remaining(trial: WhiteBoxModel, trial_segments, start: int, value: float,
+                  shared: _ScreenRun) -> tuple[list[np.ndarray], np.ndarray]:
+        """The residual with ``trial`` (at free value ``value``) run on the periods from
+        ``start`` on (given as ``trial_segments``), the healthy errors before them.
+
+        Each period's errors depend on that period alone (a prediction never crosses two;
+        hidden states are estimated per period), so a run from an earlier start holds the
+        errors of a later one: ``shared`` keeps the hypothesis' first run while it is
+        screened (its screening step from its first start), and the same value from a
+        later start is read from it instead of run again."""
         clock.check()
-        errors = prediction_errors(trial, trial_segments, setup)
+        if shared.errors is not None and shared.value == value and shared.start <= start:
+            errors = {c: (e[p >= start - shared.start],) for c, (e, p) in shared.errors.items()}
+        else:
+            errors = prediction_errors(trial, trial_segments, setup)
+            if shared.screening and shared.errors is None:
+                shared.start, shared.value = start, value
+                shared.errors = {c: (e, p) for c, (e, _, p) in errors.items()}
         offset = offsets[start]
         out = []
         for c, known in zip(channels, explanation):
@@ -450,8 +464,9 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                  for n, w, s in zip(counts, weights, sigma)]),
                  np.cumsum([0, *counts]), sigma)
     healthy_weighted = np.concatenate(healthy) * rows.weights
-    # every hypothesis screened from every start (one white-box run each), at the start that
-    # explains most; the best REFINED fitted in full
+    # every hypothesis screened from every start (one white-box run for all of them: a later
+    # start reads its periods' errors from the first start's run), at the start that explains
+    # most; the best REFINED fitted in full
     objectives, fits = {}, []
     for kind, target in hypotheses:
         if kind == "noise":
@@ -461,11 +476,13 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                 _noise_fit(target, model, sigma, healthy, None, starts[0])]
             fits.append(max(options, key=lambda fit: _gain(fit, healthy, sigma, weights)))
         else:
-            screened = []
+            screened, shared = [], _ScreenRun()
             for start in starts:
                 objective = _objective(kind, target, model, segments, start, offsets[start],
-                                       functools.partial(remaining, start=start), finite, rows)
+                                       functools.partial(remaining, start=start, shared=shared),
+                                       finite, rows)
                 screened.append((objective, _screen(objective, healthy_weighted)))
+            shared.screening, shared.errors = False, None   # the refinement runs its own
             objective, fit = max(screened,
                                  key=lambda pair: _gain(pair[1], healthy, sigma, weights))
             objectives[len(fits)] = objective
@@ -587,6 +604,17 @@ def _noise_fit(target, model, sigma, healthy, innovations: InnovationSpread | No
     return _Fit("noise", target, 1.0, 1.0, spread, healthy, np.zeros(0), channel)
 
 
+@dataclass
+class _ScreenRun:
+    """A hypothesis' first screening run (from its first start), while it is screened from
+    the later ones: each k-step error with the position of its period, per channel."""
+
+    screening: bool = True
+    start: int = 0
+    value: float = 0.0
+    errors: dict | None = None
+
+
 @dataclass(frozen=True)
 class _Rows:
     """The window's k-step errors as one weighted vector, shared by every hypothesis: each
@@ -649,7 +677,7 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
                rows: _Rows) -> _Objective:
     """The hypothesis changing the white box or the telemetry from the operating period
     ``start`` on, whose first error is the ``offset``-th; ``remaining(trial,
-    trial_segments)`` runs the trial on those periods."""
+    trial_segments, value=x)`` runs the trial (at free value ``x``) on those periods."""
     if kind not in KINDS:
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
@@ -671,7 +699,7 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
 
     def weighted(x: np.ndarray) -> np.ndarray:
         try:
-            residuals, _ = remaining(*transform(float(x[0])))
+            residuals, _ = remaining(*transform(float(x[0])), value=float(x[0]))
             units = [np.where(later, 1.0 + scale * float(x[0]), 1.0) if c == gained
                      else np.ones(len(later)) for c in range(len(residuals))]
             parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,

@@ -86,7 +86,9 @@ def scored(rows: list[dict], sample_interval: str) -> list[str]:
         lines += ["", f"**Cost**: {cost['diagnosed']} diagnosed asset-nights at "
                       f"{sample_interval}: median {cost['median']:.2f} s, 90th percentile "
                       f"{cost['p90']:.2f} s, largest {cost['max']:.2f} s per asset-night (one "
-                      "process)."]
+                      "process)" + (f"; CPU median {cost['cpu_median']:.2f} s, 90th percentile "
+                                    f"{cost['cpu_p90']:.2f} s, largest {cost['cpu_max']:.2f} s."
+                                    if "cpu_median" in cost else ".")]
     return lines
 
 

@@ -91,3 +91,10 @@ def test_the_cost_benchmark_times_one_night_of_a_small_family():
     row = measure("thermal_room")
     assert (row["states"], row["hidden"], row["hypotheses"], row["samples"]) == (2, 0, 11, 1440)
     assert 0 < row["seconds"] < 60 and row["summary"]
+
+
+def test_the_cost_benchmark_diagnoses_a_candidates_two_nights():
+    from benchmarks.diagnosis.cost import measure
+
+    row = measure("thermal_room", nights=2)
+    assert row["nights"] == 2 and row["samples"] == 1440 and row["summary"]

@@ -365,3 +365,32 @@ def test_a_change_from_a_later_night_leaves_the_earlier_nights_errors_as_they_we
             assert first.sum() > 1000
             np.testing.assert_allclose(remaining[first], channel.residual[first], rtol=1e-12,
                                        atol=1e-12)
+
+
+def test_a_hypothesis_is_screened_from_every_night_on_one_run(levels, monkeypatch):
+    # each night's k-step errors depend on that night alone, so screening a hypothesis from
+    # the second night on reads them from its run over the span: one white-box run per
+    # hypothesis (and one for the baseline), each over both nights, and the same screened
+    # values as a run of the second night alone gives
+    import graybox.diagnosis as diagnosis_module
+
+    healthy = drive_frame(Drive(), 20)
+    faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
+    faulty = faulty.set_axis(faulty.index + pd.Timedelta(days=1))
+    before = diagnose_window(Drive(), levels, [healthy, faulty])
+    runs = []
+    counted = diagnosis_module.prediction_errors
+
+    def counting(model, segments, setup):
+        runs.append(len(segments))
+        return counted(model, segments, setup)
+
+    monkeypatch.setattr(diagnosis_module, "prediction_errors", counting)
+    monkeypatch.setattr(diagnosis_module, "_refine", lambda objective, screened: screened)
+    screened = diagnose_window(Drive(), levels, [healthy, faulty])
+    fitted = [h for h in candidate_hypotheses(Drive()) if h[0] != "noise"]
+    assert runs == [2] * (1 + len(fitted))
+    # the screened bias from the second night on is the refined one (a bias is linear)
+    first = {(h.kind, h.target): h for h in screened.hypotheses}[("bias", "temperature")]
+    assert first.since == faulty.index[0].isoformat()
+    assert first.estimate == pytest.approx(before.best.estimate, rel=1e-6)
