@@ -150,18 +150,22 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
     from registry.registry import Registry
 
     workspace.configure(batch_size=2)           # batches T-001..2, T-003..4, T-005
-    original = Registry.record_fit
+    original = Registry.record_group
     calls = {"n": 0}
     nights = DAYS - BASELINE_DAYS
 
-    def record_then_die(self, *args, **kwargs):
-        record = original(self, *args, **kwargs)
-        calls["n"] += 1
-        if calls["n"] == 2 * nights + 2:          # second batch, after two of its fits
-            raise Interrupt("killed")
-        return record
+    def record_then_die(self, submissions, **kwargs):
+        # the flow records a group's fits together; killed after the first 2 * nights + 2
+        # (second batch, after two of its fits: a group whose fits were being written one
+        # transaction each, after its own transaction failed)
+        left = 2 * nights + 2 - calls["n"]
+        if len(submissions) < left:
+            calls["n"] += len(submissions)
+            return original(self, submissions, **kwargs)
+        original(self, submissions[:left], **kwargs)
+        raise Interrupt("killed")
 
-    monkeypatch.setattr(Registry, "record_fit", record_then_die)
+    monkeypatch.setattr(Registry, "record_group", record_then_die)
     with pytest.raises(BaseException) as stopped:
         state, _ = _run(workspace.config, as_of=day(DAYS).isoformat())
         if not state.is_completed():
@@ -176,7 +180,7 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
     partial = count(registry)
     assert partial["versions"] == len(ASSETS) + 2 * nights + 2
 
-    monkeypatch.setattr(Registry, "record_fit", original)
+    monkeypatch.setattr(Registry, "record_group", original)
     state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
     assert state.is_completed(), state.message
     by_asset = {a["asset_id"]: a for a in summary["assets"]}
@@ -200,16 +204,16 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
 def test_transient_error_is_retried(workspace, monkeypatch):
     from registry.registry import Registry
 
-    original = Registry.commit_watermark
+    original = Registry.commit_watermarks
     calls = {"n": 0}
 
-    def flaky(self, asset_id, end):
+    def flaky(self, ends):
         calls["n"] += 1
         if calls["n"] == 1:
             raise OSError("network file system hiccup")
-        return original(self, asset_id, end)
+        return original(self, ends)
 
-    monkeypatch.setattr(Registry, "commit_watermark", flaky)
+    monkeypatch.setattr(Registry, "commit_watermarks", flaky)
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
                           assets=["T-001"])
     assert state.is_completed(), state.message
@@ -257,14 +261,14 @@ def test_batch_failing_after_its_retries_does_not_stop_the_others(workspace, mon
     from registry.registry import Registry
 
     workspace.configure(batch_size=1, retries=1)
-    original = Registry.commit_watermark
+    original = Registry.commit_watermarks
 
-    def broken_for_one(self, asset_id, end):
-        if asset_id == "T-001":
+    def broken_for_one(self, ends):
+        if "T-001" in ends:         # a batch of one asset: its group is T-001 alone
             raise ConnectionError("registry unreachable")
-        return original(self, asset_id, end)
+        return original(self, ends)
 
-    monkeypatch.setattr(Registry, "commit_watermark", broken_for_one)
+    monkeypatch.setattr(Registry, "commit_watermarks", broken_for_one)
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
                           assets=["T-001", "T-003"])
     assert state.is_failed()
