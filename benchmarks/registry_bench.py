@@ -146,7 +146,7 @@ NIGHTLY_CALLS = ("watermark", "baseline", "record", "commit_watermark")
 
 
 def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
-            history: int = 0, warmup: int = 0, group: int = 0
+            history: int = 0, warmup: int = 0, group: int = 0, one_by_one: bool = False
             ) -> dict[str, list[tuple[float, float]]]:
     """Time every registry call of the nightly path, per asset-night.
 
@@ -158,7 +158,9 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
     its candidates with one :meth:`Registry.record_fits` (its time shared equally). With
     ``group``, each group of ``group`` assets is committed as the nightly flow commits a
     memory group: one :meth:`Registry.record_group`, then one
-    :meth:`Registry.commit_watermarks` (each time shared equally).
+    :meth:`Registry.commit_watermarks` (each time shared equally); with ``one_by_one`` too,
+    the group's reads come first as well but each asset is recorded and committed alone (the
+    flow's commit before ``record_group``).
     ``warmup`` nights are recorded first the same way, untimed.
 
     Returns (wall, CPU) seconds per call, one per asset-night: the CPU time of this thread
@@ -207,6 +209,12 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
                     baseline_version=loaded.version, plots=False))
                 if not batch and not group:
                     timed("record", lambda: registry.record_fit(submissions[-1]))
+            if group and one_by_one:      # the flow's commit of a group before record_group
+                for submission in submissions:
+                    timed("record", lambda: registry.record_fit(submission))
+                for asset in chunk:
+                    timed("commit_watermark", lambda: registry.commit_watermark(asset, end))
+                continue
             if group:
                 records = timed("record", lambda: registry.record_group(submissions),
                                 share=len(chunk))
@@ -227,7 +235,9 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
 def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
     n = len(times[NIGHTLY_CALLS[0]])
     print()
-    how = (f"record_group + commit_watermarks of {args.group} assets" if args.group
+    how = (f"groups of {args.group} assets, each recorded and committed alone"
+           if args.group and args.one_by_one
+           else f"record_group + commit_watermarks of {args.group} assets" if args.group
            else f"record_fits of {args.batch} assets" if args.batch
            else "record_fit and commit_watermark per asset")
     store = "embedded SQLite store (WAL)" if not args.tracking_uri else \
@@ -267,6 +277,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="--nightly: commit each group of this many assets as the nightly "
                              "flow commits a memory group (record_group, then "
                              "commit_watermarks); 0: per asset, as the flow did before")
+    parser.add_argument("--one-by-one", action="store_true",
+                        help="--group: the group's reads first, then each asset recorded and "
+                             "committed alone (record_fit, commit_watermark: the flow before "
+                             "record_group)")
     parser.add_argument("--history", type=int, default=0,
                         help="--nightly: filler runs and versions per asset before timing")
     parser.add_argument("--warmup", type=int, default=0,
@@ -317,7 +331,7 @@ def _run(args, workdir: Path) -> int:
     if args.nightly:
         fits.update(baseline=fitted.baseline, calibration=fitted.calibration)
         print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,
-                              args.history, args.warmup, args.group), args)
+                              args.history, args.warmup, args.group, args.one_by_one), args)
         if args.workdir is None:
             shutil.rmtree(workdir, ignore_errors=True)
         return 0
