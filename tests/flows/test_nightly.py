@@ -278,3 +278,46 @@ def test_batch_failing_after_its_retries_does_not_stop_the_others(workspace, mon
     assert "registry unreachable" in by_asset["T-001"]["error"]["message"]
     assert by_asset["T-003"]["status"] == "ok"
     assert summary["exit_status"] == 1
+
+
+def test_a_fit_the_store_refuses_fails_its_asset_alone(workspace, monkeypatch):
+    """The group's candidates are recorded in one transaction; when the store refuses one
+    fit's rows, the others land, its asset keeps the nights before it and is reported
+    failed with that window, and the next run records what is left."""
+    from mlflow.exceptions import MlflowException
+    from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
+
+    from registry.store import naming
+    from registry.store.sql_writes import SqlWriter
+
+    write_many = SqlWriter.write_many
+    refused_end = day(BASELINE_DAYS + 2)
+
+    def refusing(self, items):
+        for run, _ in items:
+            if run.tags[naming.TAG_ASSET_ID] == "T-002" and \
+                    pd.Timestamp(run.tags[naming.TAG_WINDOW_END]) == refused_end:
+                raise MlflowException("the store refused a row", INVALID_PARAMETER_VALUE)
+        return write_many(self, items)
+
+    monkeypatch.setattr(SqlWriter, "write_many", refusing)
+    state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
+    assert state.is_failed()
+    by_asset = {a["asset_id"]: a for a in summary["assets"]}
+    refused = by_asset["T-002"]
+    assert refused["status"] == "failed" and len(refused["windows"]) == 1
+    assert "refused a row" in refused["error"]["message"]
+    registry = workspace.registry()
+    assert registry.watermark("T-002") == day(BASELINE_DAYS + 1)
+    for asset in set(ASSETS) - {"T-002"}:
+        assert by_asset[asset]["status"] == "ok"
+        assert len(by_asset[asset]["windows"]) == DAYS - BASELINE_DAYS
+        assert registry.watermark(asset) == day(DAYS)
+
+    monkeypatch.setattr(SqlWriter, "write_many", write_many)
+    state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
+    assert state.is_completed(), state.message
+    (again,) = [a for a in summary["assets"] if a["asset_id"] == "T-002"]
+    assert again["status"] == "ok"
+    assert [w["created"] for w in again["windows"]] == [True] * (DAYS - BASELINE_DAYS - 1)
+    assert registry.watermark("T-002") == day(DAYS)
