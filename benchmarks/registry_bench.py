@@ -29,7 +29,9 @@ The nightly path, per asset-night (``--nightly``)::
 gives ``--assets`` assets a promoted baseline, then times, for every asset and night, the
 calls :func:`flows.nightly.process_batch` makes: ``watermark``, ``baseline`` (load and
 verify), ``record`` (the candidate with its drift, no plots), ``commit_watermark``; it prints
-mean, median and 90th percentile in ms per asset-night, and their total. ``--batch N``
+mean, median and 90th percentile in ms per asset-night, and their total, with the mean and
+median CPU time of the calling thread (the median leaves out a rare long pause, e.g. a
+garbage collection, that falls into one call). ``--batch N``
 records each group of N assets with one ``record_fits``; ``--history N`` first gives every
 asset N filler runs and versions (what a year of nights leaves is ``--history 365``);
 ``--group N`` commits each group of N assets as the nightly flow commits a memory group (one
@@ -247,8 +249,9 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
           f"nights = {n} asset-nights, {how}, {args.history} nights of history, "
           f"{args.warmup} untimed night(s) first; ms per "
           f"asset-night (wall, and CPU of the calling thread)")
-    print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} |")
-    print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|")
+    print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} | "
+          f"{'CPU median':>10} |")
+    print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|{'-' * 12}|")
     total = [(sum(w for w, _ in parts), sum(c for _, c in parts))
              for parts in zip(*times.values())]
     for name, values in [*times.items(), ("total", total)]:
@@ -256,7 +259,8 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
         print(f"| {name:<16} | {1000 * statistics.fmean(walls):7.1f} | "
               f"{1000 * statistics.median(walls):7.1f} | "
               f"{1000 * walls[int(0.9 * (len(walls) - 1))]:7.1f} | "
-              f"{1000 * statistics.fmean(c for _, c in values):8.1f} |")
+              f"{1000 * statistics.fmean(c for _, c in values):8.1f} | "
+              f"{1000 * statistics.median(c for _, c in values):10.1f} |")
 
 
 def main(argv: list[str] | None = None) -> int:
