@@ -16,10 +16,11 @@
       ``network``, ``noise``);
    b. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
       physical diagnosis of an alarmed window (``diagnosis``);
-3. **Commit.** The flow's policy: :func:`record_candidates` (the registry record, stage
-   ``registry``, and the alerts of each window) and what the flow commits beyond it -- the
-   watermarks for the nightly run, the promotion for the baseline flow, nothing for a
-   reanalysis.
+3. **Commit.** The flow's policy: :func:`record_group` (the registry record, stage
+   ``registry``, and the alerts of each window; the group's records written together, each
+   asset on its own; :func:`record_candidates` is one asset's) and what the flow commits
+   beyond it -- the watermarks for the nightly run, the promotion for the baseline flow,
+   nothing for a reanalysis.
 
 The flows differ only in their plan (which windows, against which version) and their commit.
 """
