@@ -29,10 +29,14 @@ The nightly path, per asset-night (``--nightly``)::
 gives ``--assets`` assets a promoted baseline, then times, for every asset and night, the
 calls :func:`flows.nightly.process_batch` makes: ``watermark``, ``baseline`` (load and
 verify), ``record`` (the candidate with its drift, no plots), ``commit_watermark``; it prints
-mean, median and 90th percentile in ms per asset-night, and their total. ``--batch N``
+mean, median and 90th percentile in ms per asset-night, and their total, with the mean and
+median CPU time of the calling thread (the median leaves out a rare long pause, e.g. a
+garbage collection, that falls into one call). ``--batch N``
 records each group of N assets with one ``record_fits``; ``--history N`` first gives every
 asset N filler runs and versions (what a year of nights leaves is ``--history 365``);
-``--warmup N`` first records N nights untimed: a process's first night also pays one-time
+``--group N`` commits each group of N assets as the nightly flow commits a memory group (one
+``record_group``, then one ``commit_watermarks``: ``--group 10`` with ``--assets 10`` is a
+night of one memory group); ``--warmup N`` first records N nights untimed: a process's first night also pays one-time
 costs (imports, SQLAlchemy's compiled statements, SQLite's page cache) that filling a history
 has already paid, so compare histories with a warm-up.
 """
@@ -144,7 +148,8 @@ NIGHTLY_CALLS = ("watermark", "baseline", "record", "commit_watermark")
 
 
 def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
-            history: int = 0, warmup: int = 0) -> dict[str, list[tuple[float, float]]]:
+            history: int = 0, warmup: int = 0, group: int = 0, one_by_one: bool = False
+            ) -> dict[str, list[tuple[float, float]]]:
     """Time every registry call of the nightly path, per asset-night.
 
     ``assets`` assets get a calibrated, promoted baseline and a watermark (and ``history``
@@ -152,7 +157,12 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
     then ``nights`` nights are recorded as :func:`flows.nightly` does, asset by asset:
     ``watermark``, ``baseline`` (load and verify), ``record`` (the candidate with its drift,
     no plots) and ``commit_watermark``. With ``batch``, each group of ``batch`` assets records
-    its candidates with one :meth:`Registry.record_fits` (its time shared equally).
+    its candidates with one :meth:`Registry.record_fits` (its time shared equally). With
+    ``group``, each group of ``group`` assets is committed as the nightly flow commits a
+    memory group: one :meth:`Registry.record_group`, then one
+    :meth:`Registry.commit_watermarks` (each time shared equally); with ``one_by_one`` too,
+    the group's reads come first as well but each asset is recorded and committed alone (the
+    flow's commit before ``record_group``).
     ``warmup`` nights are recorded first the same way, untimed.
 
     Returns (wall, CPU) seconds per call, one per asset-night: the CPU time of this thread
@@ -185,12 +195,12 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
             times[name].extend([spent] * share)
         return value
 
-    group = batch or 1
+    size = group or batch or 1
     for night in range(warmup + nights):
         start = day0 + pd.Timedelta(days=night)
         end = start + pd.Timedelta(days=1)
-        for first in range(0, assets, group):
-            chunk = names[first:first + group]
+        for first in range(0, assets, size):
+            chunk = names[first:first + size]
             submissions = []
             for asset in chunk:
                 timed("watermark", lambda: registry.watermark(asset))
@@ -199,8 +209,24 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
                     asset, "turbine", fits["candidate"], role="candidate", drift=fits["drift"],
                     window=fits["night"], window_start=start, window_end=end,
                     baseline_version=loaded.version, plots=False))
-                if not batch:
+                if not batch and not group:
                     timed("record", lambda: registry.record_fit(submissions[-1]))
+            if group and one_by_one:      # the flow's commit of a group before record_group
+                for submission in submissions:
+                    timed("record", lambda: registry.record_fit(submission))
+                for asset in chunk:
+                    timed("commit_watermark", lambda: registry.commit_watermark(asset, end))
+                continue
+            if group:
+                records = timed("record", lambda: registry.record_group(submissions),
+                                share=len(chunk))
+                failed = [r for r in records if not getattr(r, "created", False)]
+                if failed:
+                    raise RuntimeError(f"the group's records failed: {failed}")
+                timed("commit_watermark",
+                      lambda: registry.commit_watermarks({asset: end for asset in chunk}),
+                      share=len(chunk))
+                continue
             if batch:
                 timed("record", lambda: registry.record_fits(submissions), share=len(chunk))
             for asset in chunk:
@@ -211,7 +237,11 @@ def nightly(registry, fits, assets: int, nights: int, batch: int = 0,
 def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
     n = len(times[NIGHTLY_CALLS[0]])
     print()
-    how = f"record_fits of {args.batch} assets" if args.batch else "record_fit per asset"
+    how = (f"groups of {args.group} assets, each recorded and committed alone"
+           if args.group and args.one_by_one
+           else f"record_group + commit_watermarks of {args.group} assets" if args.group
+           else f"record_fits of {args.batch} assets" if args.batch
+           else "record_fit and commit_watermark per asset")
     store = "embedded SQLite store (WAL)" if not args.tracking_uri else \
         args.tracking_uri.split("://")[0]
     path = "client path" if args.client_path else "SQL writes where the store allows"
@@ -219,8 +249,9 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
           f"nights = {n} asset-nights, {how}, {args.history} nights of history, "
           f"{args.warmup} untimed night(s) first; ms per "
           f"asset-night (wall, and CPU of the calling thread)")
-    print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} |")
-    print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|")
+    print(f"| {'call':<16} | {'mean':>7} | {'median':>7} | {'p90':>7} | {'CPU mean':>8} | "
+          f"{'CPU median':>10} |")
+    print(f"|{'-' * 18}|{'-' * 9}|{'-' * 9}|{'-' * 9}|{'-' * 10}|{'-' * 12}|")
     total = [(sum(w for w, _ in parts), sum(c for _, c in parts))
              for parts in zip(*times.values())]
     for name, values in [*times.items(), ("total", total)]:
@@ -228,7 +259,8 @@ def print_nightly(times: dict[str, list[tuple[float, float]]], args) -> None:
         print(f"| {name:<16} | {1000 * statistics.fmean(walls):7.1f} | "
               f"{1000 * statistics.median(walls):7.1f} | "
               f"{1000 * walls[int(0.9 * (len(walls) - 1))]:7.1f} | "
-              f"{1000 * statistics.fmean(c for _, c in values):8.1f} |")
+              f"{1000 * statistics.fmean(c for _, c in values):8.1f} | "
+              f"{1000 * statistics.median(c for _, c in values):10.1f} |")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -245,6 +277,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--batch", type=int, default=0,
                         help="--nightly: record each group of this many assets with one "
                              "record_fits (default: record_fit per asset, as the flow does)")
+    parser.add_argument("--group", type=int, default=0,
+                        help="--nightly: commit each group of this many assets as the nightly "
+                             "flow commits a memory group (record_group, then "
+                             "commit_watermarks); 0: per asset, as the flow did before")
+    parser.add_argument("--one-by-one", action="store_true",
+                        help="--group: the group's reads first, then each asset recorded and "
+                             "committed alone (record_fit, commit_watermark: the flow before "
+                             "record_group)")
     parser.add_argument("--history", type=int, default=0,
                         help="--nightly: filler runs and versions per asset before timing")
     parser.add_argument("--warmup", type=int, default=0,
@@ -295,7 +335,7 @@ def _run(args, workdir: Path) -> int:
     if args.nightly:
         fits.update(baseline=fitted.baseline, calibration=fitted.calibration)
         print_nightly(nightly(registry, fits, args.assets, args.nights, args.batch,
-                              args.history, args.warmup), args)
+                              args.history, args.warmup, args.group, args.one_by_one), args)
         if args.workdir is None:
             shutil.rmtree(workdir, ignore_errors=True)
         return 0

@@ -6,8 +6,10 @@ networks in one batched computation), record the candidate in the registry with 
 and alerts, then advance the watermark. Per group of assets the order is
 
 1. record every candidate run and version, with its drift and alerts (idempotent on asset,
-   window, role, data hash),
-2. advance each asset's watermark to the end of its last committed window,
+   window, role, data hash; the group's together, in one transaction on SQLite or
+   PostgreSQL, each asset on its own: :func:`flows.pipeline.record_group`),
+2. advance each asset's watermark to the end of its last committed window (the group's
+   together, the same way),
 
 so an interruption anywhere leaves the watermark before anything not fully committed, and the
 rerun repeats it without duplicates. The registry is the alerts' system of record: the
@@ -77,6 +79,7 @@ above holds per group.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import Iterator, Sequence
 
@@ -93,21 +96,24 @@ from flows.alerts import AlertLog, export_alerts
 from flows.changed_days import changed_windows, days_done_by
 from flows.batch_job import BatchJob
 from flows.batching import guard_asset_error, run_over_fleet
+from flows.errors import TransientError
 from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
-                            configured_models, execute, record_candidates)
+                            configured_models, execute, record_group)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
-                           AssetResult, RunSummary, describe_error, now_iso)
+                           AssetResult, RunSummary, describe_error, is_transient, now_iso)
 from registry import UnusableBaselineError, load_mlflow
 from flows.run_guard import exclusive_run
 
 # every nightly run opens the registry: its MLflow side loads with this module, so a served
 # run's process, started ahead of its scheduled time (flows.serve), has it before it is due
 load_mlflow()
+
+logger = logging.getLogger(__name__)
 
 
 def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
@@ -278,11 +284,9 @@ class RecordThenAdvance(CommitPolicy):
     changed-day marks of its windows cleared)."""
 
     def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
+        record_group(self.config, self.registry, group, reanalysis=False, clock=self.clock)
+        _commit_watermarks(self.registry, group, self.clock)
         for pending in group:
-            record_candidates(self.config, self.registry, pending, reanalysis=False,
-                              clock=self.clock)
-        for pending in group:
-            _commit_watermark(self.registry, pending, self.clock)
             if pending.changed_days and pending.result.status != FAILED:
                 clear_changed(self.config.telemetry_root, pending.asset_id,
                               pending.changed_days)
@@ -295,6 +299,37 @@ class RecordThenAdvance(CommitPolicy):
         return f"{result.asset_id} {result.status}" + (f", {alarms} alarmed" if alarms else "")
 
 
+def _commit_watermarks(registry, group: list[PendingAsset], clock: StageClock | None) -> None:
+    """Advance the watermarks of a group's assets together
+    (:meth:`registry.Registry.commit_watermarks`: one transaction on SQLite or PostgreSQL),
+    each asset on its own: one whose watermark is kept is failed with the error; should the
+    shared commit fail in another way than a passing one, each asset is committed alone."""
+    ends = {p.asset_id: p.committed_end for p in group if p.committed_end is not None}
+    committed = None
+    if ends:
+        try:
+            with timed(clock, "registry"):
+                committed = registry.commit_watermarks(ends)
+        except Exception as error:  # noqa: BLE001
+            if is_transient(error):
+                raise TransientError(f"advancing the watermarks of {len(ends)} asset(s) "
+                                     f"({', '.join(ends)}): {type(error).__name__}: "
+                                     f"{error}") from error
+            logger.warning("advancing %d watermarks together failed (%s: %s); advancing "
+                           "each alone", len(ends), type(error).__name__, error)
+    for pending in group:
+        if committed is None:
+            _commit_watermark(registry, pending, clock)
+            continue
+        outcome = committed.get(pending.asset_id)
+        if isinstance(outcome, BaseException):
+            guard_asset_error(outcome, pending.ref, "advancing its watermark")
+            pending.fail(outcome)
+        elif outcome is not None:
+            pending.result.watermark_after = outcome.isoformat()
+        _settle(pending.result)
+
+
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
     result = pending.result
     if pending.committed_end is not None:
@@ -305,6 +340,11 @@ def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None)
         except Exception as error:  # noqa: BLE001
             guard_asset_error(error, pending.ref, "advancing its watermark")
             pending.fail(error)
+    _settle(result)
+
+
+def _settle(result: AssetResult) -> None:
+    """An asset's final status once its watermark is committed."""
     if result.status == OK and not result.windows:
         result.status = UP_TO_DATE
     if result.status in (OK, UP_TO_DATE) and any(a.kind == STALE_KIND for a in result.alerts):

@@ -16,16 +16,18 @@
       ``network``, ``noise``);
    b. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
       physical diagnosis of an alarmed window (``diagnosis``);
-3. **Commit.** The flow's policy: :func:`record_candidates` (the registry record, stage
-   ``registry``, and the alerts of each window) and what the flow commits beyond it -- the
-   watermarks for the nightly run, the promotion for the baseline flow, nothing for a
-   reanalysis.
+3. **Commit.** The flow's policy: :func:`record_group` (the registry record, stage
+   ``registry``, and the alerts of each window; the group's records written together, each
+   asset on its own; :func:`record_candidates` is one asset's) and what the flow commits
+   beyond it -- the watermarks for the nightly run, the promotion for the baseline flow,
+   nothing for a reanalysis.
 
 The flows differ only in their plan (which windows, against which version) and their commit.
 """
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, ClassVar, Iterable, Iterator, Mapping, Sequence
 
@@ -47,13 +49,16 @@ from flows.batching import guard_asset_error
 from flows.config import FleetConfig, VehicleClass
 from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
+from flows.errors import TransientError
 from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
-from registry import FitSubmission, LoadedVersion
+from registry import FitRecord, FitSubmission, LoadedVersion, RegistryError
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.diagnosis import Diagnosis
+
+logger = logging.getLogger(__name__)
 
 DAY = pd.Timedelta(days=1)
 #: windows a new baseline needs at least (epsilon is calibrated from them)
@@ -622,14 +627,13 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
     A failed fit, comparison or recording fails the asset; when the asset ``stop_at_error``
     (the nightly run) the later windows wait for the next run, otherwise they go on.
     Transient errors are raised (the batch is retried; what was recorded is found again,
-    not duplicated).
+    not duplicated). :func:`record_group` does the same for a group of assets at once.
 
     Returns
     -------
     list of Alert
         The alerts of the recorded windows (also added to the asset's result).
     """
-    reference = asset.reference
     stop_at_error = asset.stop_at_error
     out: list[Alert] = []
     for window in asset.windows:
@@ -638,40 +642,131 @@ def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, rea
             if stop_at_error:
                 break
             continue
-        drift, diagnosis, error = window.drift, window.diagnosis, window.failure
+        error = window.failure
         if error is None:
             try:
                 with timed(clock, "registry"):
-                    record = registry.record_fit(FitSubmission(
-                        asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate",
-                        drift=drift, window=window.recorded_data, window_start=window.start,
-                        window_end=window.end, baseline_version=reference.version,
-                        plots=_plots(config.nightly.plots, drift.alarmed),
-                        reanalysis=reanalysis, diagnosis=diagnosis))
+                    record = registry.record_fit(_submission(config, asset, window,
+                                                             reanalysis))
             except Exception as failure:  # noqa: BLE001 - one window never stops the batch
                 error = failure
         if error is not None:
-            guard_asset_error(error, asset.ref, f"recording the window from "
-                                                f"{window.start.isoformat()}")
-            asset.fail(error, window.night)
+            _window_failed(asset, window, error)
             if stop_at_error:
                 break
             continue
-        alerts = alerts_from_drift(
-            drift, asset_id=asset.asset_id, vehicle_class=asset.ref.vehicle_class,
-            window_start=record.window_start, window_end=record.window_end,
-            version=None if reanalysis else record.version, baseline_version=reference.version,
-            run_id=record.run_id, scale=config.alerts.scale,
-            source=REANALYSIS if reanalysis else NIGHTLY, diagnosis=alert_entries(diagnosis))
-        out += alerts
-        asset.result.alerts += alerts
-        asset.result.windows.append(WindowResult(
-            record.window_start, record.window_end, None if reanalysis else record.version,
-            record.run_id, drift.alarmed, max_ratio(drift), record.created))
-        asset.committed_end = window.end
+        out += _window_recorded(config, asset, window, record, reanalysis)
     if asset.stop is not None:
         asset.fail(asset.stop, asset.stop_start)
     return out
+
+
+def record_group(config: FleetConfig, registry, assets: Sequence[PendingAsset], *,
+                 reanalysis: bool, clock: StageClock | None = None) -> None:
+    """:func:`record_candidates` of every asset of a group (a memory group), with the
+    group's candidates recorded together: one :meth:`registry.Registry.record_group`, which
+    shares the look-ups, the locks and (on SQLite or PostgreSQL) the transaction.
+
+    Each asset stays on its own, as in :func:`record_candidates`: a window whose fit,
+    comparison or recording failed fails its asset only (and, when the asset
+    ``stop_at_error``, its later windows wait for the next run); its error is in the
+    asset's result, named with the window. Transient errors are raised (the batch is
+    retried; what was recorded is found again, not duplicated). Should the group's
+    recording fail in another way, each asset is recorded alone
+    (:func:`record_candidates`).
+    """
+    if len({asset.stop_at_error for asset in assets}) > 1:
+        for asset in assets:     # one policy per group call; never the case in the flows
+            record_candidates(config, registry, asset, reanalysis=reanalysis, clock=clock)
+        return
+    submissions: list[FitSubmission] = []
+    steps: list[list[tuple[PendingWindow, int | BaseException]]] = []
+    for asset in assets:
+        planned: list[tuple[PendingWindow, int | BaseException]] = []
+        for window in asset.windows:
+            error = window.fit if isinstance(window.fit, GrayBoxError) else window.failure
+            if error is None:
+                try:
+                    submissions.append(_submission(config, asset, window, reanalysis))
+                    planned.append((window, len(submissions) - 1))
+                    continue
+                except Exception as failure:  # noqa: BLE001 - this window's own
+                    error = failure
+            planned.append((window, error))
+            if asset.stop_at_error:
+                break
+        steps.append(planned)
+    outcomes: list = []
+    if submissions:
+        try:
+            with timed(clock, "registry"):
+                outcomes = registry.record_group(
+                    submissions, stop_at_error=bool(assets) and assets[0].stop_at_error)
+        except Exception as error:  # noqa: BLE001
+            if is_transient(error):
+                raise TransientError(
+                    f"recording the candidates of {len(assets)} asset(s) "
+                    f"({', '.join(a.asset_id for a in assets)}): {type(error).__name__}: "
+                    f"{error}") from error
+            logger.warning("recording a group of %d asset(s) together failed (%s: %s); "
+                           "recording each alone", len(assets), type(error).__name__, error)
+            for asset in assets:
+                record_candidates(config, registry, asset, reanalysis=reanalysis, clock=clock)
+            return
+    for asset, planned in zip(assets, steps):
+        for window, step in planned:
+            if isinstance(step, BaseException):
+                error = step
+            else:
+                outcome = outcomes[step]
+                if isinstance(outcome, FitRecord):
+                    _window_recorded(config, asset, window, outcome, reanalysis)
+                    continue
+                error = outcome if outcome is not None else RegistryError(
+                    "not recorded: an earlier window of the asset failed")
+            if window.fit is error:
+                asset.fail(error, window.night)
+            else:
+                _window_failed(asset, window, error)
+            if asset.stop_at_error:
+                break
+        if asset.stop is not None:
+            asset.fail(asset.stop, asset.stop_start)
+
+
+def _submission(config: FleetConfig, asset: PendingAsset, window: PendingWindow,
+                reanalysis: bool) -> FitSubmission:
+    drift = window.drift
+    return FitSubmission(
+        asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate", drift=drift,
+        window=window.recorded_data, window_start=window.start, window_end=window.end,
+        baseline_version=asset.reference.version,
+        plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis,
+        diagnosis=window.diagnosis)
+
+
+def _window_failed(asset: PendingAsset, window: PendingWindow, error: BaseException) -> None:
+    guard_asset_error(error, asset.ref, f"recording the window from "
+                                        f"{window.start.isoformat()}")
+    asset.fail(error, window.night)
+
+
+def _window_recorded(config: FleetConfig, asset: PendingAsset, window: PendingWindow,
+                     record: FitRecord, reanalysis: bool) -> list[Alert]:
+    """A recorded window's alerts and result."""
+    drift, reference = window.drift, asset.reference
+    alerts = alerts_from_drift(
+        drift, asset_id=asset.asset_id, vehicle_class=asset.ref.vehicle_class,
+        window_start=record.window_start, window_end=record.window_end,
+        version=None if reanalysis else record.version, baseline_version=reference.version,
+        run_id=record.run_id, scale=config.alerts.scale,
+        source=REANALYSIS if reanalysis else NIGHTLY, diagnosis=alert_entries(window.diagnosis))
+    asset.result.alerts += alerts
+    asset.result.windows.append(WindowResult(
+        record.window_start, record.window_end, None if reanalysis else record.version,
+        record.run_id, drift.alarmed, max_ratio(drift), record.created))
+    asset.committed_end = window.end
+    return alerts
 
 
 def diagnose_alarm(asset: PendingAsset, window: PendingWindow) -> Diagnosis | DiagnosisFailure:

@@ -33,7 +33,7 @@ from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
-                            configured_models, execute, record_candidates)
+                            configured_models, execute, record_group)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
@@ -119,10 +119,8 @@ class RecordOnly(CommitPolicy):
     no alias, no watermark moves)."""
 
     def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
-        for pending in group:
-            record_candidates(self.config, self.registry, pending, reanalysis=True,
-                              clock=self.clock)
-            yield pending
+        record_group(self.config, self.registry, group, reanalysis=True, clock=self.clock)
+        yield from group
 
 
 @flow(name="fleet-health-reanalyze", on_completion=[notify_hook], on_failure=[notify_hook],

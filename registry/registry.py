@@ -21,7 +21,7 @@ from registry.store import probe
 from registry.store.backend import Backend
 from registry.store.boundary import facade
 from registry.store.retry import RetryPolicy
-from registry.write import recording, watermarks
+from registry.write import group, recording, watermarks
 from registry.write.model_files import PyfuncTemplate
 from registry.write.submission import FitSubmission
 
@@ -121,6 +121,37 @@ class Registry:
         """
         return recording.record_fits(self._backend, list(submissions), self._template)
 
+    def record_group(self, submissions: Sequence[FitSubmission], *,
+                     stop_at_error: bool = True) -> list[FitRecord | Exception | None]:
+        """Record the fits of a group of assets (a night's memory group), each asset on its
+        own; on an SQLite or PostgreSQL store the new candidates go in one transaction.
+
+        The same records as :meth:`record_fit` of each (idempotent on the fit key), with the
+        look-ups, the locks and the commit shared (:mod:`registry.write.group`).
+
+        Parameters
+        ----------
+        submissions : sequence of FitSubmission
+            An asset's fits in time order.
+        stop_at_error : bool, default True
+            A failed fit stops its asset: its later fits are not recorded.
+
+        Returns
+        -------
+        list
+            Per submission, in order: its FitRecord; or the error that stopped it (the
+            registry's, as :meth:`record_fit` would raise it: one asset's failure never
+            stops the others); or None, not attempted after an earlier failure of its asset.
+
+        Raises
+        ------
+        registry.exceptions.TransientStoreError
+            When the store failed in a passing way for the whole group (retry it: what was
+            recorded is found again, not duplicated).
+        """
+        return group.record_group(self._backend, list(submissions), self._template,
+                                  stop_at_error)
+
     # -- nightly reads -------------------------------------------------------------------------
     def baseline(self, asset_id: str) -> LoadedVersion | None:
         """The asset's baseline signature and calibration, verified (None if it has none).
@@ -153,6 +184,14 @@ class Registry:
         """Advance the asset's watermark to ``end`` once its results are committed (never
         backwards); returns the watermark in place."""
         return watermarks.commit_watermark(self._backend, asset_id, end)
+
+    def commit_watermarks(self, ends: Mapping[str, object]
+                          ) -> dict[str, pd.Timestamp | Exception]:
+        """:meth:`commit_watermark` of several assets (``{asset_id: end}``), each on its own,
+        in one transaction where the store allows; per asset the watermark in place or the
+        error that kept it. A passing failure of the store is raised for all
+        (``TransientStoreError``)."""
+        return watermarks.commit_watermarks(self._backend, ends)
 
     def aliases(self, asset_id: str) -> dict[str, int]:
         """The asset's aliases (``baseline``, ``candidate``) and the version each names;

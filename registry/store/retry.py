@@ -87,6 +87,14 @@ def is_transient_store_error(error: BaseException) -> bool:
     return False
 
 
+def is_passing_failure(error: BaseException) -> bool:
+    """A failure that a later try of the whole group could get past: a transient store error
+    (:func:`is_transient_store_error`) or a lost connection or answer (``ConnectionError``,
+    ``TimeoutError``). A group's writes raise these instead of trying each member alone
+    (:mod:`registry.write.group`)."""
+    return is_transient_store_error(error) or isinstance(error, (ConnectionError, TimeoutError))
+
+
 def call_with_retry(function: Callable[..., T], *args, policy: RetryPolicy = RetryPolicy(),
                     what: str | None = None, **kwargs) -> T:
     """Call ``function(*args, **kwargs)``, retrying only "database is locked" errors.

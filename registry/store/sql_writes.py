@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
 #: attempts when another writer took the same version number first (MLflow's own retry count)
 VERSION_ATTEMPTS = 3
@@ -135,6 +135,27 @@ class SqlWriter:
                     .limit(limit).all())
             return [row.to_mlflow_entity() for row in rows]
 
+    def runs_with_tags(self, experiment_id: str, key: str, values) -> dict[str, list]:
+        """:meth:`runs_with_tag` of several values in one query: value -> its runs (newest
+        first, at most 50 each; values without runs left out)."""
+        values = sorted(set(values))
+        if not values:
+            return {}
+        SqlRun, SqlTag = self.t.SqlRun, self.t.SqlTag
+        out: dict[str, list] = {}
+        with self.tracking.ManagedSessionMaker() as session:
+            rows = (session.query(SqlRun, SqlTag.value)
+                    .options(*self.tracking._get_eager_run_query_options())
+                    .join(SqlTag, SqlTag.run_uuid == SqlRun.run_uuid)
+                    .filter(SqlRun.experiment_id == int(experiment_id), SqlTag.key == key,
+                            SqlTag.value.in_(values))
+                    .order_by(SqlRun.start_time.desc(), SqlRun.run_uuid).all())
+            for row, value in rows:
+                found = out.setdefault(value, [])
+                if len(found) < 50:
+                    found.append(row.to_mlflow_entity())
+        return out
+
     def run_exists(self, run_id: str) -> bool:
         """Whether a run with this id is in the store (deleted or not)."""
         runs = self.t.SqlRun.__table__
@@ -210,6 +231,55 @@ class SqlWriter:
                 row.value = value
             return value
 
+    def advance_model_tags(self, key: str, values: Mapping[str, str],
+                           newer: Callable[[str | None, str], bool]) -> dict[str, str | None]:
+        """:meth:`advance_model_tag` of several registered models in one transaction: each
+        model's tag ``key`` is set to its value in ``values`` (model name -> value) when
+        ``newer(current value, value)``.
+
+        Returns
+        -------
+        dict
+            Model name -> the value in place; None for a model that is absent (nothing is
+            written for it).
+        """
+        from sqlalchemy import bindparam, insert, select, update
+
+        from mlflow.utils.validation import _validate_registered_model_tag
+
+        for value in values.values():
+            _validate_registered_model_tag(key, value)
+        names = sorted(values)
+        models = self.r.SqlRegisteredModel.__table__
+        tags = self.r.SqlRegisteredModelTag.__table__
+        with self.registry.ManagedSessionMaker(read_only=False) as session:
+            connection = session.connection()
+            workspace = self.registry._get_active_workspace()
+            present = {n for (n,) in connection.execute(select(models.c.name).where(
+                models.c.name.in_(names), models.c.workspace == workspace))}
+            current = dict(connection.execute(select(tags.c.name, tags.c.value).where(
+                tags.c.name.in_(names), tags.c.key == key, tags.c.workspace == workspace)).all())
+            out: dict[str, str | None] = {}
+            inserts, updates = [], []
+            for name in names:
+                if name not in present:
+                    out[name] = None
+                elif newer(current.get(name), values[name]):
+                    row = {"w": workspace, "n": name, "k": key, "v": values[name]}
+                    (updates if name in current else inserts).append(row)
+                    out[name] = values[name]
+                else:
+                    out[name] = current[name]
+            if inserts:
+                connection.execute(insert(tags), [{"workspace": r["w"], "name": r["n"],
+                                                   "key": r["k"], "value": r["v"]}
+                                                  for r in inserts])
+            if updates:
+                connection.execute(update(tags).where(
+                    tags.c.workspace == bindparam("w"), tags.c.name == bindparam("n"),
+                    tags.c.key == bindparam("k")).values(value=bindparam("v")), updates)
+            return out
+
     # -- the write -----------------------------------------------------------------------------
     def write(self, run: RunRows, version: VersionRows | None = None) -> int | None:
         """Write the run and (given) its model version and alias, in one transaction.
@@ -225,99 +295,153 @@ class SqlWriter:
             MLflow's validation errors, ``RESOURCE_DOES_NOT_EXIST`` when the registered model
             is absent, or the store's error; nothing is written then.
         """
+        return self.write_many([(run, version)])[0]
+
+    def write_many(self, items: Sequence[tuple[RunRows, VersionRows | None]]
+                   ) -> list[int | None]:
+        """Write several runs (each with its version and alias, given) in one transaction,
+        in order: all of them or none.
+
+        The rows are those :meth:`write` writes for each; a model's versions are numbered in
+        the order given, and an alias given by several of them ends on the last. The rows of
+        the whole group go in a dozen statements, whatever its size.
+
+        Returns
+        -------
+        list of int or None
+            Each new version's number (None where no version was given).
+
+        Raises
+        ------
+        mlflow.exceptions.MlflowException
+            As :meth:`write`, for any of them: nothing of the group is written then.
+        """
         import sqlalchemy
 
         from mlflow.entities import Metric, Param, RunTag
-        from mlflow.utils.validation import _validate_batch_log_data
+        from mlflow.utils.validation import (_validate_batch_log_data,
+                                             _validate_model_version_tag)
 
-        tags = {**run.tags, "mlflow.runName": run.name}
-        metrics, params, tag_items = _validate_batch_log_data(
-            [Metric(k, v, 0, 0) for k, v in run.metrics.items()],
-            [Param(k, v) for k, v in run.params.items()],
-            [RunTag(k, v) for k, v in tags.items()])
-        if version is not None:
-            from mlflow.utils.validation import _validate_model_version_tag
-
-            for key, value in version.tags.items():
-                _validate_model_version_tag(key, value)
+        checked = []
+        for run, version in items:
+            tags = {**run.tags, "mlflow.runName": run.name}
+            metrics, params, tag_items = _validate_batch_log_data(
+                [Metric(k, v, 0, 0) for k, v in run.metrics.items()],
+                [Param(k, v) for k, v in run.params.items()],
+                [RunTag(k, v) for k, v in tags.items()])
+            if version is not None:
+                for key, value in version.tags.items():
+                    _validate_model_version_tag(key, value)
+            checked.append((run, metrics, params, tag_items, version))
+        if not checked:
+            return []
         last = None
         for _ in range(VERSION_ATTEMPTS):
             try:
-                return self._write(run, metrics, params, tag_items, version)
+                return self._write(checked)
             except sqlalchemy.exc.IntegrityError as error:   # a version number taken meanwhile
                 last = error
         from mlflow.exceptions import MlflowException
 
-        raise MlflowException(f"could not create a version of {version.name if version else '?'}"
-                              f" after {VERSION_ATTEMPTS} attempts: {last}")
+        names = sorted({v.name for *_, v in checked if v is not None}) or ["?"]
+        raise MlflowException(f"could not create a version of {', '.join(names)} after "
+                              f"{VERSION_ATTEMPTS} attempts: {last}")
 
-    def _write(self, run: RunRows, metrics, params, tags, version: VersionRows | None):
+    def _write(self, checked) -> list[int | None]:
         # Core statements on the session's connection: the rows MLflow's ORM would write,
-        # without its unit of work (a third of the time of the same rows as ORM objects)
-        from sqlalchemy import delete, func, insert, select, update
+        # without its unit of work (a third of the time of the same rows as ORM objects);
+        # one statement per table for the whole group
+        from sqlalchemy import and_, delete, func, insert, or_, select, update
 
         t, r = self.t, self.r
         now = now_ms()
         with self.tracking.ManagedSessionMaker(read_only=False) as session:
             connection = session.connection()
             experiment = t.SqlExperiment.__table__
-            stage = connection.execute(select(experiment.c.lifecycle_stage).where(
-                experiment.c.experiment_id == int(run.experiment_id))).scalar()
-            if stage != "active":
-                self._locations.pop(run.experiment_id, None)
-                self.tracking._check_experiment_is_active(_Experiment(run.experiment_id, stage))
-            connection.execute(insert(t.SqlRun.__table__), [dict(
-                name=run.name, artifact_uri=run.artifact_uri, run_uuid=run.run_id,
-                experiment_id=int(run.experiment_id), source_type="UNKNOWN", source_name="",
-                entry_point_name="", user_id="unknown", status="FINISHED",
-                start_time=run.start_time, end_time=now, deleted_time=None, source_version="",
-                lifecycle_stage="active")])
-            rows = []
-            for metric in metrics:
-                is_nan, value = self.tracking.sanitize_metric_value(metric.value)
-                rows.append({"run_uuid": run.run_id, "key": metric.key, "value": value,
-                             "timestamp": now, "step": 0, "is_nan": is_nan})
-            if rows:
-                connection.execute(insert(t.SqlMetric.__table__), rows)
-                connection.execute(insert(t.SqlLatestMetric.__table__), rows)
-            if params:
-                connection.execute(insert(t.SqlParam.__table__), [
-                    {"run_uuid": run.run_id, "key": p.key, "value": p.value} for p in params])
-            connection.execute(insert(t.SqlTag.__table__), [
-                {"run_uuid": run.run_id, "key": tag.key, "value": tag.value} for tag in tags])
-            if version is None:
-                return None
+            wanted = {int(run.experiment_id) for run, *_ in checked}
+            stages = dict(connection.execute(
+                select(experiment.c.experiment_id, experiment.c.lifecycle_stage).where(
+                    experiment.c.experiment_id.in_(wanted))).all())
+            for experiment_id in sorted(wanted):
+                stage = stages.get(experiment_id)
+                if stage != "active":
+                    self._locations.pop(str(experiment_id), None)
+                    self.tracking._check_experiment_is_active(
+                        _Experiment(str(experiment_id), stage))
+            run_rows, metric_rows, param_rows, tag_rows = [], [], [], []
+            for run, metrics, params, tags, _ in checked:
+                run_rows.append(dict(
+                    name=run.name, artifact_uri=run.artifact_uri, run_uuid=run.run_id,
+                    experiment_id=int(run.experiment_id), source_type="UNKNOWN",
+                    source_name="", entry_point_name="", user_id="unknown", status="FINISHED",
+                    start_time=run.start_time, end_time=now, deleted_time=None,
+                    source_version="", lifecycle_stage="active"))
+                for metric in metrics:
+                    is_nan, value = self.tracking.sanitize_metric_value(metric.value)
+                    metric_rows.append({"run_uuid": run.run_id, "key": metric.key,
+                                        "value": value, "timestamp": now, "step": 0,
+                                        "is_nan": is_nan})
+                param_rows += [{"run_uuid": run.run_id, "key": p.key, "value": p.value}
+                               for p in params]
+                tag_rows += [{"run_uuid": run.run_id, "key": tag.key, "value": tag.value}
+                             for tag in tags]
+            connection.execute(insert(t.SqlRun.__table__), run_rows)
+            if metric_rows:
+                connection.execute(insert(t.SqlMetric.__table__), metric_rows)
+                connection.execute(insert(t.SqlLatestMetric.__table__), metric_rows)
+            if param_rows:
+                connection.execute(insert(t.SqlParam.__table__), param_rows)
+            connection.execute(insert(t.SqlTag.__table__), tag_rows)
+            versioned = [(run, version) for run, *_, version in checked if version is not None]
+            if not versioned:
+                return [None] * len(checked)
             models, versions = r.SqlRegisteredModel.__table__, r.SqlModelVersion.__table__
             workspace = self.registry._get_active_workspace()
+            names = sorted({version.name for _, version in versioned})
             found = connection.execute(update(models).where(
-                models.c.name == version.name, models.c.workspace == workspace).values(
+                models.c.name.in_(names), models.c.workspace == workspace).values(
                 last_updated_time=now))
-            if found.rowcount != 1:
+            if found.rowcount != len(names):
+                present = {n for (n,) in connection.execute(select(models.c.name).where(
+                    models.c.name.in_(names), models.c.workspace == workspace))}
                 from mlflow.exceptions import MlflowException
                 from mlflow.protos.databricks_pb2 import RESOURCE_DOES_NOT_EXIST
 
-                raise MlflowException(f"Registered Model with name={version.name} not found",
+                missing = next(n for n in names if n not in present)
+                raise MlflowException(f"Registered Model with name={missing} not found",
                                       RESOURCE_DOES_NOT_EXIST)
-            newest = connection.execute(select(func.max(versions.c.version)).where(
-                versions.c.name == version.name, versions.c.workspace == workspace)).scalar()
-            number = (newest or 0) + 1
-            connection.execute(insert(versions), [dict(
-                workspace=workspace, name=version.name, version=number, creation_time=now,
-                last_updated_time=now, description=version.description, source=version.source,
-                storage_location=version.source, run_id=run.run_id, run_link=None)])
-            if version.tags:
-                connection.execute(insert(r.SqlModelVersionTag.__table__), [
-                    {"workspace": workspace, "name": version.name, "version": number,
-                     "key": key, "value": value} for key, value in version.tags.items()])
-            if version.alias is not None:
+            newest = dict(connection.execute(
+                select(versions.c.name, func.max(versions.c.version)).where(
+                    versions.c.name.in_(names), versions.c.workspace == workspace).group_by(
+                    versions.c.name)).all())
+            numbers, version_rows, version_tag_rows, aliases_to = {}, [], [], {}
+            for run, version in versioned:
+                number = newest[version.name] = (newest.get(version.name) or 0) + 1
+                numbers[run.run_id] = number
+                version_rows.append(dict(
+                    workspace=workspace, name=version.name, version=number, creation_time=now,
+                    last_updated_time=now, description=version.description,
+                    source=version.source, storage_location=version.source, run_id=run.run_id,
+                    run_link=None))
+                version_tag_rows += [{"workspace": workspace, "name": version.name,
+                                      "version": number, "key": key, "value": value}
+                                     for key, value in version.tags.items()]
+                if version.alias is not None:
+                    aliases_to[version.name, version.alias] = number    # the last one wins
+            connection.execute(insert(versions), version_rows)
+            if version_tag_rows:
+                connection.execute(insert(r.SqlModelVersionTag.__table__), version_tag_rows)
+            if aliases_to:
                 aliases = r.SqlRegisteredModelAlias.__table__
                 connection.execute(delete(aliases).where(
-                    aliases.c.workspace == workspace, aliases.c.name == version.name,
-                    aliases.c.alias == version.alias))
+                    aliases.c.workspace == workspace,
+                    or_(*(and_(aliases.c.name == name, aliases.c.alias == alias)
+                          for name, alias in aliases_to))))
                 connection.execute(insert(aliases), [dict(
-                    workspace=workspace, name=version.name, alias=version.alias,
-                    version=number)])
-            return number
+                    workspace=workspace, name=name, alias=alias, version=number)
+                    for (name, alias), number in aliases_to.items()])
+            return [numbers.get(run.run_id) if version is not None else None
+                    for run, *_, version in checked]
 
 
 @dataclass(frozen=True)

@@ -40,8 +40,9 @@ Locks
     :meth:`Store.asset_lock` serializes the writes of one asset (promotions, records,
     watermark). For a local SQLite store it is an exclusive ``fcntl.flock`` on one file per
     asset beside the database, so every process using the store shares them. For a
-    PostgreSQL store it is a PostgreSQL advisory lock (``pg_advisory_lock``, on a connection
-    of its own, waiting at most the timeout), so writers on every machine exclude each other;
+    PostgreSQL store it is a PostgreSQL advisory lock (``pg_advisory_lock``, waiting at most
+    the timeout, on a connection the store keeps per thread for its locks:
+    :class:`registry.store.locks.AdvisoryLocks`), so writers on every machine exclude each other;
     the creation of MLflow's schema is serialized the same way (two processes opening a new
     database together would both migrate it). Against an ``mlflow server``
     (``http://...``) the lock files sit in the user's cache directory: they then serialize
@@ -59,11 +60,11 @@ import pathlib
 import sqlite3
 import urllib.parse
 import urllib.request
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator
 
 from graybox.telemetry import validate_asset_id
-from registry.store.locks import advisory_lock, file_lock
+from registry.store.locks import AdvisoryLocks, advisory_lock, file_lock
 from registry.store.retry import RetryPolicy, call_with_retry
 
 logger = logging.getLogger(__name__)
@@ -103,6 +104,13 @@ class Store:
     artifact_root: str | None
     lock_dir: pathlib.Path
     postgres_conninfo: str | None = None
+    #: the asset locks' kept PostgreSQL connections (when ``postgres_conninfo``)
+    advisory: AdvisoryLocks | None = field(init=False, default=None, compare=False,
+                                           repr=False)
+
+    def __post_init__(self):
+        if self.postgres_conninfo is not None:
+            object.__setattr__(self, "advisory", AdvisoryLocks(self.postgres_conninfo))
 
     @property
     def is_local(self) -> bool:
@@ -131,14 +139,39 @@ class Store:
             If the lock is not acquired within ``timeout`` seconds.
         """
         validate_asset_id(asset_id)
-        if self.postgres_conninfo is not None:
-            lock = advisory_lock(self.postgres_conninfo, f"fleet-health/asset/{asset_id}",
-                                 timeout=timeout, what=f"asset {asset_id!r}")
+        if self.advisory is not None:
+            lock = self.advisory.hold(f"fleet-health/asset/{asset_id}", timeout=timeout,
+                                      what=f"asset {asset_id!r}")
         else:
             lock = file_lock(self.lock_dir / f"{asset_id}.lock", timeout=timeout,
                              what=f"asset {asset_id!r}")
         with lock:
             yield
+
+    @contextlib.contextmanager
+    def asset_locks(self, asset_ids, timeout: float = 120.0
+                    ) -> Iterator[dict[str, Exception]]:
+        """Hold the locks of several assets together (a group's records or watermarks).
+
+        They are taken in sorted order, so two holders of overlapping groups never wait for
+        each other in a cycle. Yields the assets whose lock could not be taken (the
+        ``RegistryError`` of :meth:`asset_lock`); the others are held.
+
+        Raises
+        ------
+        ConnectionError
+            If a PostgreSQL store cannot be reached (the locks taken are released).
+        """
+        from registry.exceptions import RegistryError
+
+        refused: dict[str, Exception] = {}
+        with contextlib.ExitStack() as stack:
+            for asset_id in sorted(set(asset_ids)):
+                try:
+                    stack.enter_context(self.asset_lock(asset_id, timeout))
+                except RegistryError as error:
+                    refused[asset_id] = error
+            yield refused
 
     def local_artifact_uri(self, uri: str) -> str:
         """Where an artifact URI recorded in this store is now.

@@ -18,6 +18,7 @@ import pathlib
 import shutil
 import tempfile
 import uuid
+from dataclasses import dataclass
 
 from registry.store import naming
 from registry.store.backend import Backend
@@ -32,17 +33,34 @@ from registry.write.submission import ResolvedFit
 ARTIFACTS_FOLDER = "artifacts"      # MLflow's: <experiment location>/<run id>/artifacts
 
 
-def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit: ResolvedFit,
-                   baseline_version: int | None, template: PyfuncTemplate
-                   ) -> tuple[str, int | None, str]:
-    """Record a new candidate (or reanalysis) fit; returns its run id, its version (None for
-    a reanalysis) and its manifest digest.
+@dataclass(frozen=True)
+class PreparedFit:
+    """A new candidate whose artifacts are written and whose rows are ready for the
+    transaction (:func:`prepare`).
 
-    Raises
-    ------
-    mlflow.exceptions.MlflowException
-        From the store; ``RESOURCE_DOES_NOT_EXIST`` when the registered model is gone.
+    Attributes
+    ----------
+    fit : ResolvedFit
+    run : RunRows
+    version : VersionRows or None
+        None for a reanalysis.
+    manifest_sha : str
+    local : pathlib.Path or None
+        The run's own directory (holding ``artifacts/``) when the artifact store is local.
     """
+
+    fit: ResolvedFit
+    run: RunRows
+    version: VersionRows | None
+    manifest_sha: str
+    local: pathlib.Path | None
+
+
+def prepare(backend: Backend, writer: SqlWriter, experiment_id: str, fit: ResolvedFit,
+            baseline_version: int | None, template: PyfuncTemplate) -> PreparedFit:
+    """Choose the run id, write the fit's artifacts and build its rows (nothing in the
+    store yet: :meth:`SqlWriter.write` or :meth:`SqlWriter.write_many` writes them, and
+    :func:`discard` removes the artifacts if that fails)."""
     from mlflow.utils.uri import append_to_uri_path
 
     s = fit.submission
@@ -71,14 +89,36 @@ def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit:
         naming.model_name(s.asset_id), f"{artifact_uri.rstrip('/')}/{MODEL_DIR}",
         version_tags(fit, run_id, "", manifest_sha, baseline_version),
         describe(fit, baseline_version), alias=naming.CANDIDATE)
+    return PreparedFit(fit, run, version, manifest_sha,
+                       None if local is None else local.parent)
+
+
+def discard(writer: SqlWriter, prepared: PreparedFit) -> None:
+    """Remove a prepared fit's artifacts after its transaction failed, when its run is
+    surely absent from the store."""
+    if prepared.local is not None and _surely_absent(writer, prepared.run.run_id):
+        shutil.rmtree(prepared.local, ignore_errors=True)
+
+
+def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit: ResolvedFit,
+                   baseline_version: int | None, template: PyfuncTemplate
+                   ) -> tuple[str, int | None, str]:
+    """Record a new candidate (or reanalysis) fit; returns its run id, its version (None for
+    a reanalysis) and its manifest digest.
+
+    Raises
+    ------
+    mlflow.exceptions.MlflowException
+        From the store; ``RESOURCE_DOES_NOT_EXIST`` when the registered model is gone.
+    """
+    prepared = prepare(backend, writer, experiment_id, fit, baseline_version, template)
     try:
-        number = call_with_retry(writer.write, run, version, policy=backend.retry,
-                                 what="record the fit")
+        number = call_with_retry(writer.write, prepared.run, prepared.version,
+                                 policy=backend.retry, what="record the fit")
     except BaseException:
-        if local is not None and _surely_absent(writer, run_id):
-            shutil.rmtree(local.parent, ignore_errors=True)
+        discard(writer, prepared)
         raise
-    return run_id, number, manifest_sha
+    return prepared.run.run_id, number, prepared.manifest_sha
 
 
 def _surely_absent(writer: SqlWriter, run_id: str) -> bool:
@@ -106,4 +146,4 @@ def _write_here(backend: Backend, fit: ResolvedFit, baseline_version, template, 
         raise
 
 
-__all__ = ["record_at_once"]
+__all__ = ["PreparedFit", "prepare", "discard", "record_at_once"]

@@ -10,12 +10,15 @@ It only moves forward, and only when the flow says its results are committed
 """
 from __future__ import annotations
 
+from typing import Mapping
+
 import pandas as pd
 from mlflow.exceptions import MlflowException
 
 from registry.store import naming
 from registry.store.backend import Backend, is_not_found
-from registry.store.retry import call_with_retry
+from registry.store.boundary import registry_error
+from registry.store.retry import call_with_retry, is_passing_failure
 
 
 def watermark(backend: Backend, asset_id: str) -> pd.Timestamp | None:
@@ -48,23 +51,87 @@ def commit_watermark(backend: Backend, asset_id: str, end) -> pd.Timestamp:
     """
     naming.model_name(asset_id)         # validates the id before the lock file is named
     end = pd.Timestamp(naming.iso_utc(end))
-    writer = backend.sql_writer()
     with backend.store.asset_lock(asset_id):
-        if writer is not None:      # read and written in one transaction
+        return _advance(backend, asset_id, end)
+
+
+def _advance(backend: Backend, asset_id: str, end: pd.Timestamp) -> pd.Timestamp:
+    """:func:`commit_watermark` under the asset's lock (held by the caller)."""
+    writer = backend.sql_writer()
+    if writer is not None:      # read and written in one transaction
+        try:
+            value = call_with_retry(
+                writer.advance_model_tag, naming.model_name(asset_id), naming.TAG_WATERMARK,
+                end.isoformat(), lambda now: not now or pd.Timestamp(now) < end,
+                policy=backend.retry, what="commit the watermark")
+        except MlflowException as error:
+            if is_not_found(error):
+                backend.require_registered_model(asset_id)   # raises NotFoundError
+            raise
+        return pd.Timestamp(value)
+    model = backend.require_registered_model(asset_id)
+    value = (model.tags or {}).get(naming.TAG_WATERMARK)
+    current = None if not value else pd.Timestamp(value)
+    if current is not None and current >= end:
+        return current
+    backend.set_model_tag(asset_id, naming.TAG_WATERMARK, end.isoformat())
+    return end
+
+
+def commit_watermarks(backend: Backend, ends: Mapping[str, object]
+                      ) -> dict[str, pd.Timestamp | BaseException]:
+    """:func:`commit_watermark` of several assets (a group's), each on its own: under the
+    assets' locks taken together and, on an SQLAlchemy store, in one transaction.
+
+    Returns
+    -------
+    dict
+        Asset id -> the watermark in place, or the error that kept it (as the registry
+        raises it; e.g. ``NotFoundError`` when nothing was recorded for the asset). When the
+        shared transaction fails, each asset is advanced in its own.
+
+    Raises
+    ------
+    Exception
+        A passing failure of the store (locked after the retries, unreachable), for all.
+    """
+    out: dict[str, pd.Timestamp | BaseException] = {}
+    wanted: dict[str, pd.Timestamp] = {}
+    for asset_id, end in ends.items():
+        try:
+            naming.model_name(asset_id)
+            wanted[asset_id] = pd.Timestamp(naming.iso_utc(end))
+        except Exception as error:  # noqa: BLE001 - this asset's own
+            out[asset_id] = registry_error(error)
+    writer = backend.sql_writer()
+    with backend.store.asset_locks(wanted) as refused:
+        out.update(refused)
+        held = {a: end for a, end in wanted.items() if a not in refused}
+        values = None
+        if writer is not None and held:
+            names = {naming.model_name(a): a for a in held}
             try:
-                value = call_with_retry(
-                    writer.advance_model_tag, naming.model_name(asset_id), naming.TAG_WATERMARK,
-                    end.isoformat(), lambda now: not now or pd.Timestamp(now) < end,
-                    policy=backend.retry, what="commit the watermark")
-            except MlflowException as error:
-                if is_not_found(error):
-                    backend.require_registered_model(asset_id)   # raises NotFoundError
-                raise
-            return pd.Timestamp(value)
-        model = backend.require_registered_model(asset_id)
-        value = (model.tags or {}).get(naming.TAG_WATERMARK)
-        current = None if not value else pd.Timestamp(value)
-        if current is not None and current >= end:
-            return current
-        backend.set_model_tag(asset_id, naming.TAG_WATERMARK, end.isoformat())
-        return end
+                values = call_with_retry(
+                    writer.advance_model_tags, naming.TAG_WATERMARK,
+                    {name: held[a].isoformat() for name, a in names.items()},
+                    lambda now, new: not now or pd.Timestamp(now) < pd.Timestamp(new),
+                    policy=backend.retry, what="commit the watermarks")
+            except Exception as error:  # noqa: BLE001
+                if is_passing_failure(error):
+                    raise
+                values = None
+        for asset_id, end in held.items():
+            value = None if values is None else values[naming.model_name(asset_id)]
+            try:
+                if values is None:
+                    out[asset_id] = _advance(backend, asset_id, end)
+                elif value is None:
+                    backend.require_registered_model(asset_id)    # raises NotFoundError
+                    out[asset_id] = _advance(backend, asset_id, end)   # made meanwhile
+                else:
+                    out[asset_id] = pd.Timestamp(value)
+            except Exception as error:  # noqa: BLE001 - this asset's own
+                if is_passing_failure(error):
+                    raise
+                out[asset_id] = registry_error(error)
+    return {asset_id: out[asset_id] for asset_id in ends}

@@ -6,9 +6,9 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 
 class BrokenWatermarks(WorkerPlugin):
-    """In every worker, ``Registry.commit_watermark`` raises ConnectionError ("registry
-    unreachable", a transient error) for the assets of ``always``, and only on its first
-    call in that worker for the assets of ``once``."""
+    """In every worker, ``Registry.commit_watermarks`` (a group's watermarks) raises
+    ConnectionError ("registry unreachable", a transient error) when the group holds an
+    asset of ``always``, or one of ``once`` on its first call in that worker."""
 
     def __init__(self, always: tuple[str, ...] = (), once: tuple[str, ...] = ()):
         self.always, self.once = tuple(always), tuple(once)
@@ -16,19 +16,20 @@ class BrokenWatermarks(WorkerPlugin):
     def setup(self, worker) -> None:
         from registry.registry import Registry
 
-        self.original = original = Registry.commit_watermark
+        self.original = original = Registry.commit_watermarks
         failed_once: set[str] = set()
         always, once = self.always, self.once
 
-        def commit_watermark(registry, asset_id, end):
-            if asset_id in always or (asset_id in once and asset_id not in failed_once):
-                failed_once.add(asset_id)
+        def commit_watermarks(registry, ends):
+            broken = [a for a in ends if a in always or (a in once and a not in failed_once)]
+            if broken:
+                failed_once.update(broken)
                 raise ConnectionError("registry unreachable")
-            return original(registry, asset_id, end)
+            return original(registry, ends)
 
-        Registry.commit_watermark = commit_watermark
+        Registry.commit_watermarks = commit_watermarks
 
     def teardown(self, worker) -> None:
         from registry.registry import Registry
 
-        Registry.commit_watermark = self.original
+        Registry.commit_watermarks = self.original

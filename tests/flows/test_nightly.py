@@ -150,18 +150,22 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
     from registry.registry import Registry
 
     workspace.configure(batch_size=2)           # batches T-001..2, T-003..4, T-005
-    original = Registry.record_fit
+    original = Registry.record_group
     calls = {"n": 0}
     nights = DAYS - BASELINE_DAYS
 
-    def record_then_die(self, *args, **kwargs):
-        record = original(self, *args, **kwargs)
-        calls["n"] += 1
-        if calls["n"] == 2 * nights + 2:          # second batch, after two of its fits
-            raise Interrupt("killed")
-        return record
+    def record_then_die(self, submissions, **kwargs):
+        # the flow records a group's fits together; killed after the first 2 * nights + 2
+        # (second batch, after two of its fits: a group whose fits were being written one
+        # transaction each, after its own transaction failed)
+        left = 2 * nights + 2 - calls["n"]
+        if len(submissions) < left:
+            calls["n"] += len(submissions)
+            return original(self, submissions, **kwargs)
+        original(self, submissions[:left], **kwargs)
+        raise Interrupt("killed")
 
-    monkeypatch.setattr(Registry, "record_fit", record_then_die)
+    monkeypatch.setattr(Registry, "record_group", record_then_die)
     with pytest.raises(BaseException) as stopped:
         state, _ = _run(workspace.config, as_of=day(DAYS).isoformat())
         if not state.is_completed():
@@ -176,7 +180,7 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
     partial = count(registry)
     assert partial["versions"] == len(ASSETS) + 2 * nights + 2
 
-    monkeypatch.setattr(Registry, "record_fit", original)
+    monkeypatch.setattr(Registry, "record_group", original)
     state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
     assert state.is_completed(), state.message
     by_asset = {a["asset_id"]: a for a in summary["assets"]}
@@ -200,16 +204,16 @@ def test_interrupted_run_rerun_has_no_duplicates(workspace, monkeypatch, count):
 def test_transient_error_is_retried(workspace, monkeypatch):
     from registry.registry import Registry
 
-    original = Registry.commit_watermark
+    original = Registry.commit_watermarks
     calls = {"n": 0}
 
-    def flaky(self, asset_id, end):
+    def flaky(self, ends):
         calls["n"] += 1
         if calls["n"] == 1:
             raise OSError("network file system hiccup")
-        return original(self, asset_id, end)
+        return original(self, ends)
 
-    monkeypatch.setattr(Registry, "commit_watermark", flaky)
+    monkeypatch.setattr(Registry, "commit_watermarks", flaky)
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
                           assets=["T-001"])
     assert state.is_completed(), state.message
@@ -257,14 +261,14 @@ def test_batch_failing_after_its_retries_does_not_stop_the_others(workspace, mon
     from registry.registry import Registry
 
     workspace.configure(batch_size=1, retries=1)
-    original = Registry.commit_watermark
+    original = Registry.commit_watermarks
 
-    def broken_for_one(self, asset_id, end):
-        if asset_id == "T-001":
+    def broken_for_one(self, ends):
+        if "T-001" in ends:         # a batch of one asset: its group is T-001 alone
             raise ConnectionError("registry unreachable")
-        return original(self, asset_id, end)
+        return original(self, ends)
 
-    monkeypatch.setattr(Registry, "commit_watermark", broken_for_one)
+    monkeypatch.setattr(Registry, "commit_watermarks", broken_for_one)
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
                           assets=["T-001", "T-003"])
     assert state.is_failed()
@@ -274,3 +278,46 @@ def test_batch_failing_after_its_retries_does_not_stop_the_others(workspace, mon
     assert "registry unreachable" in by_asset["T-001"]["error"]["message"]
     assert by_asset["T-003"]["status"] == "ok"
     assert summary["exit_status"] == 1
+
+
+def test_a_fit_the_store_refuses_fails_its_asset_alone(workspace, monkeypatch):
+    """The group's candidates are recorded in one transaction; when the store refuses one
+    fit's rows, the others land, its asset keeps the nights before it and is reported
+    failed with that window, and the next run records what is left."""
+    from mlflow.exceptions import MlflowException
+    from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
+
+    from registry.store import naming
+    from registry.store.sql_writes import SqlWriter
+
+    write_many = SqlWriter.write_many
+    refused_end = day(BASELINE_DAYS + 2)
+
+    def refusing(self, items):
+        for run, _ in items:
+            if run.tags[naming.TAG_ASSET_ID] == "T-002" and \
+                    pd.Timestamp(run.tags[naming.TAG_WINDOW_END]) == refused_end:
+                raise MlflowException("the store refused a row", INVALID_PARAMETER_VALUE)
+        return write_many(self, items)
+
+    monkeypatch.setattr(SqlWriter, "write_many", refusing)
+    state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
+    assert state.is_failed()
+    by_asset = {a["asset_id"]: a for a in summary["assets"]}
+    refused = by_asset["T-002"]
+    assert refused["status"] == "failed" and len(refused["windows"]) == 1
+    assert "refused a row" in refused["error"]["message"]
+    registry = workspace.registry()
+    assert registry.watermark("T-002") == day(BASELINE_DAYS + 1)
+    for asset in set(ASSETS) - {"T-002"}:
+        assert by_asset[asset]["status"] == "ok"
+        assert len(by_asset[asset]["windows"]) == DAYS - BASELINE_DAYS
+        assert registry.watermark(asset) == day(DAYS)
+
+    monkeypatch.setattr(SqlWriter, "write_many", write_many)
+    state, summary = _run(workspace.config, as_of=day(DAYS).isoformat())
+    assert state.is_completed(), state.message
+    (again,) = [a for a in summary["assets"] if a["asset_id"] == "T-002"]
+    assert again["status"] == "ok"
+    assert [w["created"] for w in again["windows"]] == [True] * (DAYS - BASELINE_DAYS - 1)
+    assert registry.watermark("T-002") == day(DAYS)

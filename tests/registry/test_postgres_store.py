@@ -157,3 +157,40 @@ def test_server_clients_share_advisory_locks_through_the_lock_uri(postgres_uri, 
     monkeypatch.setenv("FLEET_HEALTH_LOCK_URI", "mysql://db/locks")
     with pytest.raises(ValueError, match="FLEET_HEALTH_LOCK_URI"):
         resolve_store("http://mlflow.example:5000")
+
+
+def test_asset_locks_keep_one_connection_and_replace_a_broken_one(postgres_uri):
+    """The asset locks of a store are taken on a connection it keeps (one per thread), not a
+    new server process per lock; a kept connection that broke while idle is replaced."""
+    import threading
+
+    import psycopg
+
+    store = resolve_store(postgres_uri)
+    with store.asset_lock("T-01"):
+        first = store.advisory._local.connection.info.backend_pid
+    with store.asset_locks(["T-02", "T-01"]) as refused:
+        assert refused == {}
+        assert store.advisory._local.connection.info.backend_pid == first
+        other = resolve_store(postgres_uri)       # another holder still waits for both
+        with other.asset_locks(["T-01", "T-03"], timeout=0.3) as refused_there:
+            assert list(refused_there) == ["T-01"]
+        seen = []
+
+        def elsewhere():       # another thread of the same store is another holder too
+            try:
+                with store.asset_lock("T-02", timeout=0.3):
+                    seen.append("held")
+            except RegistryError:
+                seen.append("refused")
+
+        thread = threading.Thread(target=elsewhere)
+        thread.start()
+        thread.join()
+        assert seen == ["refused"]
+    with psycopg.connect(postgres_uri, autocommit=True) as admin:
+        admin.execute("SELECT pg_terminate_backend(%s)", (first,))
+    with store.asset_lock("T-01", timeout=5):
+        assert store.advisory._local.connection.info.backend_pid != first
+    with other.asset_lock("T-01", timeout=5):      # released
+        pass
