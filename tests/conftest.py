@@ -7,6 +7,7 @@ import itertools
 import os
 import subprocess
 import sys
+import warnings
 
 import pytest
 
@@ -45,20 +46,52 @@ LONGEST_FIRST = (
 )
 
 
+#: the test files that use the session's PostgreSQL server: ``--dist loadfile`` gives them
+#: to one worker as one unit (:func:`pytest_xdist_make_scheduler`), so that the server
+#: (initdb, and MLflow's migrations in a child) starts once per test run, not on both
+#: workers
+POSTGRES_FILES = (
+    "tests/flows/test_postgres_flows.py",
+    "tests/registry/test_postgres_store.py",
+    "tests/registry/test_sql_writes.py",
+)
+
+
 def pytest_collection_modifyitems(config, items):
     """The files of :data:`LONGEST_FIRST` first, in its order; the others after them in
-    collection order (a stable sort: the tests of a file keep their order)."""
+    collection order (a stable sort: the tests of a file keep their order). A warning names
+    a file that uses the PostgreSQL server but is missing from :data:`POSTGRES_FILES`."""
     rank = {path: i for i, path in enumerate(LONGEST_FIRST)}
     root = config.rootpath
 
-    def key(item):
+    def relative(item):
         try:
-            path = item.path.relative_to(root).as_posix()
+            return item.path.relative_to(root).as_posix()
         except ValueError:
-            return len(rank)
-        return rank.get(path, len(rank))
+            return str(item.path)
 
-    items.sort(key=key)
+    items.sort(key=lambda item: rank.get(relative(item), len(rank)))
+    unlisted = sorted({relative(item) for item in items if "postgres_server" in
+                       item.fixturenames} - set(POSTGRES_FILES))
+    if unlisted:
+        warnings.warn(pytest.PytestWarning(
+            f"add {unlisted} to POSTGRES_FILES (tests/conftest.py): with xdist, each worker "
+            "that runs one starts a PostgreSQL server of its own"))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` with the files of :data:`POSTGRES_FILES` as one unit."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class Scheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            path = super()._split_scope(nodeid)
+            return POSTGRES_FILES[0] if path in POSTGRES_FILES else path
+
+    return Scheduling(config, log)
 
 
 @pytest.fixture(scope="session")
