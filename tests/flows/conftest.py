@@ -4,9 +4,15 @@ store with promoted baselines per session; a fresh copy of that store per test.
 The fleet: 5 gas-turbine vehicles over 6 days at 30 s (2,880 samples a day); T-002 gets a
 sensor-noise fault (x4) from the start of day 4 and T-004 blade flutter (nonlinear 0.5) from
 the start of day 5. Baselines are fitted on days 1-3; the nights to process are days 4-6.
+
+The fleet and the baselined store are made once per test run: with xdist, the first worker
+to need them builds them in the run's shared temporary directory and the other reuses them.
 """
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import json
 import os
 import shutil
 import sqlite3
@@ -37,36 +43,67 @@ def harness():
         yield
 
 
+@contextlib.contextmanager
+def _built_once(tmp_path_factory, worker_id: str, name: str):
+    """``with _built_once(...) as (directory, build):`` the directory ``name`` of the test
+    run, shared by its xdist workers: ``build`` is True for the one worker that is to fill it
+    (it holds a lock meanwhile; the directory counts as built once the block ends without an
+    exception), False when another worker has built it. Without xdist, a directory of the
+    session's own that is always built."""
+    if worker_id == "master":
+        yield tmp_path_factory.mktemp(name), True
+        return
+    root = tmp_path_factory.getbasetemp().parent          # shared by the run's workers
+    directory, done = root / name, root / f"{name}.done"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)                  # released when the file closes
+        if done.exists():
+            yield directory, False
+            return
+        shutil.rmtree(directory, ignore_errors=True)      # a failed build's leftovers
+        directory.mkdir()
+        yield directory, True
+        done.write_text("")
+
+
 @pytest.fixture(scope="session")
-def fleet(tmp_path_factory):
-    """The simulated fleet's telemetry (read-only: copy it before corrupting it)."""
-    from flows.demo import simulated_fleet, write_simulation
-    from graybox.simulation import Fault
+def fleet(tmp_path_factory, worker_id):
+    """The simulated fleet's telemetry (read-only: copy it before corrupting it); simulated
+    once per test run, not once per xdist worker."""
+    with _built_once(tmp_path_factory, worker_id, "fleet") as (directory, build):
+        root = directory / "telemetry"
+        if build:
+            from flows.demo import simulated_fleet, write_simulation
+            from graybox.simulation import Fault
 
-    root = tmp_path_factory.mktemp("fleet") / "telemetry"
-    faults = [(asset, Fault(kind, onset, magnitude))
-              for asset, (kind, onset, magnitude) in FAULTY.items()]
-    spec = simulated_fleet(len(ASSETS), DAYS, seed=7, sample_interval=30.0, faults=faults)
-    write_simulation(spec, root)
-    return SimpleNamespace(root=root, spec=spec)
+            faults = [(asset, Fault(kind, onset, magnitude))
+                      for asset, (kind, onset, magnitude) in FAULTY.items()]
+            spec = simulated_fleet(len(ASSETS), DAYS, seed=7, sample_interval=30.0,
+                                   faults=faults)
+            write_simulation(spec, root)
+    return SimpleNamespace(root=root)
 
 
 @pytest.fixture(scope="session")
-def baselined(tmp_path_factory, harness, fleet):
-    """A store whose assets all have a promoted baseline of days 1-3 (via the baseline flow)."""
-    from flows.baseline import baseline
+def baselined(tmp_path_factory, worker_id, harness, fleet):
+    """A store whose assets all have a promoted baseline of days 1-3 (via the baseline flow;
+    run once per test run, not once per xdist worker: the workers share the fleet's
+    telemetry, and the flow's summary is kept as JSON)."""
+    with _built_once(tmp_path_factory, worker_id, "baselined") as (directory, build):
+        db = directory / "mlflow.db"
+        if build:
+            from flows.baseline import baseline
 
-    directory = tmp_path_factory.mktemp("baselined")
-    db = directory / "mlflow.db"
-    config = write_config(directory / "fleet.toml", fleet.root, db, plots="none")
-    state = baseline(start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
-                     config_path=str(config), vehicle_class="turbine", promote=True,
-                     reason="healthy days 1-3", return_state=True)
-    assert state.is_completed(), state.message
-    summary = state.result()
-    connection = sqlite3.connect(db)
-    connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    connection.close()
+            config = write_config(directory / "fleet.toml", fleet.root, db, plots="none")
+            state = baseline(start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
+                             config_path=str(config), vehicle_class="turbine", promote=True,
+                             reason="healthy days 1-3", return_state=True)
+            assert state.is_completed(), state.message
+            (directory / "summary.json").write_text(json.dumps(state.result()))
+            connection = sqlite3.connect(db)
+            connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+            connection.close()
+    summary = json.loads((directory / "summary.json").read_text())
     return SimpleNamespace(db=db, summary=summary, directory=directory)
 
 
