@@ -481,6 +481,10 @@ def test_fault_kill_9_after_watermarks_then_rerun_equals_uninterrupted_run(
     from registry.store.tracking_store import file_lock
 
     assert _watermarks_committed(workspace.db) == 0
+    if committed < len(ASSETS):
+        # a memory group's watermarks are committed in one transaction: a kill between two
+        # assets' commits needs them in different groups (a batch of one asset each)
+        workspace.configure(batch_size=1)
     holder_file = workspace.db.parent / ".fleet-health-locks" / "fleet-run.json"
     alerts_lock = workspace.alerts.with_name(workspace.alerts.name + ".lock")
     connection = sqlite3.connect(workspace.db, isolation_level=None, timeout=60)
