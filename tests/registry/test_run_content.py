@@ -26,7 +26,8 @@ def test_a_night_outside_the_baselines_range_says_so_in_its_run():
     drift = compute_drift(candidate, baseline)
     metrics = fit_metrics(candidate, None, drift)
     assert metrics["outside.omega.level"] == pytest.approx(6.0)
-    assert metrics["zeta.omega.level"] == pytest.approx((3.0 / 6.0) ** 2)
+    # the level change (0.15 / 0.05 = 3.0 residual spreads) divided by 6 squared
+    assert metrics["zeta.omega.level"] == pytest.approx((3.0 / 6.0 ** 2) ** 2)
     document = drift_document(drift, baseline_version=1)
     entry = next(e for e in document["entries"] if e["tier"] == "level")
     assert entry["outside"] == pytest.approx(6.0)
