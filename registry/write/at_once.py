@@ -20,8 +20,10 @@ import tempfile
 import uuid
 from dataclasses import dataclass
 
+from mlflow.exceptions import MlflowException
+
 from registry.store import naming
-from registry.store.backend import Backend
+from registry.store.backend import Backend, is_not_found
 from registry.store.retry import call_with_retry
 from registry.store.sql_writes import RunRows, SqlWriter, VersionRows, now_ms
 from registry.write.model_files import MODEL_DIR, PyfuncTemplate
@@ -119,6 +121,22 @@ def record_at_once(backend: Backend, writer: SqlWriter, experiment_id: str, fit:
         discard(writer, prepared)
         raise
     return prepared.run.run_id, number, prepared.manifest_sha
+
+
+def write_restoring_model(backend: Backend, submission, experiment_id: str, write):
+    """``write()``, and once more after re-creating the asset's registered model when the
+    store says it is gone (deleted since this backend saw it); after another store error the
+    backend looks the asset's experiment up again next time (perhaps it was deleted)."""
+    try:
+        return write()
+    except MlflowException as error:
+        if not is_not_found(error):
+            backend.forget(submission.asset_id, submission.vehicle_class)
+            raise
+        backend.forget(submission.asset_id)
+        backend.ensure_registered_model(submission.asset_id, submission.vehicle_class,
+                                        experiment_id)
+        return write()
 
 
 def _surely_absent(writer: SqlWriter, run_id: str) -> bool:

@@ -36,12 +36,13 @@ from typing import Sequence
 
 from registry.records import FitRecord
 from registry.store import naming
-from registry.store.backend import Backend, is_not_found
+from registry.store.backend import Backend
 from registry.store.boundary import registry_error
 from registry.store.retry import call_with_retry, is_passing_failure
-from registry.write.at_once import PreparedFit, _surely_absent, discard, prepare
+from registry.write.at_once import (PreparedFit, _surely_absent, discard, prepare,
+                                   write_restoring_model)
 from registry.write.model_files import PyfuncTemplate
-from registry.write.recording import _Alias, _record
+from registry.write.recording import _Alias, _record, baseline_version_of, created_record
 from registry.write.submission import FitSubmission, ResolvedFit
 
 logger = logging.getLogger(__name__)
@@ -191,12 +192,8 @@ def _together(backend: Backend, writer, fits: list[tuple[int, ResolvedFit]],
             continue
         s = fit.submission
         try:
-            baseline_version = s.baseline_version
-            if s.drift is not None and baseline_version is None:
-                model = backend.registered_model(s.asset_id)
-                baseline_version = (model.aliases or {}).get(naming.BASELINE) if model else None
             prepared.append((i, prepare(backend, writer, experiments[s.vehicle_class], fit,
-                                        baseline_version, template)))
+                                        baseline_version_of(backend, s), template)))
         except Exception as error:  # noqa: BLE001 - this fit's own
             if is_passing_failure(error):
                 _discard_all(writer, prepared)
@@ -217,7 +214,7 @@ def _together(backend: Backend, writer, fits: list[tuple[int, ResolvedFit]],
             numbers = None
         if numbers is not None:
             for (i, p), number in zip(prepared, numbers):
-                outcomes.done(i, _record_of(p, number))
+                outcomes.done(i, created_record(p.fit, p.run.run_id, number))
         else:
             for i, p in prepared:
                 _write_alone(backend, writer, i, p, outcomes)
@@ -237,34 +234,18 @@ def _write_alone(backend: Backend, writer, i: int, p: PreparedFit,
     if not outcomes.open(i):
         discard(writer, p)
         return
-    s = p.fit.submission
     try:
-        try:
-            number = call_with_retry(writer.write, p.run, p.version, policy=backend.retry,
-                                     what="record the fit")
-        except Exception as error:
-            if not is_not_found(error):
-                backend.forget(s.asset_id, s.vehicle_class)
-                raise
-            # the registered model was deleted since this backend saw it
-            backend.forget(s.asset_id)
-            backend.ensure_registered_model(s.asset_id, s.vehicle_class, p.run.experiment_id)
-            number = call_with_retry(writer.write, p.run, p.version, policy=backend.retry,
-                                     what="record the fit")
+        number = write_restoring_model(
+            backend, p.fit.submission, p.run.experiment_id,
+            lambda: call_with_retry(writer.write, p.run, p.version, policy=backend.retry,
+                                    what="record the fit"))
     except Exception as error:  # noqa: BLE001 - this fit's own
         discard(writer, p)
         if is_passing_failure(error):
             raise
         outcomes.fail(i, error)
         return
-    outcomes.done(i, _record_of(p, number))
-
-
-def _record_of(p: PreparedFit, number: int | None) -> FitRecord:
-    fit, s = p.fit, p.fit.submission
-    alarm = None if s.drift is None else s.drift.alarmed
-    return FitRecord(s.asset_id, s.vehicle_class, s.role, number, p.run.run_id, "", fit.key,
-                     fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
+    outcomes.done(i, created_record(p.fit, p.run.run_id, number))
 
 
 __all__ = ["record_group"]

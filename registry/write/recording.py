@@ -45,7 +45,7 @@ from registry.store import naming
 from registry.store.backend import Backend, is_not_found
 from registry.store.retry import call_with_retry
 from registry.records import FitRecord
-from registry.write.at_once import record_at_once
+from registry.write.at_once import record_at_once, write_restoring_model
 from registry.write.model_files import PyfuncTemplate, model_source
 from registry.write.run_content import describe, version_tags
 from registry.write.runs import log_run
@@ -137,31 +137,15 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
                              existing.run_id, tags.get(naming.TAG_MODEL_ID, ""), fit.key,
                              fit.start, fit.end, fit.data_hash, created=False,
                              alarm=None if recorded is None else recorded == "true")
-    baseline_version = s.baseline_version
-    if s.drift is not None and baseline_version is None:
-        model = backend.registered_model(s.asset_id)
-        baseline_version = (model.aliases or {}).get(naming.BASELINE) if model else None
+    baseline_version = baseline_version_of(backend, s)
     writer = backend.sql_writer()
     if run is None and writer is not None and s.role == naming.CANDIDATE:
-        try:
-            run_id, version, _ = record_at_once(backend, writer, experiment_id, fit,
-                                                baseline_version, template)
-        except MlflowException as error:
-            if not is_not_found(error):
-                # perhaps the experiment was deleted since this backend saw it
-                backend.forget(s.asset_id, s.vehicle_class)
-                raise
-            # the registered model was deleted since this backend saw it
-            backend.forget(s.asset_id)
-            backend.ensure_registered_model(s.asset_id, s.vehicle_class, experiment_id)
-            run_id, version, _ = record_at_once(backend, writer, experiment_id, fit,
-                                                baseline_version, template)
-        if version is None:
-            return FitRecord(s.asset_id, s.vehicle_class, s.role, None, run_id, "", fit.key,
-                             fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
-        alias.moved(version)
-        return FitRecord(s.asset_id, s.vehicle_class, s.role, version, run_id, "", fit.key,
-                         fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
+        run_id, version, _ = write_restoring_model(
+            backend, s, experiment_id, lambda: record_at_once(
+                backend, writer, experiment_id, fit, baseline_version, template))
+        if version is not None:
+            alias.moved(version)
+        return created_record(fit, run_id, version)
     if run is None:
         logged = _log(backend, experiment_id, fit, baseline_version, template)
         run_id, model_id, manifest_sha, source = (logged.run_id, logged.model_id,
@@ -178,8 +162,25 @@ def _record(backend: Backend, fit: ResolvedFit, template: PyfuncTemplate,
                               version_tags(fit, run_id, model_id, manifest_sha, baseline_version),
                               describe(fit, baseline_version))
     alias.new_version(version)
+    return created_record(fit, run_id, version, model_id)
+
+
+def baseline_version_of(backend: Backend, submission: FitSubmission) -> int | None:
+    """The baseline version a fit is recorded against: the submission's, or for a candidate
+    with a drift and none given, the asset's current ``baseline`` alias."""
+    if submission.drift is None or submission.baseline_version is not None:
+        return submission.baseline_version
+    model = backend.registered_model(submission.asset_id)
+    return (model.aliases or {}).get(naming.BASELINE) if model else None
+
+
+def created_record(fit: ResolvedFit, run_id: str, version: int | None,
+                   model_id: str = "") -> FitRecord:
+    """The record of a fit recorded now (``created=True``)."""
+    s = fit.submission
     return FitRecord(s.asset_id, s.vehicle_class, s.role, version, run_id, model_id, fit.key,
-                     fit.start, fit.end, fit.data_hash, created=True, alarm=alarm)
+                     fit.start, fit.end, fit.data_hash, created=True,
+                     alarm=None if s.drift is None else s.drift.alarmed)
 
 
 def _log(backend: Backend, experiment_id: str, fit: ResolvedFit, baseline_version,

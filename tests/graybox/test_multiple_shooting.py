@@ -76,10 +76,7 @@ def _every_pass_in_full(model, layout, y, u, dt, integration, start):
         ends = base[:, -1]
         sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
                                 / delta[i] for i in range(n_hidden)], axis=-1)
-        chained = guesses.copy()
-        chained[0] = start
-        for c in range(1, len(firsts)):
-            chained[c] = ends[c - 1] + sensitivity[c - 1] @ (chained[c - 1] - guesses[c - 1])
+        chained = state_estimation._chain(start, guesses, ends, sensitivity)
         if not np.max(np.abs(chained - guesses) / scale) > state_estimation.CHAIN_TOLERANCE:
             break
         guesses = chained
