@@ -38,7 +38,7 @@ from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
 from graybox.telemetry.policy import GridPolicy, duration_seconds
 from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
 from graybox.exceptions import TelemetryError
-from graybox.telemetry.validation import period_starts, running_rows, validate, validate_rows
+from graybox.telemetry.validation import data_rows, period_starts, validate, validate_rows
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
@@ -84,10 +84,10 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     validate_asset_id(asset_id)
     extra = [name for name, _, _ in policy.running if name not in columns]
     rows = read_rows(root, asset_id, [*columns, *extra], start=start, end=end)
-    rows = running_rows(rows, asset_id, policy, channels=rows.channels[:len(rows.channels)
+    rows = data_rows(rows, asset_id, policy, channels=rows.channels[:len(rows.channels)
                                                                        - len(extra)])
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
                              f"(grid running)")
     rows, dt_ns = validate_rows(rows, asset_id, policy, inputs)
-    return grid_rows(rows, asset_id, dt_ns, period_starts(rows.ts, policy, dt_ns))
+    return grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))

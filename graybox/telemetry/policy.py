@@ -114,7 +114,11 @@ class GridPolicy:
         give at 1-minute samples (at 5-minute samples, 50 minutes). ``0`` disables the check. A
         mapping gives limits per channel (telemetry column); its key ``"*"`` sets the limit
         of channels not listed (default 10 minutes), e.g. ``{"pdisch": "30min"}``. Columns
-        passed as ``inputs`` to :func:`validate` are never checked.
+        passed as ``inputs`` to :func:`validate` are never checked. Not stuck: a run at
+        exactly 0 while another sensor moves (a part at rest), and a run whose both ends the
+        plant explains (an input that holds through it changes there, or a coarse reading
+        moves there by its resolution); rows a logger held are dropped before the check
+        (:mod:`graybox.telemetry.holds`).
     min_duration : duration, default "1h"
         A window covering less time (grid points times ``dt``) is an error (kind
         ``"too_few_samples"``). A duration, not a count, so that it asks for the same

@@ -37,6 +37,10 @@ class Rows:
     missing : numpy.ndarray or None
         Per row, True where a channel's value was missing (NaN) and has been interpolated
         (:func:`graybox.telemetry.validation.validate_rows`); None: none was.
+    after_hold : numpy.ndarray or None
+        Per row, True where held rows were dropped just before it
+        (:func:`graybox.telemetry.holds.drop_held_rows`): a step from the previous row longer
+        than ``max_gap`` there separates two operating periods; None: no row was held.
     """
 
     ts: np.ndarray
@@ -46,6 +50,7 @@ class Rows:
     file_index: np.ndarray | None = None
     file_row: np.ndarray | None = None
     missing: np.ndarray | None = None
+    after_hold: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ts)
@@ -63,7 +68,8 @@ class Rows:
                     self.channels if channels is None else tuple(channels), self.files,
                     None if self.file_index is None else self.file_index[index],
                     None if self.file_row is None else self.file_row[index],
-                    None if self.missing is None else self.missing[index])
+                    None if self.missing is None else self.missing[index],
+                    None if self.after_hold is None else self.after_hold[index])
 
     def slice(self, start: int, stop: int) -> "Rows":
         """Rows ``start`` to ``stop - 1``, still tagged against all of ``files``."""
@@ -71,7 +77,8 @@ class Rows:
         return Rows(self.ts[part], self.values[:, part], self.channels, self.files,
                     None if self.file_index is None else self.file_index[part],
                     None if self.file_row is None else self.file_row[part],
-                    None if self.missing is None else self.missing[part])
+                    None if self.missing is None else self.missing[part],
+                    None if self.after_hold is None else self.after_hold[part])
 
     @classmethod
     def from_frame(cls, raw: pd.DataFrame) -> "Rows":

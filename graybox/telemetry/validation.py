@@ -12,10 +12,14 @@ import pandas as pd
 
 from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
+from graybox.telemetry.holds import drop_held_rows
 from graybox.telemetry.policy import MIN_STUCK_SAMPLES, GridPolicy, format_duration
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
+#: a coarse reading changes in at least this share of its steps, and its smallest change
+#: makes up at least this share of its changes (:func:`_steady_runs`)
+COARSE_SHARE = 0.1
 
 
 def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy(),
@@ -23,7 +27,7 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     """Check raw telemetry rows; raise at the first bad row.
 
     With ``policy.running``, the rows of a stopped machine are dropped first
-    (:func:`running_rows`).
+    (:func:`running_rows`), and so are rows a logger held (:func:`data_rows`).
 
     Checks run in this order, each over the whole window, and the first failing check raises
     at its first offending row, naming the file and the 0-based row in that file. ``dt`` is
@@ -42,7 +46,8 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
        without ranges) implausibly far from the window's median (``policy.plausible_spread``);
     3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
        ``policy.stuck_after`` (two or more identical consecutive samples), reported at the
-       first row of the run;
+       first row of the run; a part at rest (:func:`_at_rest`) and a steady coarse reading
+       (:func:`_steady_runs`) are not stuck;
     4. ``"gap"``: two consecutive rows more than ``policy.max_gap`` apart, reported at the
        row after the gap (with ``policy.intermittent`` such a pause separates two operating
        periods instead, and a value held across it is not stuck);
@@ -69,7 +74,7 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     TelemetryError
         On the first problem found.
     """
-    validate_rows(running_rows(Rows.from_frame(raw), asset_id, policy), asset_id, policy, inputs)
+    validate_rows(data_rows(Rows.from_frame(raw), asset_id, policy), asset_id, policy, inputs)
 
 
 def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
@@ -87,7 +92,7 @@ def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collect
     _check_ranges(rows, asset_id, policy)
     _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
     _check_gaps(rows, asset_id, policy, dt_ns)
-    check_duration(asset_id, operating_points(rows.ts, dt_ns, policy), dt_ns, policy)
+    check_duration(asset_id, operating_points(rows, dt_ns, policy), dt_ns, policy)
     return rows, dt_ns
 
 
@@ -99,8 +104,8 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
     if not missing.any():
         return rows
     values = rows.values.copy()
-    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
-    bounds = np.append(period_starts(rows.ts, policy, dt_ns), len(rows))
+    allowed = bridged_intervals(policy, dt_ns)
+    bounds = np.append(period_starts(rows, policy, dt_ns), len(rows))
     for a, b in zip(bounds[:-1], bounds[1:]):
         ts = rows.ts[a:b]
         t = (ts - ts[0]).astype(np.float64)
@@ -130,24 +135,50 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
 def pauses(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
     """Per step between consecutive rows: True where it is longer than ``policy.max_gap``
     (a ``"gap"``, or with ``policy.intermittent`` a pause between operating periods)."""
-    # the longest step allowed, in whole intervals; consecutive samples are always fine
-    allowed = max(1, limit_intervals(policy.max_gap, dt_ns))
+    allowed = bridged_intervals(policy, dt_ns)
     # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
     return np.diff(ts) >= allowed * dt_ns + (dt_ns + 1) // 2
 
 
-def period_starts(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
-    """First row of every operating period: 0, and with ``policy.intermittent`` each row
-    after a pause (continuous telemetry is one period)."""
-    if not policy.intermittent or len(ts) < 2:
-        return np.zeros(1, dtype=np.intp)
-    return np.concatenate([[0], np.flatnonzero(pauses(ts, policy, dt_ns)) + 1])
+def bridged_intervals(policy: GridPolicy, dt_ns: int) -> int:
+    """The longest step between rows that is bridged, in whole intervals (``max_gap``;
+    consecutive samples are always fine)."""
+    return max(1, limit_intervals(policy.max_gap, dt_ns))
 
 
-def operating_points(ts: np.ndarray, dt_ns: int, policy: GridPolicy) -> int:
+def separations(rows: Rows, policy: GridPolicy, dt_ns: int) -> np.ndarray:
+    """Per step between consecutive rows: True where it separates two operating periods,
+    a pause (``policy.intermittent``) or a logger's hold (``rows.after_hold``) longer than
+    ``max_gap``. A single held row is bridged at any rate: its neighbours are two samples
+    apart, the mildest gap there is, where a 4-minute ``max_gap`` at 15-minute rows would
+    bridge nothing."""
+    if len(rows) < 2:
+        return np.zeros(0, dtype=bool)
+    long = pauses(rows.ts, policy, dt_ns)
+    held = np.zeros_like(long) if rows.after_hold is None else rows.after_hold[1:]
+    bridged = held & (intervals(np.diff(rows.ts), dt_ns) <= 2)
+    if policy.intermittent:
+        return long & ~bridged
+    return long & held & ~bridged
+
+
+def period_starts(rows: Rows, policy: GridPolicy, dt_ns: int) -> np.ndarray:
+    """First row of every operating period: 0, and each row after a :func:`separations`
+    (continuous telemetry without a long hold is one period)."""
+    return np.concatenate([[0], np.flatnonzero(separations(rows, policy, dt_ns)) + 1])
+
+
+def operating_points(rows: Rows, dt_ns: int, policy: GridPolicy) -> int:
     """Grid points of the rows' operating periods (:func:`grid_points` of each)."""
-    bounds = np.append(period_starts(ts, policy, dt_ns), len(ts))
-    return sum(grid_points(ts[a:b], dt_ns) for a, b in zip(bounds[:-1], bounds[1:]))
+    bounds = np.append(period_starts(rows, policy, dt_ns), len(rows))
+    return sum(grid_points(rows.ts[a:b], dt_ns) for a, b in zip(bounds[:-1], bounds[1:]))
+
+
+def data_rows(rows: Rows, asset_id: str, policy: GridPolicy,
+              channels: Sequence[str] | None = None) -> Rows:
+    """The rows that are data: :func:`running_rows` without the rows a logger held
+    (:func:`graybox.telemetry.holds.drop_held_rows`)."""
+    return drop_held_rows(running_rows(rows, asset_id, policy, channels))
 
 
 def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
@@ -311,14 +342,19 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
     if n < 2:
         return
     best = None  # (first row, channel, samples, held ns, limit s)
-    paused = pauses(ts, policy, dt_ns) if policy.intermittent else None
+    paused = separations(rows, policy, dt_ns)
+    if not paused.any():
+        paused = None
+    held_inputs = [rows.values[j] for j, name in enumerate(rows.channels) if name in inputs]
+    measured = [j for j, name in enumerate(rows.channels) if name not in inputs]
+    measured_moves = rows.values[measured, 1:] != rows.values[measured, :-1]
     for j, name in enumerate(rows.channels):
         limit = policy.stuck_limit(name)
         if name in inputs or limit == 0:
             continue
         v = rows.values[j]
         same = v[1:] == v[:-1]
-        if policy.intermittent:
+        if paused is not None:
             same &= ~paused  # a value held across a pause is not stuck
         if not same.any():  # the usual sensor: no two equal neighbours
             continue
@@ -336,6 +372,12 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
         held = intervals(until - ts[starts], dt_ns)
         needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
         long = np.flatnonzero(held >= needed)
+        if long.size:
+            long = long[~_steady_runs(v, starts[long], ends[long], held_inputs, paused)]
+        if long.size:
+            others = np.delete(measured_moves, measured.index(j), axis=0) if j in measured \
+                else measured_moves
+            long = long[~_at_rest(v, starts[long], ends[long], others)]
         if long.size and (best is None or starts[long[0]] < best[0]):
             r = long[0]
             best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]) * dt_ns,
@@ -359,12 +401,64 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
               channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
 
 
+def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                 inputs: list[np.ndarray], paused: np.ndarray | None = None) -> np.ndarray:
+    """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where both ends of the
+    run are explained by the plant, so that the hold is a steady reading, not a frozen sensor.
+
+    An end is explained where an input that holds one value through the whole run changes
+    (a fixed-speed pump switched on or off: its power holds between), or where the channel
+    moves by its resolution, its smallest change (50.5 to 50.0 kW) if it is a coarse reading
+    of a moving process (it changes in at least :data:`COARSE_SHARE` of its steps), or at
+    the edge of the window or of an operating period (``paused``, per step; not both ends). A frozen sensor freezes and recovers whenever it does and
+    then jumps to wherever the process went: at a sensor's noise its smallest change is rare,
+    and a setpoint held all day does not explain a run that neither starts nor ends with it.
+    """
+    n = len(v)
+    changes = np.abs(np.diff(v))
+    moved = changes[changes > 0]
+    first, last = starts == 0, ends == n - 1
+    if paused is not None:
+        first |= (starts > 0) & paused[np.maximum(starts - 1, 0)]
+        last |= (ends < n - 1) & paused[np.minimum(ends, n - 2)]
+    entry = changes[np.maximum(starts - 1, 0)]
+    leave = changes[np.minimum(ends, n - 2)]
+    begins, closes = first.copy(), last.copy()
+    if moved.size and moved.size >= COARSE_SHARE * len(changes):
+        step = 1.01 * moved.min()
+        begins |= ~first & (entry <= step)
+        closes |= ~last & (leave <= step)
+    for u in inputs:
+        changed = np.concatenate([[True], u[1:] != u[:-1]])  # u[i] differs from u[i - 1]
+        last_change = np.maximum.accumulate(np.where(changed, np.arange(n), 0))
+        holds = last_change[ends] <= starts                    # no change inside the run
+        begins |= holds & ~first & changed[starts]
+        closes |= holds & ~last & changed[np.minimum(ends + 1, n - 1)]
+    return begins & closes & ~(first & last)
+
+
+def _at_rest(v: np.ndarray, starts: np.ndarray, ends: np.ndarray, others_move: np.ndarray
+             ) -> np.ndarray:
+    """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where the run holds
+    exactly 0 while another measured channel moves: a part of the plant at rest (a stopped
+    pump's flow and power while the tank it fills drains), not a frozen sensor, which holds
+    its last reading. Where every measured channel holds, the machine is off (declare its
+    ``running`` channel), and the run stays a stuck sensor."""
+    rest = v[starts] == 0.0
+    if not rest.any() or not len(others_move):
+        return np.zeros(len(starts), dtype=bool)
+    moved = np.concatenate([[0], np.cumsum(others_move.any(axis=0))])  # steps moved before i
+    return rest & (moved[ends] > moved[starts])
+
+
 def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:
     ts = rows.ts
     if len(ts) < 2 or policy.intermittent:
         return
     steps = np.diff(ts)
-    too_long = pauses(ts, policy, dt_ns)
+    too_long = pauses(ts, policy, dt_ns)   # after a logger's hold: bridged or a separation
+    if rows.after_hold is not None:
+        too_long &= ~rows.after_hold[1:]
     if not too_long.any():
         return
     i = int(np.argmax(too_long)) + 1

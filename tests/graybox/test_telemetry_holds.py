@@ -1,0 +1,151 @@
+"""A logger's held rows, a plant part at rest and a steady coarse reading are not stuck
+sensors; a frozen sensor still is (graybox/telemetry/holds.py, validation._check_stuck)."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from graybox.exceptions import TelemetryError
+from graybox.telemetry import GridPolicy, to_grid, validate
+from graybox.telemetry.holds import drop_held_rows, held_rows
+from graybox.telemetry.rows import Rows
+
+T0 = pd.Timestamp("2026-03-01", tz="UTC")
+STEP = 900.0  # a SCADA export every 15 minutes
+DAY = 96
+
+
+def scada_day(seed: int = 0) -> pd.DataFrame:
+    """A tank level and a district outflow that move every row, a pump count (an input)."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(DAY)
+    return pd.DataFrame({
+        "timestamp": T0 + pd.to_timedelta(k * STEP, unit="s"),
+        "level": np.round(4.0 + np.sin(k / 10.0) + rng.normal(0, 0.005, DAY), 2),
+        "outflow": np.round(150.0 + 40.0 * np.sin(k / 7.0) + rng.normal(0, 1.5, DAY)) + 0.5,
+        "pumps": np.where((k // 12) % 2 == 0, 1.0, 0.0),
+    })
+
+
+def hold(frame: pd.DataFrame, first: int, rows: int) -> pd.DataFrame:
+    """The historian repeats row ``first - 1`` over rows ``first .. first + rows - 1``."""
+    held = frame.copy()
+    channels = [c for c in frame.columns if c != "timestamp"]
+    held.loc[first:first + rows - 1, channels] = frame.loc[first - 1, channels].to_numpy()
+    return held
+
+
+def stuck_error(frame: pd.DataFrame, **kwargs) -> TelemetryError:
+    with pytest.raises(TelemetryError) as info:
+        validate(frame, "A-1", **kwargs)
+    assert info.value.kind == "stuck_channel"
+    return info.value
+
+
+def test_rows_repeating_every_moving_channel_are_held_and_dropped():
+    frame = hold(scada_day(), 40, 12)   # a 3-hour outage of the link
+    rows = Rows.from_frame(frame)
+    held = held_rows(rows)
+    assert np.flatnonzero(held).tolist() == list(range(40, 52))
+    kept = drop_held_rows(rows)
+    assert len(kept) == DAY - 12
+    assert np.flatnonzero(kept.after_hold).tolist() == [40]   # the first row after the hold
+    plain = Rows.from_frame(scada_day())
+    assert not held_rows(plain).any() and drop_held_rows(plain) is plain
+
+
+def test_a_long_hold_splits_the_day_and_a_short_one_is_bridged():
+    frame = hold(scada_day(), 40, 12)
+    validate(frame, "A-1", inputs=["pumps"])   # 12 equal rows of every channel: not stuck
+    window = to_grid(frame, "A-1")
+    assert [len(p) for p in window.periods()] == [40, DAY - 52]
+    # one held row at 1-minute rows is a missing sample inside max_gap: interpolated
+    minute = scada_day().assign(timestamp=T0 + pd.to_timedelta(np.arange(DAY) * 60.0, unit="s"))
+    window = to_grid(hold(minute, 30, 1), "A-1")
+    assert window.n_periods == 1 and window.filled_samples == 1 and window.n_samples == DAY
+
+
+def test_one_frozen_sensor_among_moving_ones_is_still_stuck():
+    frame = scada_day()
+    frame.loc[20:35, "level"] = frame.loc[19, "level"]   # the level alone freezes
+    error = stuck_error(frame, inputs=["pumps"])
+    assert error.channel == "level" and error.row == 19
+
+
+def test_a_hold_of_one_moving_channel_and_a_setpoint_is_that_channels():
+    frame = scada_day().drop(columns="outflow")
+    frame["setpoint"] = 4.0
+    frame.loc[20:35, "level"] = frame.loc[19, "level"]   # whole rows repeat, one sensor moves
+    assert not held_rows(Rows.from_frame(frame)).any()
+    assert stuck_error(frame, inputs=["pumps", "setpoint"]).channel == "level"
+
+
+def test_a_pump_at_rest_reads_zero_while_the_tank_moves_but_not_when_all_stop():
+    frame = scada_day()
+    frame["flow"] = np.where(frame["pumps"] > 0, 230.0 + np.arange(DAY) % 7, 0.0)
+    validate(frame, "A-1", inputs=["pumps", "outflow"])   # 12 zeros at a time: at rest
+    stopped = frame.copy()
+    stopped.loc[:, ["level", "flow"]] = 0.0     # every measured channel at 0: a stopped machine
+    assert not held_rows(Rows.from_frame(stopped)).any()
+    error = stuck_error(stopped, inputs=["pumps", "outflow"])
+    assert error.row == 0 and "at 0.0" in error.message
+
+
+def power_day(run: slice) -> pd.DataFrame:
+    """A pump's power logged to 0.5 kW: 50.5 kW while the pump runs (rows ``run``), 0 when
+    not, a moving level and outflow."""
+    frame = scada_day()
+    frame["pumps"] = 0.0
+    frame.loc[run, "pumps"] = 1.0
+    frame["power"] = np.where(frame["pumps"] > 0, 50.5, 0.0)
+    return frame
+
+
+def test_a_steady_coarse_reading_between_the_switching_of_an_input_is_not_stuck():
+    frame = power_day(slice(20, 59))            # on for 10 hours at one 0.5-kW step
+    validate(frame, "A-1", inputs=["pumps"])
+    # the same hold while the pump's switching says nothing (a switch before and after)
+    frozen = frame.copy()
+    frozen["pumps"] = np.where((np.arange(DAY) >= 10) & (np.arange(DAY) < 70), 1.0, 0.0)
+    frozen.loc[:9, "power"] = 0.0
+    frozen.loc[10:19, "power"] = 48.0 + np.arange(10)
+    frozen.loc[60:69, "power"] = 60.0 + np.arange(10)
+    error = stuck_error(frozen, inputs=["pumps"])
+    assert error.channel == "power" and error.row == 20
+
+
+def test_a_coarse_reading_that_moves_by_its_resolution_is_not_stuck():
+    rng = np.random.default_rng(1)
+    frame = scada_day()
+    steps = rng.choice([-0.5, 0.0, 0.0, 0.5], DAY)      # dithers by one 0.5-kW step
+    steps[29] = 0.5                                      # a 21-row hold reached by one step
+    steps[30:50] = 0.0
+    steps[50] = -0.5                                     # and left by one
+    frame["power"] = 50.0 + np.cumsum(steps)
+    validate(frame, "A-1", inputs=["pumps"])
+    steps[29], steps[50] = -3.0, 3.5                     # reached and left by jumps: frozen
+    frame["power"] = 50.0 + np.cumsum(steps)
+    error = stuck_error(frame, inputs=["pumps"])
+    assert error.channel == "power" and error.row == 29
+    steps[29] = 0.5                                      # one end by a step is not enough
+    frame["power"] = 50.0 + np.cumsum(steps)
+    assert stuck_error(frame, inputs=["pumps"]).row == 29
+
+
+def test_an_operating_period_s_edge_explains_the_end_of_a_steady_reading():
+    # the link drops for 2 hours while the pump runs: the steady power before the outage ends
+    # at the period's edge, the one after it starts there, each explained at its other end
+    # by the pump's switching
+    frame = hold(power_day(slice(20, 59)), 40, 8)
+    validate(frame, "A-1", inputs=["pumps"])
+    assert [len(p) for p in to_grid(frame, "A-1").periods()] == [40, DAY - 48]
+
+
+def test_a_single_held_row_is_bridged_at_any_rate_and_two_are_not():
+    # at 15-minute rows a 4-minute max_gap bridges no missing row; one held row is bridged
+    # all the same (its neighbours are two samples apart), two held rows split the day
+    window = to_grid(hold(scada_day(), 30, 1), "A-1")
+    assert window.n_periods == 1 and window.filled_samples == 1 and window.n_samples == DAY
+    window = to_grid(hold(scada_day(), 30, 2), "A-1")
+    assert [len(p) for p in window.periods()] == [30, DAY - 32]
+    intermittent = to_grid(hold(scada_day(), 30, 1), "A-1", GridPolicy(intermittent=True))
+    assert intermittent.n_periods == 1
