@@ -271,7 +271,7 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
             warm = rest if isinstance(rest, Signature) else sig
             # a fragment must be as long as the fit asks of any operating period, and a
             # piece as long as its frozen structure needs
-            shortest = int(np.ceil(settings.shortest_period / sig.sample_interval))
+            shortest = settings.shortest_period_samples(sig.sample_interval)
             pieces = _split(window, calibration_pieces(sig, _length(window), sig.settings),
                             shortest)
             for piece in _merge_short(pieces, sig, sig.settings) + [window]:

@@ -26,6 +26,10 @@ MIN_SAMPLES_FLOOR = 48
 #: telemetry samples ``"auto"`` leaves a window for the structure (differencing, AR order,
 #: network delays: a few samples at a slow logger's interval)
 STRUCTURE_ROOM = 50
+#: the fewest samples of an operating period fitted beside others: stationarizing compares
+#: autocorrelations up to a quarter of the shortest residual segment and needs two lags of
+#: them (8 residual samples), after the one-step residual and a difference have taken two
+MIN_PERIOD_SAMPLES = 10
 
 
 @dataclass(frozen=True)
@@ -223,6 +227,12 @@ class GrayBoxSettings:
         """Seconds an operating period must last to be fitted, in a window of several
         periods: ``ar_span + delay_span + derivative_span`` (shorter ones are left out)."""
         return self.ar_span + self.delay_span + self.derivative_span
+
+    def shortest_period_samples(self, interval: float) -> int:
+        """Samples an operating period must hold to be fitted, in a window of several periods:
+        :attr:`shortest_period` at ``interval`` seconds, and at a slow rate at least
+        :data:`MIN_PERIOD_SAMPLES`."""
+        return max(math.ceil(self.shortest_period / interval - 1e-9), MIN_PERIOD_SAMPLES)
 
     def derivative_window(self, interval: float, polyorder: int = 3) -> int:
         """The odd Savitzky-Golay window covering about ``derivative_span`` at ``interval``."""

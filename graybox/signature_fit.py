@@ -89,18 +89,20 @@ def _window_parts(window) -> tuple[list[pd.DataFrame], float, str | None]:
 def _operating_segments(parts, settings: GrayBoxSettings, interval: float
                         ) -> tuple[list[pd.DataFrame], list[int]]:
     """Every window's periods as segments, with the window each belongs to. In a window of
-    several periods, those shorter than ``settings.shortest_period`` are left out."""
+    several periods, those shorter than ``settings.shortest_period_samples`` are left out."""
     frames, owners = [], []
     for k, (periods, _, _) in enumerate(parts):
         if len(periods) > 1:
-            kept = [p for p in periods if len(p) * interval >= settings.shortest_period]
+            shortest = settings.shortest_period_samples(interval)
+            kept = [p for p in periods if len(p) >= shortest]
             if not kept:
                 longest = max(len(p) for p in periods) * interval
                 raise InsufficientDataError(
                     f"window {k} starting {periods[0].index[0].isoformat()}: none of its "
                     f"{len(periods)} operating periods is long enough to fit (the longest "
                     f"lasts {longest:g} s; a period needs ar_span + delay_span + "
-                    f"derivative_span = {settings.shortest_period:g} s)")
+                    f"derivative_span = {settings.shortest_period:g} s, and at least "
+                    f"{settings.shortest_period_samples(interval)} samples)")
             periods = kept
         frames.extend(periods)
         owners.extend([k] * len(periods))

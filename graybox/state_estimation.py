@@ -152,7 +152,8 @@ def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: s
     finite, or lies more than :data:`DIVERGENCE_RANGES` times its channel's scale (its range
     in the window, at least its magnitude) from the data.
 
-    The magnitude floor keeps a wrong constant from reading as divergence: a channel without
+    A channel that reads exactly 0 throughout has no scale, and only an infinite prediction
+    of it diverges. The magnitude floor keeps a wrong constant from reading as divergence: a channel without
     dynamics whose level parameter is off by 7x on a quiet window (SKAB's vibration at another
     operating point, range 0.002 g, level 0.03 g, parameter 0.2 g) is a bias to tune, not a
     blow-up; a blow-up passes 100 times the magnitude within a few steps.
@@ -160,11 +161,13 @@ def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: s
     A gap in the telemetry (a missing sample or input) leaves its prediction missing, which is
     not divergence; a prediction that is missing where its data is not, is.
     """
-    with np.errstate(invalid="ignore", over="ignore"):
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         span = np.nanmax(measured, axis=0) - np.nanmin(measured, axis=0)
-        scale = np.maximum(np.maximum(span, np.nanmax(np.abs(measured), axis=0)), 1e-6)
+        scale = np.maximum(span, np.nanmax(np.abs(measured), axis=0))
         distance = np.abs(predicted - measured) / scale
-        overflow = np.isinf(predicted) | (distance > DIVERGENCE_RANGES)
+        # a channel at exactly 0 throughout (a stopped pump's flow in a short operating
+        # period) gives no scale: there only an infinite prediction diverges
+        overflow = np.isinf(predicted) | ((scale > 0) & (distance > DIVERGENCE_RANGES))
     bad = np.isfinite(measured) & overflow
     if bad.any():
         channel = model.outputs[int(np.argmax(bad.sum(axis=0)))]

@@ -53,3 +53,13 @@ def test_a_15_minute_baseline_records_the_count_it_resolved_and_its_candidates_u
     # a count the user fixed is kept, and the error names the setting to lower
     with pytest.raises(InsufficientDataError, match="settings.min_samples"):
         GrayBox(model, settings=GrayBoxSettings(min_samples=200)).fit(days[:3])
+
+
+@pytest.mark.parametrize("interval, expected", [(1.0, 460), (10.0, 46), (60.0, 10),
+                                                (300.0, 10), (900.0, 10)])
+def test_a_period_is_fitted_from_its_time_and_at_a_slow_rate_from_ten_samples(interval,
+                                                                             expected):
+    # ar_span + delay_span + derivative_span = 460 s; at 15 minutes that is one sample, and
+    # stationarizing needs 8 residual samples after the one-step residual and a difference
+    assert GrayBoxSettings().shortest_period == 460.0
+    assert GrayBoxSettings().shortest_period_samples(interval) == expected

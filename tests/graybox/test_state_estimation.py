@@ -139,6 +139,17 @@ def test_a_wrong_constant_is_a_bias_and_a_blow_up_is_divergence():
         check_prediction(WrongSign(), measured, blown, "prediction")
 
 
+def test_a_channel_at_zero_throughout_has_no_scale_and_only_infinity_diverges():
+    # a stopped pump's flow (exactly 0) over a short operating period, predicted 2 m^3/h by
+    # an interpolated pump count: no scale to call that a blow-up; an infinity still is one
+    measured = np.zeros((9, 1))
+    predicted = np.full_like(measured, 2.0)
+    check_prediction(WrongSign(), measured, predicted, "prediction")
+    predicted[-1] = np.inf
+    with pytest.raises(IntegrationError, match="diverges"):
+        check_prediction(WrongSign(), measured, predicted, "prediction")
+
+
 def test_a_stiff_baseline_is_decomposed_with_its_own_integrator():
     # the baseline's plots run a window through the signature (graybox.decompose): with the
     # default RK4 the armature diverged there and the plots failed
