@@ -194,7 +194,9 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
         Fitted with the same frozen structure (checked).
     calibration : graybox.calibration.Calibration, optional
         Supplies epsilon per tier and channel (scaled to the candidate's sample count and
-        the baseline's, see :mod:`graybox.epsilon_scaling`).
+        the baseline's, see :mod:`graybox.epsilon_scaling`), at least the tier's
+        :meth:`~graybox.tiers.Tier.epsilon_floor` (the level tier's: one step of a quantized
+        reading).
     top : int, default 3
         Parameter changes kept per entry as a root-cause hint.
     kinds : sequence of Tier, default TIER_KINDS
@@ -224,9 +226,12 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             changes = tuple(ParameterChange(names[i], float(reference[i]), float(current[i]),
                                             float(contributions[i])) for i in order)
             parameter_zeta = float(contributions.sum())
-            epsilon = (None if calibration is None else
-                       calibration.epsilon(channel.channel, tier, n_samples=channel.n_samples,
-                                           baseline_samples=healthy.n_samples))
+            epsilon = None
+            if calibration is not None:
+                epsilon = max(calibration.epsilon(channel.channel, tier,
+                                                  n_samples=channel.n_samples,
+                                                  baseline_samples=healthy.n_samples),
+                              kind.epsilon_floor(channel, healthy, conditions))
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
                                      None if parameter_zeta == zeta else parameter_zeta,
                                      beyond if beyond > 1 else None))

@@ -82,6 +82,11 @@ class LevelTier:
         A candidate's feature means per telemetry window (a candidate of several nights has
         one per night): :func:`extrapolation` takes the farthest. None for baselines and
         records stored before it (the ``operating_point`` stands for the whole fit).
+    resolution : float, optional
+        A baseline's: the step its channel's reading is logged in
+        (:func:`graybox.resolution.reading_resolution`, 0 when not quantized). A level
+        change within one step is never an alarm (:meth:`graybox.tiers.level.LevelTierKind.
+        epsilon_floor`). None for candidates and records stored before it.
     """
 
     level: float
@@ -94,9 +99,11 @@ class LevelTier:
     reach: float | None = None
     operating: tuple[int, ...] | None = None
     window_points: tuple[tuple[float, ...], ...] | None = None
+    resolution: float | None = None
 
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach",
-                                                             "operating", "window_points"})
+                                                             "operating", "window_points",
+                                                             "resolution"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -219,7 +226,8 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
               baseline: LevelTier | None = None, groups: np.ndarray | None = None,
-              operating: Sequence[int] | None = None) -> LevelTier:
+              operating: Sequence[int] | None = None, resolution: float | None = None
+              ) -> LevelTier:
     """Regress the k-step errors on the centred operating features; keep the intercept.
 
     Parameters
@@ -239,6 +247,8 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     operating : sequence of int, optional
         A new baseline's features that set the operating condition (:func:`correction`);
         None: every input.
+    resolution : float, optional
+        A new baseline's channel's reading step (recorded; a candidate records none).
 
     Returns
     -------
@@ -276,7 +286,8 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
             points = tuple(tuple(float(c) for c in point) for point in means)
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
                      float(residual.std()), int(horizon), int(len(errors)),
-                     tuple(float(c) for c in features.mean(axis=0)), reach, operating, points)
+                     tuple(float(c) for c in features.mean(axis=0)), reach, operating, points,
+                     None if baseline is not None or resolution is None else float(resolution))
 
 
 def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float],

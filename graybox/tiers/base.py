@@ -235,6 +235,13 @@ class Tier:
         to first order in proportion to it."""
         return max(1.0, self.outside(candidate, baseline, conditions))
 
+    def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                      conditions: float = 0.0) -> float:
+        """The least epsilon of the tier for this pair: a zeta no measurement can tell from
+        no change (:func:`graybox.drift.compute_drift` takes the larger of it and the
+        calibrated epsilon). 0: the calibration alone decides."""
+        return 0.0
+
     def drift_deltas(self, candidate: ChannelSignature, baseline: ChannelSignature,
                      conditions: float = 0.0) -> np.ndarray:
         """The changes zeta sums: :meth:`deltas` divided by :meth:`discount`."""

@@ -10,6 +10,7 @@ from graybox.exceptions import InsufficientDataError, StructureMismatchError
 from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
                                 operating_features, pool_level_data, segment_level_data,
                                 start_stride)
+from graybox.resolution import reading_resolution
 from graybox.settings import GrayBoxSettings
 from graybox.state_estimation import WindowStates
 from graybox.tiers.base import Tier
@@ -66,12 +67,14 @@ class LevelTierKind(Tier):
                                 lambda w=window: segment(w))
                  for window in asset.windows]
         data = pool_level_data(model, asset.windows, parts, horizon, stride)
-        for channel, reference in zip(channels, references):
+        for index, (channel, reference) in enumerate(zip(channels, references)):
+            resolution = None if reference is not None else reading_resolution(
+                np.concatenate([window.y[:, index] for window in asset.windows]))
             try:
                 errors, features, segments = data[channel.name]
                 channel.records[self.name] = fit_level(errors, features, horizon, reference,
                                                        np.asarray(owners)[segments],
-                                                       operating_features(model))
+                                                       operating_features(model), resolution)
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None
@@ -90,6 +93,19 @@ class LevelTierKind(Tier):
     def outside(self, candidate: ChannelSignature, baseline: ChannelSignature,
                 conditions: float = 0.0) -> float:
         return extrapolation(candidate.level, baseline.level)
+
+    def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                      conditions: float = 0.0) -> float:
+        """The zeta of a change of one step of the channel's reading (the baseline's
+        ``resolution``), discounted as the change is. A steady reading rounds to its step:
+        each night's level is off by up to half a step however many samples it averages, so
+        two nights' levels may differ by a whole step with nothing changed. The baseline's
+        few days need not show it (five days that rounded alike), and calibration then
+        takes a hundredth of a degree for a fault. 0 where the reading is not quantized."""
+        step, spread = baseline.level.resolution, baseline.level.residual_std
+        if not step or not spread:
+            return 0.0
+        return (step / spread / self.discount(candidate, baseline, conditions)) ** 2
 
     def discount(self, candidate: ChannelSignature, baseline: ChannelSignature,
                  conditions: float = 0.0) -> float:

@@ -19,7 +19,8 @@ from graybox.residual import one_step_residual
 from graybox.rk4 import rk4_step
 from graybox.signature import check_consistent
 from graybox.simulation import Fault, FleetSpec, VehicleSpec, simulate_fleet, white_box_parameters
-from graybox.tiers import tier_kind
+from graybox.calibration import TierThreshold
+from graybox.tiers import TIER_KINDS, tier_kind
 from graybox.alert import alerts_from_drift
 from tests.graybox.conftest import make_channel, make_signature
 
@@ -319,3 +320,40 @@ def test_a_level_alerts_hint_says_where_the_level_moved():
                                 baseline_version=1, run_id=None)
     assert (alert.channel, alert.tier) == ("omega", "level")
     assert alert.hint() == "level moved from 129.02 to 129.49 (+0.47)"
+
+
+def test_a_level_change_within_one_step_of_a_quantized_reading_never_alarms():
+    # a winding temperature logged to 0.01 degree, its level's regression spread 0.05: two
+    # nights' levels may differ by a whole step with nothing changed (each rounds by up to
+    # half a step), so the epsilon is at least (0.01 / 0.05)^2 = 0.04, however narrow the
+    # calibrated one
+    reference = dataclasses.replace(_level(0.40), resolution=0.01)
+    baseline = make_signature((dataclasses.replace(make_channel(), level=reference),))
+    samples = baseline.channels[0].n_samples
+    calibration = Calibration(tuple(
+        TierThreshold("omega", kind.name, 0.01 if kind.name == "level" else 1.0, 0.005, 1.0,
+                      (0.005,) * 3) for kind in TIER_KINDS), 0.01, 0.001, samples, 3)
+    kind = tier_kind("level")
+    for change, alarmed in ((0.009, False), (0.012, True)):
+        candidate = make_signature((dataclasses.replace(make_channel(),
+                                                        level=_level(0.40 + change)),))
+        assert kind.epsilon_floor(candidate.channels[0], baseline.channels[0]) == \
+            pytest.approx(0.04)
+        entry = compute_drift(candidate, baseline, calibration).get("omega", "level")
+        assert entry.zeta == pytest.approx((change / 0.05) ** 2)
+        assert entry.epsilon == pytest.approx(0.04) and entry.exceeded is alarmed
+    # twice outside the range: the step is discounted as the change is
+    far = dataclasses.replace(reference, operating_point=(100.0, 1.0), reach=0.5)
+    night = dataclasses.replace(_level(0.412), operating_point=(130.0, 6.0))
+    assert kind.epsilon_floor(make_signature((dataclasses.replace(make_channel(), level=night),
+                                              )).channels[0],
+                              make_signature((dataclasses.replace(make_channel(), level=far),
+                                              )).channels[0]) == pytest.approx(0.04 / 16)
+    # an unquantized reading (0) and a record stored before the field (None) have no floor
+    for step in (0.0, None):
+        plain = make_signature((dataclasses.replace(
+            make_channel(), level=dataclasses.replace(reference, resolution=step)),))
+        assert kind.epsilon_floor(baseline.channels[0], plain.channels[0]) == 0.0
+    assert Signature.from_json(baseline.to_json()) == baseline
+    assert "resolution" not in make_signature((dataclasses.replace(
+        make_channel(), level=_level(0.4)),)).to_json()
