@@ -203,11 +203,16 @@ def test_retries_and_failed_batches_on_dask(tmp_path, harness, fleet, baselined,
     assert summary["exit_status"] == 1
 
 
-def test_a_local_cluster_keeps_the_ordinary_malloc(harness):
+def test_a_local_cluster_keeps_the_ordinary_malloc(harness, monkeypatch):
     """The LocalCluster a run starts: its workers have Dask's one BLAS thread but not its
     ``MALLOC_TRIM_THRESHOLD_`` (a fixed trim threshold made every array above 128 kB a fresh
     mmap); Dask's configuration is as it was after the run."""
     import dask
+
+    # a nanny started with Dask's defaults in this process (the module's ``cluster``) wrote its
+    # pre-spawn variables into os.environ, which every later worker inherits; a run's own
+    # process has no such cluster
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     from prefect import flow, task
 
     from flows.config import DaskSettings
