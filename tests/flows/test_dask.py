@@ -208,15 +208,15 @@ def test_a_local_cluster_keeps_the_ordinary_malloc(harness, monkeypatch):
     ``MALLOC_TRIM_THRESHOLD_`` (a fixed trim threshold made every array above 128 kB a fresh
     mmap); Dask's configuration is as it was after the run."""
     import dask
+    from prefect import flow, task
+
+    from flows.config import DaskSettings
+    from flows.task_runner import DaskBatches
 
     # a nanny started with Dask's defaults in this process (the module's ``cluster``) wrote its
     # pre-spawn variables into os.environ, which every later worker inherits; a run's own
     # process has no such cluster
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
-    from prefect import flow, task
-
-    from flows.config import DaskSettings
-    from flows.task_runner import DaskBatches
 
     @task
     def worker_environment():
