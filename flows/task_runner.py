@@ -7,7 +7,13 @@ pools. ``"dask"`` submits every batch at once to a Dask cluster through prefect-
 started for the run with ``[dask] workers`` processes of ``threads_per_worker`` threads).
 Dask starts its worker processes with one BLAS/OpenMP thread each (its
 ``distributed.nanny.pre-spawn-environ``), so one thread per worker and one worker per core
-keep the cores busy without oversubscribing them.
+keep the cores busy without oversubscribing them. The same setting also gives them
+``MALLOC_TRIM_THRESHOLD_=65536``, which a ``LocalCluster`` started here leaves out
+(:data:`LOCAL_WORKER_CONFIG`): a fixed trim threshold turns off glibc's adaptive mmap
+threshold, so every array above 128 kB (a day of 1-Hz samples is 691 kB) is a fresh mmap
+whose pages fault in and are zeroed again at each allocation; a night's compute on such a
+worker took about twice the time it takes in the flow's own process (docs/performance.md,
+"Dask workers").
 
 Both are used the same way by :func:`flows.batching.run_over_fleet`: :meth:`submit` every
 batch, then take the outcomes from :meth:`completed`, which yields ``(index, outcome)`` in
@@ -27,6 +33,13 @@ import pathlib
 from typing import Any, Iterator
 
 from flows.config import DaskSettings, FleetConfig
+
+
+#: Dask configuration in effect while a run's ``LocalCluster`` starts: its workers get the
+#: malloc of an ordinary process (the flow's, the sequential runner's), not Dask's
+#: ``MALLOC_TRIM_THRESHOLD_`` (None removes a variable from the pre-spawn environment). A
+#: cluster of ``[dask] address`` is started by its operator (docs/operations.md).
+LOCAL_WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 class SequentialBatches:
@@ -80,6 +93,11 @@ class DaskBatches:
 
         with contextlib.ExitStack() as stack:
             stack.enter_context(api_for_workers())
+            if not self.settings.address:
+                # the LocalCluster starts at the first submit: its nannies read this then
+                import dask
+
+                stack.enter_context(dask.config.set(LOCAL_WORKER_CONFIG))
             self._runner = stack.enter_context(DaskTaskRunner(**runner_options(self.settings)))
             self._stack = stack.pop_all()
         return self

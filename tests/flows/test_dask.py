@@ -201,3 +201,34 @@ def test_retries_and_failed_batches_on_dask(tmp_path, harness, fleet, baselined,
     assert registry.watermark("T-003") == day(BASELINE_DAYS + 1)
     assert "2/2 done, 1 failed" in stream.getvalue(), stream.getvalue()
     assert summary["exit_status"] == 1
+
+
+def test_a_local_cluster_keeps_the_ordinary_malloc(harness, monkeypatch):
+    """The LocalCluster a run starts: its workers have Dask's one BLAS thread but not its
+    ``MALLOC_TRIM_THRESHOLD_`` (a fixed trim threshold made every array above 128 kB a fresh
+    mmap); Dask's configuration is as it was after the run."""
+    import dask
+    from prefect import flow, task
+
+    from flows.config import DaskSettings
+    from flows.task_runner import DaskBatches
+
+    # a nanny started with Dask's defaults in this process (the module's ``cluster``) wrote its
+    # pre-spawn variables into os.environ, which every later worker inherits; a run's own
+    # process has no such cluster
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+
+    @task
+    def worker_environment():
+        return {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_",
+                                                        "OMP_NUM_THREADS")}
+
+    @flow
+    def on_a_local_cluster():
+        with DaskBatches(DaskSettings(workers=1, threads_per_worker=1)) as runner:
+            runner.submit(worker_environment, {})
+            return [outcome.result() for _, outcome in runner.completed()]
+
+    assert on_a_local_cluster() == [{"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": "1"}]
+    assert dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"] \
+        == 65536
