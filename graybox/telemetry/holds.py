@@ -57,6 +57,4 @@ def drop_held_rows(rows: Rows) -> Rows:
     kept_at = np.flatnonzero(~held)
     after_hold = np.zeros(len(kept_at), dtype=bool)
     after_hold[1:] = np.diff(kept_at) > 1
-    if rows.after_hold is not None:
-        after_hold |= rows.after_hold[kept_at]
     return replace(rows.take(kept_at), after_hold=after_hold)

@@ -345,7 +345,7 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
     paused = separations(rows, policy, dt_ns)
     if not paused.any():
         paused = None
-    held_inputs = [rows.values[j] for j, name in enumerate(rows.channels) if name in inputs]
+    input_values = [rows.values[j] for j, name in enumerate(rows.channels) if name in inputs]
     measured = [j for j, name in enumerate(rows.channels) if name not in inputs]
     measured_moves = rows.values[measured, 1:] != rows.values[measured, :-1]
     for j, name in enumerate(rows.channels):
@@ -373,10 +373,9 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
         needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
         long = np.flatnonzero(held >= needed)
         if long.size:
-            long = long[~_steady_runs(v, starts[long], ends[long], held_inputs, paused)]
-        if long.size:
-            others = np.delete(measured_moves, measured.index(j), axis=0) if j in measured \
-                else measured_moves
+            long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
+        if long.size:  # j is measured: inputs were skipped above
+            others = np.delete(measured_moves, measured.index(j), axis=0)
             long = long[~_at_rest(v, starts[long], ends[long], others)]
         if long.size and (best is None or starts[long[0]] < best[0]):
             r = long[0]
