@@ -33,6 +33,7 @@ import pandas as pd
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
 from graybox.integration import Integration, advance
+from graybox.operating_conditions import OperatingConditions
 from graybox.state_estimation import (WindowStates, check_prediction, estimate_states,
                                       window_arrays)
 
@@ -306,12 +307,18 @@ def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence
     return float(np.sqrt(np.sum((slopes * (point - center)) ** 2)))
 
 
-def operating_features(model: WhiteBoxModel) -> tuple[int, ...]:
+def operating_features(model: WhiteBoxModel,
+                       conditions: OperatingConditions | None = None) -> tuple[int, ...]:
     """Positions, among a channel's level features (its prediction, then the inputs), of the
-    inputs that no controller sets: those that place a night in or outside the baseline's
-    operating range."""
+    inputs that place a night in or outside the baseline's operating range: those no
+    controller sets and, given the baseline's ``conditions``, whose windows' means differ
+    beyond chance (:meth:`~graybox.operating_conditions.OperatingConditions.varying_inputs`).
+    A plant driven alike every day has days whose input means differ by chance alone: a
+    night a little beyond the reach of such days is not beyond anything, and its level change
+    is not discounted (the other tiers' conditions count the same way)."""
+    varying = None if conditions is None else set(conditions.varying_inputs())
     return tuple(1 + i for i, name in enumerate(model.inputs)
-                 if name not in model.controlled_inputs)
+                 if name not in model.controlled_inputs and (varying is None or name in varying))
 
 
 def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:

@@ -108,6 +108,11 @@ class OperatingConditions:
             ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
         return ratio > critical
 
+    def varying_inputs(self) -> tuple[str, ...]:
+        """The inputs whose windows' means differ by more than chance (:meth:`varying`)."""
+        means = self.varying()[:len(self.inputs)]
+        return tuple(name for name, moves in zip(self.inputs, means) if moves)
+
     def piece_figures(self) -> np.ndarray | None:
         """Array of shape (windows, pieces, 2 * inputs), means then spreads; None when the
         windows have different numbers of pieces."""

@@ -74,7 +74,8 @@ class LevelTierKind(Tier):
                 errors, features, segments = data[channel.name]
                 channel.records[self.name] = fit_level(errors, features, horizon, reference,
                                                        np.asarray(owners)[segments],
-                                                       operating_features(model), resolution)
+                                                       operating_features(model, asset.conditions),
+                                                       resolution)
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None

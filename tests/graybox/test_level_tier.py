@@ -13,6 +13,7 @@ from graybox.drift import Drift
 from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
                                 k_step_prediction, level_data, operating_features)
 from graybox.models.base import WhiteBoxModel
+from graybox.operating_conditions import operating_conditions
 from graybox.record_json import from_dict, to_dict
 from graybox.models.gas_turbine import GasTurbineShaft, LangevinShaft
 from graybox.residual import one_step_residual
@@ -214,6 +215,56 @@ def test_an_input_a_controller_sets_does_not_place_a_night_outside_the_range():
     cold = np.column_stack([rng.normal(20.0, 0.1, 800), 2.0 - 0.1 * (outdoor[:800] - 10.0),
                             outdoor[:800] - 10.0])
     assert extrapolation(fit_level(errors[:800], cold, 12, baseline), baseline) > 1.5
+
+
+def test_days_driven_alike_place_no_night_outside_the_level_range():
+    class Room(WhiteBoxModel):
+        states = ("air",)
+        inputs = ("heater", "outdoor")
+        controlled_inputs = ("heater",)
+
+        def derivatives(self, x, u):
+            return u[:, :1] - x
+
+    rng = np.random.default_rng(4)
+    groups = np.repeat([0, 1, 2, 3], 960)
+
+    def baselines(day_means):
+        """The level baseline of four days, with the days' test and counting the outdoor
+        temperature whatever the days show (as before the test)."""
+        # a daily cycle every day shares, each day's mean at day_means
+        hour = np.tile(np.linspace(0.0, 24.0, 960, endpoint=False), 4)
+        outdoor = (np.repeat(day_means, 960) + 3.0 * np.sin(2 * np.pi * hour / 24)
+                   + rng.normal(0.0, 1.0, 3840))
+        heater = 2.0 - 0.1 * outdoor + 0.05 * rng.standard_normal(3840)
+        conditions = operating_conditions(
+            Room(), [np.column_stack([heater, outdoor])[groups == g] for g in range(4)],
+            list(range(4)))
+        features = np.column_stack([rng.normal(20.0, 0.1, 3840), heater, outdoor])
+        errors = 0.05 * outdoor + 1e-3 * rng.standard_normal(3840)
+        operating = operating_features(Room(), conditions)
+        return (operating, fit_level(errors, features, 12, groups=groups, operating=operating),
+                fit_level(errors, features, 12, groups=groups, operating=(2,)))
+
+    def outside(night, baseline):
+        return extrapolation(fit_level(0.05 * night[:, 2], night, 12, baseline), baseline)
+
+    # four days at the same outdoor mean: their means differ by chance alone
+    operating, alike, counted = baselines([8.0, 8.0, 8.0, 8.0])
+    assert operating == () and alike.reach == 0.0
+    assert from_dict(LevelTier, json.loads(json.dumps(to_dict(alike)))) == alike
+    # a night a little beyond such days (0.2 C against their scatter of a few hundredths) is
+    # not outside anything; counting the outdoor temperature, it read as far outside
+    night = np.column_stack([rng.normal(20.0, 0.1, 960), np.full(960, 1.0),
+                             rng.normal(8.2, 1.0, 960)])
+    assert outside(night, alike) == 0.0
+    assert outside(night, counted) > 2.0
+    # days at 5, 8, 10 and 12 C differ beyond chance: a night at 14 C lies outside them,
+    # one at 8.2 C inside
+    operating, varied, _ = baselines([5.0, 8.0, 10.0, 12.0])
+    assert operating == (2,) and varied.reach > 0
+    assert outside(night + [0.0, 0.0, 5.8], varied) > 1.0
+    assert outside(night, varied) < 1.0
 
 
 def test_a_level_change_outside_the_baselines_range_is_discounted_by_the_distance_squared():
