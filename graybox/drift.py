@@ -82,10 +82,13 @@ class TierDrift:
 
     @property
     def ratio(self) -> float | None:
-        """``zeta / epsilon`` (above 1 is an alarm)."""
+        """``zeta / epsilon`` (above 1 is an alarm). A tier without parameters (an AR
+        order of 0) has zeta and epsilon 0: no change, ratio 0."""
         if self.epsilon is None:
             return None
-        return self.zeta / self.epsilon if self.epsilon > 0 else float("inf")
+        if self.epsilon > 0:
+            return self.zeta / self.epsilon
+        return float("inf") if self.zeta > 0 else 0.0
 
     @property
     def exceeded(self) -> bool:

@@ -77,8 +77,9 @@ class LevelTier:
         stored before it.
     operating : tuple of int, optional
         A baseline's features that set the operating condition in :func:`correction`: the
-        positions of the inputs that no controller sets. None (candidates, records stored
-        before it): every input.
+        positions of the inputs that no controller sets and whose means differ between the
+        baseline's days beyond chance (:func:`operating_features`). None (candidates, records
+        stored before it): every input.
     window_points : tuple of tuple of float, optional
         A candidate's feature means per telemetry window (a candidate of several nights has
         one per night): :func:`extrapolation` takes the farthest. None for baselines and

@@ -7,7 +7,7 @@ from conftest import make_channel, make_signature
 from scipy import stats
 
 from graybox.calibration import Calibration, TierThreshold, threshold_from_deltas
-from graybox.drift import Drift, compute_drift, tier_deltas
+from graybox.drift import Drift, TierDrift, compute_drift, tier_deltas
 from graybox.exceptions import ArtifactError, InsufficientDataError, StructureMismatchError
 from graybox.noise_tier import MOMENT_WEIGHTS
 
@@ -52,6 +52,16 @@ def test_alarm_only_when_zeta_exceeds_epsilon_and_epsilon_scales_with_window():
     assert drift.get("omega", "linear").exceeded and drift.alarms[0].tier == "linear"
     assert drift.get("omega", "linear").ratio == pytest.approx(0.01 / 0.009)
 
+
+
+def test_a_tier_without_parameters_reads_as_no_change():
+    # an AR order of 0 has no parameters: zeta and epsilon are both 0, which is no change
+    # (ratio 0), not an infinite ratio; a change against a zero epsilon still is infinite
+    assert TierDrift("omega", "linear", 0.0, 0.0, ()).ratio == 0.0
+    assert not TierDrift("omega", "linear", 0.0, 0.0, ()).exceeded
+    moved = TierDrift("omega", "linear", 0.5, 0.0, ())
+    assert moved.ratio == float("inf") and moved.exceeded
+    assert TierDrift("omega", "linear", 0.5, None, ()).ratio is None
 
 
 def test_drift_json_round_trip_is_exact():
