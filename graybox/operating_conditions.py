@@ -29,8 +29,9 @@ candidate of several nights is as far outside as its farthest night: their avera
 a night far beyond the range together with one inside it back near the centre.
 :class:`graybox.tiers.Tier` divides the AR, network and noise tiers' changes by that ratio
 where it exceeds 1 (zeta by its square), as the level tier's change is divided by its own
-extrapolation: a tier's healthy change grows with the distance, and calibration measured it
-only up to the reach. Calibration divides each left-out
+extrapolation, which counts an input only where the same test finds its means differ
+(:meth:`OperatingConditions.varying_inputs`): a tier's healthy change grows with the distance,
+and calibration measured it only up to the reach. Calibration divides each left-out
 day's changes by its own ratio to the other days, so the threshold describes a night within
 the range and the two stay consistent.
 

@@ -177,15 +177,17 @@ def test_a_baselines_reach_is_its_farthest_windows_correction():
     assert extrapolation(inside, dataclasses.replace(baseline, reach=None)) == 0.0
 
 
+class Room(WhiteBoxModel):
+    """A room whose heater a thermostat sets against the outdoor temperature."""
+    states = ("air",)
+    inputs = ("heater", "outdoor")
+    controlled_inputs = ("heater",)
+
+    def derivatives(self, x, u):
+        return u[:, :1] - x
+
+
 def test_an_input_a_controller_sets_does_not_place_a_night_outside_the_range():
-    class Room(WhiteBoxModel):
-        states = ("air",)
-        inputs = ("heater", "outdoor")
-        controlled_inputs = ("heater",)
-
-        def derivatives(self, x, u):
-            return u[:, :1] - x
-
     assert operating_features(Room()) == (2,)
     assert operating_features(GasTurbineShaft()) == (1,)
     rng = np.random.default_rng(3)
@@ -218,14 +220,6 @@ def test_an_input_a_controller_sets_does_not_place_a_night_outside_the_range():
 
 
 def test_days_driven_alike_place_no_night_outside_the_level_range():
-    class Room(WhiteBoxModel):
-        states = ("air",)
-        inputs = ("heater", "outdoor")
-        controlled_inputs = ("heater",)
-
-        def derivatives(self, x, u):
-            return u[:, :1] - x
-
     rng = np.random.default_rng(4)
     groups = np.repeat([0, 1, 2, 3], 960)
 
