@@ -97,6 +97,7 @@ class DaskBatches:
                 # the LocalCluster starts at the first submit: its nannies read this then
                 import dask
 
+                stack.enter_context(environment_restored())
                 stack.enter_context(dask.config.set(LOCAL_WORKER_CONFIG))
             self._runner = stack.enter_context(DaskTaskRunner(**runner_options(self.settings)))
             self._stack = stack.pop_all()
@@ -123,6 +124,24 @@ class DaskBatches:
             except Exception as error:  # noqa: BLE001 - e.g. KilledWorker: the batch failed
                 outcome = error
             yield index[done.key], outcome
+
+
+@contextlib.contextmanager
+def environment_restored() -> Iterator[None]:
+    """This process's environment as it was on entry, again on exit. A Dask nanny writes its
+    workers' pre-spawn variables (``OMP_NUM_THREADS=1`` and the other thread counts,
+    ``PYTHONHASHSEED``, ``MALLOC_TRIM_THRESHOLD_``) into the parent's own ``os.environ``
+    before it spawns them: without this, every process the caller starts after a Dask night
+    would run its BLAS on one thread."""
+    saved = dict(os.environ)
+    try:
+        yield
+    finally:
+        for name in set(os.environ) - set(saved):
+            del os.environ[name]
+        for name, value in saved.items():
+            if os.environ.get(name) != value:
+                os.environ[name] = value
 
 
 def batch_runner(config: FleetConfig) -> SequentialBatches | DaskBatches:

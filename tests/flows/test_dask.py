@@ -206,7 +206,8 @@ def test_retries_and_failed_batches_on_dask(tmp_path, harness, fleet, baselined,
 def test_a_local_cluster_keeps_the_ordinary_malloc(harness, monkeypatch):
     """The LocalCluster a run starts: its workers have Dask's one BLAS thread but not its
     ``MALLOC_TRIM_THRESHOLD_`` (a fixed trim threshold made every array above 128 kB a fresh
-    mmap); Dask's configuration is as it was after the run."""
+    mmap); Dask's configuration and this process's environment are as they were after the
+    run."""
     import dask
     from prefect import flow, task
 
@@ -229,6 +230,10 @@ def test_a_local_cluster_keeps_the_ordinary_malloc(harness, monkeypatch):
             runner.submit(worker_environment, {})
             return [outcome.result() for _, outcome in runner.completed()]
 
+    before = dict(os.environ)
     assert on_a_local_cluster() == [{"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": "1"}]
+    # and this process's own environment is as it was: the nanny's variables (one BLAS
+    # thread, a fixed hash seed) do not reach the processes it starts later
+    assert dict(os.environ) == before
     assert dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"] \
         == 65536
