@@ -52,6 +52,7 @@ import tempfile
 import time
 import urllib.request
 
+from benchmarks.measured_process import stop_on_signals
 from benchmarks.nightly_scale import START, child_environment, commit, fleet_health, generate, say
 from flows.config.settings import NightlySettings
 
@@ -581,4 +582,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    stop_on_signals()   # the servers it starts are stopped in run()'s finally
     sys.exit(main())

@@ -1,11 +1,13 @@
 """Run a command as a child process and measure it from outside: wall seconds, the kernel's
 CPU accounting and peak resident size (``os.wait4``), the peak summed resident size of its
-process tree (sampled from ``/proc``) and the 1-minute load average while it ran.
+process tree (sampled from ``/proc``) and the 1-minute load average while it ran; and let a
+benchmark that starts servers stop them when it is told to stop (:func:`stop_on_signals`).
 """
 from __future__ import annotations
 
 import os
 import pathlib
+import signal
 import subprocess
 import time
 from dataclasses import asdict, dataclass, field
@@ -103,3 +105,17 @@ def tree_resident_bytes(root: int) -> int:
         tree.update(children)
         frontier += children
     return sum(rss.get(pid, 0) for pid in tree)
+
+
+def stop_on_signals() -> None:
+    """End this process through its ``finally`` blocks on SIGTERM and SIGINT.
+
+    A benchmark that starts a PostgreSQL or Prefect server stops it in a ``finally``; a
+    plain ``kill`` ends Python without running one, and a shell started in the background
+    hands its children SIGINT ignored, so Ctrl-C did not reach them either. Both now raise
+    ``KeyboardInterrupt`` in the main thread."""
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"stopped by signal {signal.Signals(signum).name}")
+
+    signal.signal(signal.SIGTERM, interrupt)
+    signal.signal(signal.SIGINT, interrupt)

@@ -40,6 +40,7 @@ import tempfile
 import time
 import urllib.request
 
+from benchmarks.measured_process import stop_on_signals
 from benchmarks.nightly_scale import say
 
 BIN = pathlib.Path(sys.executable).parent
@@ -176,4 +177,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    stop_on_signals()   # the servers it starts are stopped in main()'s finally
     sys.exit(main())
