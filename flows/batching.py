@@ -30,7 +30,7 @@ from flows.discovery import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, describe_error,
                            is_transient, now_iso)
 from flows.errors import TransientError
-from flows.task_runner import batch_runner
+from flows.task_runner import batch_runner, batch_size_for
 from registry import RegistryError
 
 logger = logging.getLogger(__name__)
@@ -149,9 +149,10 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
                    without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
                    ) -> RunSummary:
     """A flow's body: discover the assets, run ``job`` on each batch of ``[nightly]
-    batch_size`` of them as a task of :func:`batch_task` with the runner of ``[nightly]
-    task_runner`` (:mod:`flows.task_runner`: one after another in this process, or all at
-    once on Dask), with progress, and complete ``summary``: the assets' results in the
+    batch_size`` of them (fewer where that leaves a cluster's slots idle,
+    :func:`flows.task_runner.batch_size_for`) as a task of :func:`batch_task` with the
+    runner of ``[nightly] task_runner`` (:mod:`flows.task_runner`: one after another in this
+    process, or all at once on Dask), with progress, and complete ``summary``: the assets' results in the
     fleet's order whatever order the batches finish in, and the stages' seconds."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
@@ -159,10 +160,12 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
     progress.start(description, len(fleet.assets))
     configured = batch_task(job.flow).with_options(
         retries=config.nightly.retries, retry_delay_seconds=config.nightly.retry_delay_seconds)
-    parts = batches(list(fleet.assets), config.nightly.batch_size)
-    outputs: list[list[AssetResult]] = [[] for _ in parts]
     clock = StageClock()
     with batch_runner(config) as runner:
+        parts = batches(list(fleet.assets), batch_size_for(len(fleet.assets),
+                                                           config.nightly.batch_size,
+                                                           runner.slots))
+        outputs: list[list[AssetResult]] = [[] for _ in parts]
         for batch in parts:
             label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
                      if len(batch) > 1 else batch[0].asset_id)

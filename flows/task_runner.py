@@ -42,13 +42,22 @@ from flows.config import DaskSettings, FleetConfig
 LOCAL_WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
+#: batches each of a cluster's task slots gets at least, where ``batch_size`` would leave
+#: fewer: with one batch per slot the night lasts as long as the slowest batch (96 assets at
+#: the default 64 were 64 + 32, so two workers could not beat 1.5x one); a Dask batch costs
+#: about 0.2 s (docs/performance.md, "Dask workers")
+BATCHES_PER_SLOT = 4
+
+
 class SequentialBatches:
     """Batch tasks run in this process, one after another, as :meth:`completed` is read.
 
-    Their progress reaches this process's reporter directly (``in_process``).
+    Their progress reaches this process's reporter directly (``in_process``); one batch
+    runs at a time (``slots``).
     """
 
     in_process = True
+    slots = 1
 
     def __init__(self):
         self._submitted: list[tuple[Any, dict]] = []
@@ -73,7 +82,10 @@ class DaskBatches:
     """Batch tasks run concurrently on a Dask cluster (prefect-dask ``DaskTaskRunner``).
 
     Their progress is reported in worker processes, out of this process's sight
-    (``in_process`` is False): the caller advances per completed batch.
+    (``in_process`` is False): the caller advances per completed batch. ``slots``, the
+    batches that run at once, is the LocalCluster's workers times their threads; for a
+    cluster of ``[dask] address``, whose size its operator sets, 1 (``batch_size`` is
+    used as it is).
 
     Parameters
     ----------
@@ -84,6 +96,8 @@ class DaskBatches:
 
     def __init__(self, settings: DaskSettings):
         self.settings = settings
+        self.slots = 1 if settings.address else (
+            (settings.workers or os.cpu_count() or 1) * settings.threads_per_worker)
         self._stack: contextlib.ExitStack | None = None
         self._runner = None
         self._futures: list = []
@@ -149,6 +163,20 @@ def batch_runner(config: FleetConfig) -> SequentialBatches | DaskBatches:
     if config.nightly.task_runner == "dask":
         return DaskBatches(config.dask)
     return SequentialBatches()
+
+
+def batch_size_for(assets: int, batch_size: int, slots: int) -> int:
+    """Assets per batch: ``batch_size``, or fewer where that leaves a runner's ``slots``
+    fewer than :data:`BATCHES_PER_SLOT` batches each (never below 1).
+
+    Examples
+    --------
+    >>> batch_size_for(96, 64, 1), batch_size_for(96, 64, 2), batch_size_for(1000, 64, 2)
+    (64, 12, 64)
+    """
+    if slots <= 1:
+        return batch_size
+    return max(1, min(batch_size, -(-assets // (BATCHES_PER_SLOT * slots))))
 
 
 def runner_options(settings: DaskSettings) -> dict:

@@ -108,7 +108,8 @@ def sections() -> list[Section]:
         Section("[nightly]", "nightly", "How the nightly run cuts and runs its work.",
                 _fields(NightlySettings),
                 {"batch_size": "assets per Prefect task, fitted in one batched computation "
-                               "(integer >= 1)",
+                               "(integer >= 1); on a `LocalCluster` fewer where that would "
+                               "leave a worker thread fewer than 4 batches",
                  "window": "the nightly window; must divide a day and be at least 1 minute "
                            "(`\"12h\"`, `\"6h\"`, `\"5min\"`)",
                  "plots": "candidate plots in MLflow: `\"alarms\"`, `\"all\"` or `\"none\"`; "
