@@ -152,8 +152,9 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
     batch_size`` of them (fewer where that leaves a cluster's slots idle,
     :func:`flows.task_runner.batch_size_for`) as a task of :func:`batch_task` with the
     runner of ``[nightly] task_runner`` (:mod:`flows.task_runner`: one after another in this
-    process, or all at once on Dask), with progress, and complete ``summary``: the assets' results in the
-    fleet's order whatever order the batches finish in, and the stages' seconds."""
+    process, or all at once on Dask), with progress, and complete ``summary``: the assets'
+    results in the fleet's order whatever order the batches finish in, and the stages'
+    seconds."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
     summary.skipped = [s.to_dict() for s in fleet.skipped]
