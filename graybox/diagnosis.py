@@ -675,8 +675,8 @@ class _Objective:
         lie so, the Gauss-Newton ``J.J`` on the secant (:meth:`slope`), as at the screened
         value, whose neighbours are the baseline and its finite difference. Gauss-Newton
         ignores how the errors bend: where the white box' errors bend towards the data (a
-        tanks' pump lag, a crane's rope length) its steps fell short by a third each, 6-8
-        runs a hypothesis.
+        tanks' pump lag, a crane's rope length) each of its steps went about half the
+        remaining way, 6-8 runs a hypothesis.
         """
         fun = self.at(x)
         secant = self.slope(x)[:, 0]
