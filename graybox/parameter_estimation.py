@@ -142,8 +142,12 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         As :func:`graybox.level_tier.level_data`: errors (N,), operating features (N, p) and
         the segment of each error.
     """
-    states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
-              .decimated(setup.factor) for y, u in segments]
+    if model.hidden_states:
+        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
+                  .decimated(setup.factor) for y, u in segments]
+    else:   # the states are the measurements: decimated first, the same at a tenth the copying
+        states = [estimate_states(model, y[::setup.factor], u[::setup.factor],
+                                  setup.sample_interval, setup.integration) for y, u in segments]
     return level_data(model, states, setup.analysis_interval, setup.horizon, setup.stride,
                       setup.integration)
 

@@ -119,7 +119,11 @@ def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
     """
     layout = _Layout(model)
     states = np.zeros((len(y), len(model.states)))
-    states[:, layout.measured] = y[:, layout.measured_outputs]
+    # column by column: ``y`` is often column-major (a frame's block), and one fancy-indexed
+    # copy of it took 2 ms a day at 1 Hz against 0.1 ms, in every white-box run a diagnosis
+    # makes (the same values either way)
+    for state, output in zip(layout.measured, layout.measured_outputs):
+        states[:, state] = y[:, output]
     if not layout.hidden.size:
         return WindowStates(y, u, states, {})
     if len(y) < 2:
