@@ -636,31 +636,31 @@ class _Objective:
     target: str
     baseline: float
     scale: float
-    weighted: Callable[[np.ndarray], np.ndarray]
+    weighted: Callable[[float], np.ndarray]
     bounds: tuple[float, float]
     rows: _Rows
     start: int = 0                # the first operating period the change applies to
     #: the weighted errors at every value evaluated (one white-box run each), by value
     evaluated: dict = field(default_factory=dict)
 
-    def at(self, x) -> np.ndarray:
+    def at(self, x: float) -> np.ndarray:
         """The weighted errors at ``x``, each value run once."""
-        key = float(np.ravel(x)[0])
+        key = float(x)
         if key not in self.evaluated:
-            self.evaluated[key] = self.weighted(np.array([key]))
+            self.evaluated[key] = self.weighted(key)
         return self.evaluated[key]
 
-    def slope(self, x, *_) -> np.ndarray:
-        """The errors' slope at ``x``, shape (N, 1), for the refinement: the secant to the
+    def slope(self, x: float) -> np.ndarray:
+        """The errors' slope at ``x``, shape (N,), for the refinement: the secant to the
         nearest value run before (a one-dimensional Broyden update: one run an iteration
         instead of two), a finite difference of :data:`DIFF_STEP` when none lies further
         than that (a secant over a shorter span would read the inner fits' tolerance)."""
-        key = float(np.ravel(x)[0])
+        key = float(x)
         fun = self.at(key)
         step = DIFF_STEP * max(1.0, abs(key))
         others = [v for v in self.evaluated if abs(v - key) >= step]
         other = min(others, key=lambda v: abs(v - key)) if others else key + step
-        return ((fun - self.at(other)) / (key - other))[:, None]
+        return (fun - self.at(other)) / (key - other)
 
     def newton(self, x: float) -> tuple[float, float, bool]:
         """The cost ``|errors|^2 / 2``'s derivative and curvature at ``x``, and whether the
@@ -679,7 +679,7 @@ class _Objective:
         remaining way, 6-8 runs a hypothesis.
         """
         fun = self.at(x)
-        secant = self.slope(x)[:, 0]
+        secant = self.slope(x)
         gradient, curvature = float(secant @ fun), float(secant @ secant)
         step = DIFF_STEP * max(1.0, abs(x))
         near = sorted((v for v in self.evaluated if abs(v - x) >= step),
@@ -734,10 +734,10 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
     gained = model.outputs.index(target) if kind == "gain" else None
     later = np.arange(len(finite[0])) >= offset
 
-    def weighted(x: np.ndarray) -> np.ndarray:
+    def weighted(x: float) -> np.ndarray:
         try:
-            residuals, _ = remaining(*transform(float(x[0])), value=float(x[0]))
-            units = [np.where(later, 1.0 + scale * float(x[0]), 1.0) if c == gained
+            residuals, _ = remaining(*transform(x), value=x)
+            units = [np.where(later, 1.0 + scale * x, 1.0) if c == gained
                      else np.ones(len(later)) for c in range(len(residuals))]
             parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
                                           neginf=-INVALID_ERROR * s) for r, f, s, u in
@@ -816,7 +816,7 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
         radius = max(radius, 2.0 * abs(step))
         if removed <= REFINE_FTOL * (cost + removed):
             break
-    return objective.record(x, fun, objective.slope(x)[:, 0])
+    return objective.record(x, fun, objective.slope(x))
 
 
 def _gain(fit: _Fit, healthy, sigma, weights) -> float:

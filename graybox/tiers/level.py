@@ -67,6 +67,7 @@ class LevelTierKind(Tier):
                                 lambda w=window: segment(w))
                  for window in asset.windows]
         data = pool_level_data(model, asset.windows, parts, horizon, stride)
+        operating = operating_features(model, asset.conditions)   # the same for every channel
         for index, (channel, reference) in enumerate(zip(channels, references)):
             resolution = None if reference is not None else reading_resolution(
                 np.concatenate([window.y[:, index] for window in asset.windows]))
@@ -74,8 +75,7 @@ class LevelTierKind(Tier):
                 errors, features, segments = data[channel.name]
                 channel.records[self.name] = fit_level(errors, features, horizon, reference,
                                                        np.asarray(owners)[segments],
-                                                       operating_features(model, asset.conditions),
-                                                       resolution)
+                                                       operating, resolution)
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None

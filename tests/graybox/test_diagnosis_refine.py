@@ -15,9 +15,9 @@ T = np.linspace(0.0, 20.0, N)
 def objective(errors, runs: list) -> _Objective:
     """A parameter hypothesis (scale 1) whose weighted errors at ``x`` are ``errors(x)``;
     ``runs`` collects every value run."""
-    def weighted(x: np.ndarray) -> np.ndarray:
-        runs.append(float(x[0]))
-        return errors(float(x[0]))
+    def weighted(x: float) -> np.ndarray:
+        runs.append(x)
+        return errors(x)
     rows = _Rows(np.ones(N), np.array([0, N]), np.array([1.0]))
     return _Objective("parameter", "p", 1.0, 1.0, weighted, (-np.inf, np.inf), rows)
 
@@ -29,7 +29,7 @@ def test_a_screened_value_far_out_that_explains_more_than_the_baseline_is_the_fi
     noise = rng.normal(0.0, 1.0, N)
     runs = []
     bias = objective(lambda x: noise + 40.0 - x, runs)
-    screened = _screen(bias, bias.weighted(np.array([0.0])))
+    screened = _screen(bias, bias.weighted(0.0))
     assert abs(screened.value) > SCREEN_REACH
     runs.clear()
     fit = _refine(bias, screened)
