@@ -10,7 +10,9 @@
 The alert's ``diagnosis`` is a ranked tuple of plain dicts, each ``{hypothesis, kind, target,
 baseline, estimate, interval, score}`` (``interval`` a ``[low, high]`` list; ``since``
 too when the change was fitted from a later night of the candidate's span:
-:attr:`graybox.diagnosis.Hypothesis.since`), at most :data:`ALERT_HYPOTHESES` of them:
+:attr:`graybox.diagnosis.Hypothesis.since`; ``bound`` too, ``"upper"`` or ``"lower"``, when
+the data do not bound a positive parameter or a gain on that side:
+:attr:`graybox.diagnosis.Hypothesis.bound`), at most :data:`ALERT_HYPOTHESES` of them:
 
 * **explained** (the best hypothesis scores above the diagnosis' ``min_score``): the best
   hypotheses, best first; ``diagnosis[0]`` is the likely cause.
@@ -72,6 +74,8 @@ def hypothesis_entry(hypothesis: Hypothesis) -> dict[str, Any]:
              "score": _number(hypothesis.score)}
     if hypothesis.since is not None:      # fitted from a later night of the candidate's span
         entry["since"] = hypothesis.since
+    if hypothesis.bound is not None:      # the data do not bound it on that side
+        entry["bound"] = hypothesis.bound
     return entry
 
 
@@ -125,7 +129,7 @@ def entries_from_document(document: Mapping[str, Any]) -> tuple[dict, ...]:
     if state == FAILED:
         return (failure_entry(str(document.get("error") or "unknown reason")),)
     ranked = [{**{key: entry[key] for key in ENTRY_KEYS},
-               **({"since": entry["since"]} if entry.get("since") else {})}
+               **{key: entry[key] for key in ("since", "bound") if entry.get(key)}}
               for entry in document["hypotheses"]]
     if state == EXPLAINED:
         return tuple(ranked[:ALERT_HYPOTHESES])
@@ -154,6 +158,8 @@ def cause_text(entry: Mapping[str, Any] | None) -> str:
     low, high = entry.get("interval") or (None, None)
     span = f"interval {_g(low)} to {_g(high)}"
     since = f" since {entry['since']}" if entry.get("since") else ""
+    if entry.get("bound"):
+        span += f", not bounded {'above' if entry['bound'] == 'upper' else 'below'}"
     if baseline and entry.get("kind") == "parameter":
         return text + f" ({(estimate - baseline) / baseline:+.0%}; {span}){since}"
     return text + f" ({span}){since}"

@@ -116,7 +116,8 @@ from graybox.level_tier import LevelTier, start_stride
 from graybox.models.base import WhiteBoxModel
 from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
                                           float_parameters, operating_segments,
-                                          prediction_errors, with_parameters)
+                                          positive_parameters, prediction_errors,
+                                          with_parameters)
 from graybox.signature import Signature
 from graybox.state_estimation import window_arrays
 from graybox.telemetry.window import window_periods
@@ -143,6 +144,12 @@ SCREEN_REACH = 10.0
 #: over the window, which for a costly model (a ProgPy pump, hidden states at 1 Hz) takes
 #: minutes; past the budget the diagnosis fails with that reason, and the alert still stands
 TIME_BUDGET = 10.0
+#: a positive parameter's change, and a sensor's gain factor ``1 + g``, is searched in log
+#: space within this factor of its baseline either way: a fit that ends there has no finite
+#: optimum within it (the cost still falls outwards) and says so (:attr:`Hypothesis.bound`)
+POSITIVE_RANGE = 1e3
+#: the exponent of a log-space interval's ends is held within this (no overflow of exp)
+_MAX_EXPONENT = 700.0
 
 
 @dataclass(frozen=True)
@@ -173,9 +180,16 @@ class Hypothesis:
         8601), when the telemetry is of several windows (a candidate's nights) and the
         hypothesis explains it best from a later one on (the fault began inside the span);
         None: over all of it.
+    bound : str, optional
+        For a positive parameter or a gain (fitted in log space, within
+        :data:`POSITIVE_RANGE` times or divided by the baseline, or ``1 + g``), ``"upper"``
+        or ``"lower"`` when the data do not bound the value on that side within that range:
+        the interval's end on that side is the range's end, and so is the estimate when the
+        fit found no finite optimum within it (the cost still fell outwards). None: bounded
+        on both sides.
     """
 
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"since"})
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"since", "bound"})
 
     hypothesis: str
     kind: str
@@ -186,10 +200,13 @@ class Hypothesis:
     score: float
     log_likelihood_gain: float
     since: str | None = None
+    bound: str | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.bound not in (None, "upper", "lower"):
+            raise ValueError(f"bound must be 'upper', 'lower' or None, got {self.bound!r}")
 
     @property
     def change(self) -> float:
@@ -203,8 +220,14 @@ class Hypothesis:
         relative = (f" ({self.change / self.baseline:+.0%}; interval {low:.4g} to {high:.4g})"
                     if self.baseline else f" (interval {low:.4g} to {high:.4g})")
         since = f" since {self.since}" if self.since else ""
-        return (f"{self.hypothesis} {self.baseline:.4g} -> {self.estimate:.4g}{relative}{since}, "
-                f"score {self.score:.3g}")
+        end = self.interval[1] if self.bound == "upper" else self.interval[0]
+        bound = ("" if not self.bound else
+                 f" (at the {self.bound} end of its search range: no finite optimum within "
+                 f"x{POSITIVE_RANGE:g} of the baseline)" if self.estimate == end else
+                 f" (not bounded {'above' if self.bound == 'upper' else 'below'} within "
+                 f"x{POSITIVE_RANGE:g} of the baseline)")
+        return (f"{self.hypothesis} {self.baseline:.4g} -> {self.estimate:.4g}{relative}{since}"
+                f"{bound}, score {self.score:.3g}")
 
 
 @dataclass(frozen=True)
@@ -286,6 +309,8 @@ class _Fit:
     channel: int | None = None    # the channel a noise hypothesis scales
     evidence_samples: float | None = None   # a noise hypothesis read on the innovations: theirs
     start: int = 0                # the first operating period the change is fitted on
+    log: bool = False             # the free value is a log: of the parameter, of 1 + g
+    bound: str | None = None      # "upper"/"lower": the value is its search range's end
 
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
@@ -490,6 +515,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
             fits.append(fit)
         clock.fitted += 1
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
+    refined = set()
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
         if first_gains[index] < REFINE_GAIN:
             break           # explains nothing at the baseline's slope: a healthy-like window
@@ -497,6 +523,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
             fits[index] = _refine(objectives[index], fits[index])
         except _OutOfTime:
             break           # the screened values stand: the ranking is complete
+        refined.add(index)
         first_gains[index] = _gain(fits[index], healthy, sigma, weights)
     # the second weights: the autocorrelation of what the best explanation leaves
     best = fits[int(np.argmax(first_gains))] if fits else None
@@ -512,19 +539,22 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     # autocorrelation), have twice the variance
     base_counts = np.array([max(levels[c].n_obs, 1) for c in channels])
     results = []
-    for fit in fits:
+    for index, fit in enumerate(fits):
         gain = _gain(fit, healthy, sigma, weights)
         # BIC on the hypothesis' own evidence: a noise hypothesis read on the innovations
         # pays for its free value in their effective samples
         own_penalty = (penalty if fit.evidence_samples is None
                        else float(np.log(max(fit.evidence_samples, 1.0))) + choice)
         compared = weights / (1.0 + later[fit.start] / base_counts)
+        interval, bound = _interval(fit, compared, effective, z, level), fit.bound
+        if fit.log:
+            interval, bound = _open_end(objectives[index], fit, interval, compared, z,
+                                        index in refined)
         results.append(Hypothesis(_name(fit.kind, fit.target), fit.kind, fit.target,
-                                  fit.baseline, _value(fit), _interval(fit, compared, effective,
-                                                                       z, level),
+                                  fit.baseline, _value(fit), interval,
                                   float(2 * gain - own_penalty), float(gain),
                                   None if fit.start == starts[0]
-                                  else _since(frames, fit.start)))
+                                  else _since(frames, fit.start), bound))
     ranked = sorted(zip(results, fits), key=lambda pair: -pair[0].score)
     results = [hypothesis for hypothesis, _ in ranked]
     explained = bool(results and results[0].score > min_score)
@@ -536,6 +566,41 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
               for hypothesis, fit in ranked[:EVIDENCE_HYPOTHESES]))
     return Diagnosis(tuple(results), explained, float(min_score), tuple(channels),
                      int(counts.sum()), float(effective.sum()), evidence)
+
+
+def _open_end(objective: _Objective, fit: _Fit, interval: tuple[float, float], weights,
+              z: float, refined: bool) -> tuple[tuple[float, float], str | None]:
+    """A log-space hypothesis' interval, and its ``bound``, with the side the data do not
+    bound opened to the search range's end.
+
+    At the range's end (the fit found no finite optimum within it) the interval's outward
+    end is the range's. A refined fit further than its ``reach`` from the baseline (the
+    tanks' pump lag at 240 times its baseline on a meter-gain night) may lie in a valley
+    that flattens out towards the range's end, where the Gauss-Newton interval, read on the
+    curvature at the fit, closes too soon: one white-box run at the range's end in the
+    fit's direction, and if the log-likelihood lost there (``weights`` as the interval's)
+    is under ``z^2 / 2`` (the likelihood-ratio test at the interval's level), the data do
+    not bound the value on that side: the interval's end is the range's, and ``bound``
+    says which side."""
+    low, high = objective.bounds
+    side = fit.bound
+    if side is None and refined and abs(fit.value) > objective.reach:
+        direction = "upper" if fit.value > 0 else "lower"
+        try:
+            at_end = objective.at(high if direction == "upper" else low) / objective.rows.weights
+        except _OutOfTime:
+            return interval, None
+        edges, sigma = objective.rows.edges, objective.rows.sigma
+        lost = sum(w * (np.sum(at_end[a:b] ** 2) - np.sum(r ** 2)) / (2 * s ** 2)
+                   for a, b, r, s, w in zip(edges[:-1], edges[1:], fit.residuals, sigma,
+                                            weights))
+        if np.isfinite(lost) and lost < z ** 2 / 2:
+            side = direction
+    if side == "upper":
+        return (interval[0], objective.value(high)), side
+    if side == "lower":
+        return (objective.value(low), interval[1]), side
+    return interval, None
 
 
 def _window_starts(windows) -> list[int]:
@@ -575,19 +640,32 @@ def _name(kind: str, target: str) -> str:
             "gain": f"{target} sensor gain", "noise": f"{target} noise level"}[kind]
 
 
-def _transform(kind: str, target: str, model: WhiteBoxModel, segments, baseline: float,
-               scale: float) -> Callable[[float], tuple[WhiteBoxModel, list]]:
-    """The changed white box and telemetry for a free value ``x`` (in units of ``scale``)."""
+def _physical(kind: str, log: bool, baseline: float, scale: float, x: float) -> float:
+    """The hypothesis' value (the parameter, ``b``, ``g``) at its free value ``x``: ``baseline
+    + scale x``, or in log space ``baseline exp(scale x)`` for a parameter and ``exp(scale x)
+    - 1`` for a gain (a noise hypothesis' free value is its factor)."""
+    if kind == "noise":
+        return float(x)
+    if not log:
+        return float(baseline + scale * x)
+    exponent = float(np.clip(scale * x, -_MAX_EXPONENT, _MAX_EXPONENT))
+    return float(np.expm1(exponent)) if kind == "gain" else float(baseline * np.exp(exponent))
+
+
+def _transform(kind: str, target: str, model: WhiteBoxModel, segments,
+               value: Callable[[float], float]) -> Callable[[float], tuple[WhiteBoxModel, list]]:
+    """The changed white box and telemetry for a free value ``x`` (``value(x)``: the
+    parameter, the bias ``b`` or the gain ``g``)."""
     if kind == "parameter":
-        return lambda x: (with_parameters(model, {target: baseline + scale * x}), segments)
+        return lambda x: (with_parameters(model, {target: value(x)}), segments)
     column = model.outputs.index(target)
 
     def corrected(x: float):
         out = []
         for y, u in segments:
             y = y.copy()
-            y[:, column] = (y[:, column] - scale * x if kind == "bias"
-                            else y[:, column] / (1.0 + scale * x))
+            y[:, column] = (y[:, column] - value(x) if kind == "bias"
+                            else y[:, column] / (1.0 + value(x)))
             out.append((y, u))
         return model, out
     return corrected
@@ -630,7 +708,8 @@ class _Rows:
 @dataclass
 class _Objective:
     """A parameter, bias or gain hypothesis' weighted errors as a function of its free value
-    ``x`` (in units of ``scale``: the baseline value, the channel's spread or 1 %)."""
+    ``x`` (in units of ``scale``: the baseline value, the channel's spread or 1 %; with
+    ``log``, of the log of a positive parameter, scale 1, or of ``1 + g``, scale 0.01)."""
 
     kind: str
     target: str
@@ -640,8 +719,16 @@ class _Objective:
     bounds: tuple[float, float]
     rows: _Rows
     start: int = 0                # the first operating period the change applies to
+    log: bool = False
+    #: a screened value further than this from the baseline is a start only when its run
+    #: explains more than the baseline (:func:`_refine`)
+    reach: float = SCREEN_REACH
     #: the weighted errors at every value evaluated (one white-box run each), by value
     evaluated: dict = field(default_factory=dict)
+
+    def value(self, x: float) -> float:
+        """The parameter, bias or gain at free value ``x``."""
+        return _physical(self.kind, self.log, self.baseline, self.scale, x)
 
     def at(self, x: float) -> np.ndarray:
         """The weighted errors at ``x``, each value run once."""
@@ -706,8 +793,11 @@ class _Objective:
         # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
         sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
                                 for (a, b), s in zip(spans, self.rows.sigma)])
+        low, high = self.bounds
+        bound = "upper" if x >= high else "lower" if x <= low else None
         return _Fit(self.kind, self.target, self.baseline, self.scale, float(x),
-                    [raw[a:b] for a, b in spans], sensitivity, start=self.start)
+                    [raw[a:b] for a, b in spans], sensitivity, start=self.start, log=self.log,
+                    bound=bound)
 
 
 def _objective(kind, target, model, segments, start, offset, remaining, finite,
@@ -719,11 +809,15 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
         raise ValueError(f"hypothesis kind must be one of {KINDS}, got {kind!r}")
     if kind == "parameter":
         baseline = float(model.parameters[target])
-        scale = abs(baseline) if baseline else 1.0
+        # positive by nature (the model's declaration): changed by a factor, in log space
+        log = baseline > 0 and target in positive_parameters(model)
+        scale = 1.0 if log else abs(baseline) if baseline else 1.0
     else:
         baseline = 0.0
+        log = kind == "gain"             # the sensor's factor 1 + g > 0
         scale = float(rows.sigma[model.outputs.index(target)]) if kind == "bias" else 0.01
-    transform = _transform(kind, target, model, segments[start:], baseline, scale)
+    value = functools.partial(_physical, kind, log, baseline, scale)
+    transform = _transform(kind, target, model, segments[start:], value)
     sigma = rows.sigma
 
     # a gain hypothesis' errors are compared in the units the baseline measured them in:
@@ -737,7 +831,7 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
     def weighted(x: float) -> np.ndarray:
         try:
             residuals, _ = remaining(*transform(x), value=x)
-            units = [np.where(later, 1.0 + scale * x, 1.0) if c == gained
+            units = [np.where(later, 1.0 + value(x), 1.0) if c == gained
                      else np.ones(len(later)) for c in range(len(residuals))]
             parts = [u[f] * np.nan_to_num(r[f], nan=INVALID_ERROR * s, posinf=INVALID_ERROR * s,
                                           neginf=-INVALID_ERROR * s) for r, f, s, u in
@@ -746,8 +840,12 @@ def _objective(kind, target, model, segments, start, offset, remaining, finite,
             parts = [np.full(int(f.sum()), INVALID_ERROR * s) for f, s in zip(finite, sigma)]
         return np.concatenate(parts) * rows.weights
 
-    bounds = (-1.0 / scale + 1e-6, np.inf) if kind == "gain" else (-np.inf, np.inf)
-    return _Objective(kind, target, baseline, scale, weighted, bounds, rows, start=start)
+    span = float(np.log(POSITIVE_RANGE)) / scale
+    bounds = (-span, span) if log else (-np.inf, np.inf)
+    # a screened positive parameter is far out past a factor 1 + SCREEN_REACH either way
+    reach = float(np.log1p(SCREEN_REACH)) if log and kind == "parameter" else SCREEN_REACH
+    return _Objective(kind, target, baseline, scale, weighted, bounds, rows, start=start,
+                      log=log, reach=reach)
 
 
 def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:
@@ -759,8 +857,20 @@ def _screen(objective: _Objective, healthy_weighted: np.ndarray) -> _Fit:
     slope = (objective.at(step) - healthy_weighted) / step
     information = float(slope @ slope)
     x = -float(slope @ healthy_weighted) / information if information > 0 else 0.0
-    x = float(np.clip(x, *objective.bounds))
-    return objective.record(x, healthy_weighted + slope * x, slope)
+    if not objective.log:
+        x = float(np.clip(x, *objective.bounds))
+        return objective.record(x, healthy_weighted + slope * x, slope)
+    # in log space the step is still taken in the value (the errors' slope at the baseline is
+    # the same in the value, in units of its scale, and in its log), where a bias-like change
+    # is linear: the refinement then starts at the linear minimum, and stops there on one run
+    # (its secant to the baseline is along the same slope); a value the linear step takes to
+    # zero or below is the range's lower end
+    s = objective.scale
+    low, high = objective.bounds
+    logged = float(np.clip(np.log1p(s * x) / s if s * x > -1.0 else low, low, high))
+    factor = float(np.exp(s * logged))            # the value over the baseline's
+    return objective.record(logged, healthy_weighted + slope * (factor - 1.0) / s,
+                            slope * factor)
 
 
 def _refine(objective: _Objective, screened: _Fit) -> _Fit:
@@ -786,7 +896,7 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
     change) is the fit on its one run.
     """
     x = screened.value
-    if x != 0.0 and abs(x) > SCREEN_REACH:
+    if x != 0.0 and abs(x) > objective.reach:
         fun, healthy = objective.at(x), objective.at(0.0)
         if not float(fun @ fun) < float(healthy @ healthy):
             x = 0.0
@@ -794,6 +904,7 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
     cost = 0.5 * float(fun @ fun)
     low, high = objective.bounds
     radius = max(abs(x), 1.0)
+    walked, tried_end = 0.0, False      # the last step taken; whether the range's end was
     for _ in range(MAX_EVALUATIONS):
         gradient, curvature, newton = objective.newton(x)
         if not (np.isfinite(gradient) and np.isfinite(curvature)) or gradient == 0.0:
@@ -801,18 +912,34 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
         # where the cost bends down (or barely up), to the region's edge
         step = (float(np.clip(-gradient / curvature, -radius, radius))
                 if curvature * radius > abs(gradient) else -np.sign(gradient) * radius)
-        # at most halfway to a bound
-        step = float(np.clip(step, 0.5 * (low - x), 0.5 * (high - x)))
+        # at most to the search range's end (a positive value's, in log space), onto it
+        step = float(np.clip(step, low - x, high - x))
+        new = high if step >= high - x else low if step <= low - x else x + step
         promised = -gradient * step - 0.5 * curvature * step ** 2
         if (abs(step) <= REFINE_XTOL * (REFINE_XTOL + abs(x))
                 or (newton and promised <= REFINE_FTOL * cost)):
             break
-        trial = objective.at(x + step)
+        if (not tried_end and np.isfinite(high - low) and abs(x) > objective.reach
+                and step * walked > 0 and step * x > 0 and abs(step) >= 0.5 * abs(walked)):
+            # a walk: outwards past the reach, the steps not shrinking (a cost that flattens
+            # towards the range's end; a Newton step in a tail e^-x is a constant). Is the
+            # cost still falling at the range's end? Its run, and one a finite difference in
+            # from it: if so, no finite optimum lies within the range, the fit is its end
+            tried_end = True
+            end = high if step > 0 else low
+            at_end = objective.at(end)
+            end_cost = 0.5 * float(at_end @ at_end)
+            if end_cost < cost:
+                inner = objective.at(end - np.sign(end) * DIFF_STEP * max(1.0, abs(end)))
+                if end_cost < 0.5 * float(inner @ inner):
+                    x, fun, cost = end, at_end, end_cost
+                    break
+        trial = objective.at(new)
         trial_cost = 0.5 * float(trial @ trial)
         if not trial_cost < cost:
             radius = 0.5 * abs(step)
             continue
-        x, fun, removed, cost = x + step, trial, cost - trial_cost, trial_cost
+        x, fun, removed, cost, walked = new, trial, cost - trial_cost, trial_cost, step
         radius = max(radius, 2.0 * abs(step))
         if removed <= REFINE_FTOL * (cost + removed):
             break
@@ -833,7 +960,7 @@ def _gain(fit: _Fit, healthy, sigma, weights) -> float:
 
 
 def _value(fit: _Fit) -> float:
-    return fit.value if fit.kind == "noise" else fit.baseline + fit.scale * fit.value
+    return _physical(fit.kind, fit.log, fit.baseline, fit.scale, fit.value)
 
 
 def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[float, float]:
@@ -847,6 +974,10 @@ def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[fl
         return (float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, 1 - tail)))),
                 float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, tail)))))
     information = float(np.sum(weights * fit.sensitivity))
-    sd = fit.scale / np.sqrt(information) if information > 0 else np.inf
+    sd = 1.0 / np.sqrt(information) if information > 0 else np.inf     # of the free value
+    if fit.log:
+        # normal in the log, mapped back: positive and asymmetric about the estimate
+        return (_physical(fit.kind, True, fit.baseline, fit.scale, fit.value - z * sd),
+                _physical(fit.kind, True, fit.baseline, fit.scale, fit.value + z * sd))
     value = _value(fit)
-    return (float(value - z * sd), float(value + z * sd))
+    return (float(value - z * fit.scale * sd), float(value + z * fit.scale * sd))

@@ -31,6 +31,7 @@ mean's); intervals are normal, ``value +- z sd``.
 """
 from __future__ import annotations
 
+from numbers import Real
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
@@ -71,6 +72,28 @@ def with_parameters(model: WhiteBoxModel, changes: Mapping[str, float]) -> White
 def float_parameters(model: WhiteBoxModel) -> tuple[str, ...]:
     """The model's parameters that are numbers (not :class:`~graybox.models.table.Table`)."""
     return tuple(name for name, value in model.parameters.items() if not isinstance(value, Table))
+
+
+def positive_parameters(model: WhiteBoxModel) -> tuple[str, ...]:
+    """The model's number parameters that are positive by nature: its class attribute
+    ``positive``, default every number parameter whose ``default_parameters`` value is > 0.
+
+    Raises
+    ------
+    ModelSpecError
+        If ``positive`` names something that is not a number parameter.
+    """
+    numbers = float_parameters(model)
+    declared = getattr(model, "positive", None)
+    if declared is None:
+        defaults = type(model).default_parameters
+        return tuple(n for n in numbers if isinstance(defaults.get(n), Real)
+                     and not isinstance(defaults.get(n), bool) and defaults[n] > 0)
+    wrong = [n for n in declared if n not in numbers]
+    if wrong:
+        raise ModelSpecError(f"{model.spec()}.positive names {wrong}, which are not number "
+                             f"parameters: {', '.join(numbers)}")
+    return tuple(declared)
 
 
 def operating_segments(windows: Sequence) -> tuple[list[pd.DataFrame], float]:

@@ -55,6 +55,15 @@ class WhiteBoxModel:
         compensates moves them, so they do not count when the level tier asks whether a night
         lies outside the baseline's operating range (:func:`graybox.level_tier.extrapolation`);
         they still take part in its regression. Default none: every input is exogenous.
+    ``positive`` (optional)
+        Number parameters that are positive by nature (a time constant, a mass, an inertia,
+        a resistance, a capacity, a conductance, the gain of a physical law): the diagnosis
+        fits a change of one in log space, so that its estimate and interval stay positive
+        (:mod:`graybox.diagnosis`). Default None: every number parameter whose
+        ``default_parameters`` value is > 0. A model with positive parameters that may cross
+        zero (an offset, a temperature in degrees Celsius, a linear model's coefficient)
+        lists the truly positive ones instead (``positive = ("mass", "lag")``; ``()`` for
+        none), as :class:`~graybox.models.linear.LinearStateSpace` does.
 
     A subclass meant only as a base for others is declared with ``abstract=True``
     (``class LinearStateSpace(WhiteBoxModel, abstract=True)``) and is not checked.
@@ -74,6 +83,7 @@ class WhiteBoxModel:
     integrator: ClassVar[str] = "auto"
     initial_state: ClassVar[Mapping[str, float]] = {}
     controlled_inputs: ClassVar[tuple[str, ...]] = ()
+    positive: ClassVar[tuple[str, ...] | None] = None
     _abstract: ClassVar[bool] = True
     _identity_outputs: ClassVar[bool] = True
 

@@ -26,8 +26,11 @@ class LinearStateSpace(WhiteBoxModel, abstract=True):
     """Base of linear models ``dx/dt = A x + B u``.
 
     A subclass declares ``states`` and ``inputs`` and sets ``default_parameters`` with
-    :func:`linear_parameters`; every matrix entry is then a named parameter.
+    :func:`linear_parameters`; every matrix entry is then a named parameter. The entries
+    are signed coefficients (a coupling may change sign): none is ``positive``.
     """
+
+    positive = ()
 
     def __init_subclass__(cls, abstract: bool = False, **kwargs):
         super().__init_subclass__(abstract=abstract, **kwargs)

@@ -298,13 +298,22 @@ def test_two_identical_nights_double_the_evidence_and_keep_the_estimate(levels):
     assert {n.n_obs for n in levels.values()} == {levels["speed"].n_obs}
     ratio = one.n_obs / 2 / levels["speed"].n_obs     # n / N_b, the same for both channels
     narrower = np.sqrt((1 + 2 * ratio) / (2 * (1 + ratio)))
+
+    def width(h):
+        # in the space the interval is normal in: a bias's value; the log of a (positive)
+        # parameter and of a gain's factor 1 + g
+        low, high = h.interval
+        if h.kind == "bias":
+            return high - low
+        return np.log(high / low) if h.kind == "parameter" else np.log((1 + high) / (1 + low))
+
     for h1, h2 in zip(one.hypotheses, two.hypotheses):
-        width1, width2 = h1.interval[1] - h1.interval[0], h2.interval[1] - h2.interval[0]
+        width1, width2 = width(h1), width(h2)
         assert h2.log_likelihood_gain == pytest.approx(2 * h1.log_likelihood_gain, rel=1e-6,
                                                        abs=1e-9)
         if h1.kind == "noise":
             continue        # a chi-square interval: narrower, not by a fixed factor
-        assert abs(h2.estimate - h1.estimate) < 1e-3 * width1
+        assert abs(h2.estimate - h1.estimate) < 1e-3 * (h1.interval[1] - h1.interval[0])
         assert width2 / width1 == pytest.approx(narrower, rel=1e-6)
     first, second = one.hypotheses[:2]
     assert second.kind != "noise"                     # the same penalty: the gap is 2 x gain
