@@ -51,7 +51,21 @@ after paying for its free value. The hypotheses are ranked by score; if none is 
 ``min_score`` (default 0) the diagnosis says that no single cause explains the window
 (``explained`` False) rather than name the least bad one.
 
-**Intervals.** From the same weighted likelihood: a parameter, bias or gain ``value +- z sd``
+**Positive values.** A parameter the model declares positive (its ``positive``, default
+every number parameter whose default value is > 0:
+:func:`graybox.parameter_estimation.positive_parameters`) and a gain's factor ``1 + g`` are
+fitted in log space, their free value ``log(p / p_baseline)`` and ``log(1 + g) / 0.01``,
+within :data:`POSITIVE_RANGE` times or divided by the baseline: the refinement steps in the
+log (onto the range's end if need be), and the interval is normal in the log and mapped back
+(positive, asymmetric). The screening step is taken in the value and converted, so that a
+change the errors are linear in still starts the refinement at its minimum. A fit that walks
+outwards past its reach tries the range's end: if the cost still falls there, the fit is
+that end (no finite optimum within the range); and a refined fit far out whose
+log-likelihood at the range's end is within ``z^2 / 2`` of its own has its interval opened to
+that end. Either is said by :attr:`Hypothesis.bound`.
+
+**Intervals.** From the same weighted likelihood: a bias ``value +- z sd`` (a positive
+parameter or a gain: the same in the log of the value or of ``1 + g``, mapped back)
 with ``sd^2 = 1 / sum_c (N_eff,c / N_c) / (1 + N_c / N_base,c) sum_t (dr_c/dvalue)^2 /
 sigma_c^2``: the Gauss-Newton variance inflated by the effective-sample-size factor, as
 :mod:`graybox.parameter_estimation`, and by ``1 + N_c / N_base,c`` for the baseline's own
@@ -894,6 +908,14 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
     halves the region. A screened value whose first step is within ``xtol`` (the errors
     linear in the value over the span from the baseline: a sensor bias, a small parameter
     change) is the fit on its one run.
+
+    In log space (a positive parameter, a gain) a step may land on the search range's end
+    (:data:`POSITIVE_RANGE`). Two steps in a row outwards, past the objective's ``reach``,
+    the second at least half the first, are a walk along a cost that flattens out (the
+    tanks' pump lag walked 19 runs, each 1.1-1.3 times further out): the range's end is run
+    once and, if its cost is lower, one finite difference in from it; where the cost still
+    falls outwards there the fit is the end (no finite optimum within the range), else the
+    refinement goes on.
     """
     x = screened.value
     if x != 0.0 and abs(x) > objective.reach:
