@@ -952,7 +952,8 @@ def _refine(objective: _Objective, screened: _Fit) -> _Fit:
             at_end = objective.at(end)
             end_cost = 0.5 * float(at_end @ at_end)
             if end_cost < cost:
-                inner = objective.at(end - np.sign(end) * DIFF_STEP * max(1.0, abs(end)))
+                # (two finite-difference steps in: the secant the fit's slope is read on)
+                inner = objective.at(end - np.sign(end) * 2 * DIFF_STEP * max(1.0, abs(end)))
                 if end_cost < 0.5 * float(inner @ inner):
                     x, fun, cost = end, at_end, end_cost
                     break
