@@ -12,9 +12,14 @@ from graybox.exceptions import InsufficientDataError
 
 #: inverse asymptotic variances of (mean, variance, skewness, excess kurtosis) of a Gaussian
 #: sample, in units of the baseline standard deviation (times N); the noise tier's zeta
-#: weights each squared moment change by these so that none of them dominates by its own
-#: sampling noise (the kurtosis estimate is 24 times noisier than the mean).
+#: weights each squared moment change by the inverse of its sampling variance so that none of
+#: them dominates by its own sampling noise (the kurtosis estimate is 24 times noisier than
+#: the mean): these for a record stored before it held its own (``moment_variances``)
 MOMENT_WEIGHTS = (1.0, 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0)
+#: a moment's sampling variance is taken as at least this share of a Gaussian sample's: a
+#: light-tailed residual (a sine's, a two-level one: kurtosis variance near 0) must not
+#: weigh its shape's changes without bound
+VARIANCE_FLOOR = 0.25
 
 
 def shape_moments(values: np.ndarray) -> tuple[float, float]:
@@ -43,6 +48,39 @@ def shape_moments(values: np.ndarray) -> tuple[float, float]:
             float(np.mean(square ** 2)) / m2 ** 2 - 3.0)
 
 
+def moment_variances(values: np.ndarray, skewness: float,
+                     kurtosis: float) -> tuple[float, float, float, float]:
+    """Asymptotic sampling variances (times N) of the mean (in standard deviations), the
+    relative variance, the skewness and the excess kurtosis of ``values``' own distribution.
+
+    Each is the mean square of the statistic's influence function over the sample (the delta
+    method with the sample's own moments, up to the eighth): with ``z`` the standardised
+    values, ``g`` the skewness and ``b`` the kurtosis (not excess), ``z``, ``z^2 - 1``,
+    ``z^3 - 3 z - g - 1.5 g (z^2 - 1)`` and ``z^4 - b - 4 g z - 2 b (z^2 - 1)``. A Gaussian
+    sample gives 1, 2, 6 and 24 (the inverse :data:`MOMENT_WEIGHTS`); a residual with rare
+    transients gives its kurtosis a variance many times 24, which is how much its kurtosis
+    moves from night to night with no fault.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        One-dimensional sample (not constant).
+    skewness, kurtosis : float
+        Its skewness and excess kurtosis (:func:`shape_moments`).
+
+    Returns
+    -------
+    tuple of 4 float
+    """
+    z = (values - values.mean()) / values.std()
+    square = z * z
+    b = kurtosis + 3.0
+    skew_influence = z * (square - 3.0) - skewness - 1.5 * skewness * (square - 1.0)
+    kurtosis_influence = square * square - b - 4.0 * skewness * z - 2.0 * b * (square - 1.0)
+    return (1.0, float(np.mean((square - 1.0) ** 2)), float(np.mean(skew_influence ** 2)),
+            float(np.mean(kurtosis_influence ** 2)))
+
+
 @dataclass(frozen=True)
 class NoiseTier:
     """Moments of the last residual and its Ljung-Box whiteness test.
@@ -56,6 +94,10 @@ class NoiseTier:
         says structure is left in the noise.
     ljung_box_lags : int
     n_obs : int
+    moment_variances : tuple of 4 float, optional
+        The sampling variances (times N) of the four moments under the residual's own
+        distribution (:func:`moment_variances`); a baseline's weigh the tier's zeta. None in
+        a record stored before them, whose zeta weighs by :data:`MOMENT_WEIGHTS`.
     """
 
     mean: float
@@ -66,7 +108,9 @@ class NoiseTier:
     ljung_box_pvalue: float
     ljung_box_lags: int
     n_obs: int
+    moment_variances: tuple[float, float, float, float] | None = None
 
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"moment_variances"})
     #: the whiteness test's diagnostics (never compared): a constant residual gives NaN
     non_finite_fields: ClassVar[frozenset[str]] = frozenset(
         {"ljung_box_statistic", "ljung_box_pvalue"})
@@ -75,6 +119,15 @@ class NoiseTier:
     def moments(self) -> tuple[float, float, float, float]:
         """``(mean, variance, skewness, excess_kurtosis)``."""
         return (self.mean, self.variance, self.skewness, self.excess_kurtosis)
+
+    @property
+    def moment_weights(self) -> tuple[float, float, float, float]:
+        """What the tier's zeta weighs each squared moment change by, when this record is the
+        baseline: the inverse :attr:`moment_variances` (:data:`MOMENT_WEIGHTS` without)."""
+        if self.moment_variances is None:
+            return MOMENT_WEIGHTS
+        return tuple(1.0 / max(v, w) for v, w in zip(
+            self.moment_variances, np.reciprocal(MOMENT_WEIGHTS) * VARIANCE_FLOOR))
 
     @property
     def is_white(self) -> bool:
@@ -106,4 +159,5 @@ def describe_noise(segments: Sequence[np.ndarray] | np.ndarray, lags: int = 20) 
     rho = autocovariance(segments, lags, mean=mean)[1:] / variance
     statistic = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
     pvalue = float(special.chdtrc(lags, statistic))     # scipy.stats.chi2.sf
-    return NoiseTier(mean, variance, skewness, kurtosis, statistic, pvalue, lags, n)
+    variances = moment_variances(values, skewness, kurtosis) if np.isfinite(kurtosis) else None
+    return NoiseTier(mean, variance, skewness, kurtosis, statistic, pvalue, lags, n, variances)

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from graybox.noise_tier import MOMENT_WEIGHTS, NoiseTier, describe_noise
+from graybox.noise_tier import NoiseTier, describe_noise
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
 from graybox.tiers.fit_state import AssetFit
@@ -19,8 +19,9 @@ class NoiseTierKind(Tier):
     """The noise tier: mean, variance, skewness and excess kurtosis of the final residual.
 
     Changes are in units of the baseline noise standard deviation (mean), relative (variance),
-    or as they are (skewness, kurtosis), each scaled by the square root of
-    :data:`graybox.noise_tier.MOMENT_WEIGHTS`.
+    or as they are (skewness, kurtosis), each divided by its sampling standard deviation under
+    the baseline residual's own distribution (:attr:`graybox.noise_tier.NoiseTier.moment_weights`;
+    a baseline stored before it: a Gaussian's, :data:`graybox.noise_tier.MOMENT_WEIGHTS`).
     """
 
     name = "noise"
@@ -52,4 +53,4 @@ class NoiseTierKind(Tier):
         delta = super().deltas(candidate, baseline)
         variance = baseline.noise.variance
         delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
-        return delta * np.sqrt(MOMENT_WEIGHTS)
+        return delta * np.sqrt(baseline.noise.moment_weights)

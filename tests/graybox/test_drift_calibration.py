@@ -1,3 +1,4 @@
+import dataclasses
 import json
 import pathlib
 
@@ -35,6 +36,19 @@ def test_linear_and_noise_zeta():
     assert drift.get("omega", "noise").zeta == pytest.approx(expected)
     names, delta = tier_deltas(cand.channels[0], base.channels[0], "noise")
     assert names[1] == "variance" and delta[1] == pytest.approx(0.5 * np.sqrt(0.5))
+
+
+def test_noise_zeta_weighs_each_moment_by_its_baselines_sampling_variance():
+    base = make_signature((make_channel(moments=(0.0, 2.0, 0.5, 20.0)),))
+    noise = dataclasses.replace(base.channels[0].noise, moment_variances=(1.0, 9.0, 40.0, 4000.0))
+    heavy = dataclasses.replace(base, channels=(dataclasses.replace(base.channels[0],
+                                                                    noise=noise),))
+    cand = make_signature((make_channel(moments=(0.1, 3.0, 1.0, 60.0)),))
+    expected = ((0.1 / np.sqrt(2.0)) ** 2 + 0.5 ** 2 / 9.0 + 0.5 ** 2 / 40.0 + 40.0 ** 2 / 4000.0)
+    assert compute_drift(cand, heavy).get("omega", "noise").zeta == pytest.approx(expected)
+    # the same changes against a baseline stored without them: a Gaussian's weights
+    gaussian = ((0.1 / np.sqrt(2.0)) ** 2 + 0.5 ** 2 / 2 + 0.5 ** 2 / 6 + 40.0 ** 2 / 24)
+    assert compute_drift(cand, base).get("omega", "noise").zeta == pytest.approx(gaussian)
 
 
 def test_alarm_only_when_zeta_exceeds_epsilon_and_epsilon_scales_with_window():

@@ -1,3 +1,4 @@
+import dataclasses
 import warnings
 
 import numpy as np
@@ -6,7 +7,7 @@ from scipy import stats
 from scipy.signal import lfilter
 
 from graybox.exceptions import InsufficientDataError
-from graybox.noise_tier import describe_noise
+from graybox.noise_tier import MOMENT_WEIGHTS, NoiseTier, describe_noise
 
 
 def test_moments_match_scipy():
@@ -36,3 +37,47 @@ def test_ljung_box_matches_statsmodels_and_flags_colour():
 def test_too_few_samples():
     with pytest.raises(InsufficientDataError):
         describe_noise(np.ones(5))
+
+
+def test_a_gaussian_residual_has_the_gaussian_moment_variances():
+    noise = describe_noise(np.random.default_rng(2).normal(size=400_000) * 3 + 1)
+    gaussian = [1 / w for w in MOMENT_WEIGHTS]
+    # the kurtosis' from an eighth moment: its estimate converges slowly
+    assert noise.moment_variances[:3] == pytest.approx(gaussian[:3], rel=0.03)
+    assert noise.moment_variances[3] == pytest.approx(gaussian[3], rel=0.12)
+    assert noise.moment_weights == pytest.approx([1 / v for v in noise.moment_variances])
+
+
+def test_moment_variances_predict_the_spread_of_each_moment_over_samples():
+    # Student-t with 12 degrees of freedom (finite eighth moment, excess kurtosis 1): the
+    # skewness' and kurtosis' sampling variances are about 3 and 10 times a Gaussian's
+    rng = np.random.default_rng(3)
+    n = 4000
+    nights = [describe_noise(rng.standard_t(12, size=n)) for _ in range(800)]
+    moments = np.array([night.moments for night in nights])
+    spread = n * np.array([np.var(moments[:, 0] / np.sqrt(moments[:, 1])),
+                           np.var(moments[:, 1] / moments[:, 1].mean()),
+                           np.var(moments[:, 2]), np.var(moments[:, 3])])
+    predicted = describe_noise(rng.standard_t(12, size=2_000_000)).moment_variances
+    assert spread[:3] == pytest.approx(predicted[:3], rel=0.15)
+    assert spread[3] == pytest.approx(predicted[3], rel=0.3)     # an eighth moment converges slowly
+    assert predicted[2] > 2 * 6 and predicted[3] > 5 * 24
+
+
+def test_a_record_without_moment_variances_round_trips_and_weighs_as_a_gaussian():
+    from graybox.record_json import from_dict, to_dict
+    noise = describe_noise(np.random.default_rng(5).standard_t(5, size=4000))
+    assert from_dict(NoiseTier, to_dict(noise)) == noise
+    assert noise.moment_weights[3] < MOMENT_WEIGHTS[3] / 5        # heavy tails: weighed less
+    stored = dataclasses.replace(noise, moment_variances=None)
+    assert "moment_variances" not in to_dict(stored)
+    assert from_dict(NoiseTier, to_dict(stored)) == stored
+    assert stored.moment_weights == MOMENT_WEIGHTS
+
+
+def test_a_light_tailed_residual_weighs_its_shape_at_most_four_times_a_gaussian():
+    # a two-level residual's kurtosis hardly varies (its influence is near 0): the floor keeps
+    # a tiny change from weighing without bound
+    two_levels = np.tile([-1.0, 1.0], 5000) + np.random.default_rng(6).normal(0, 1e-3, 10_000)
+    weights = describe_noise(two_levels).moment_weights
+    assert weights[3] == pytest.approx(4 * MOMENT_WEIGHTS[3])
