@@ -4,7 +4,9 @@ intervals, kept with a baseline whose white box was tuned to its asset."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
+import numpy as np
 from scipy import special
 
 
@@ -36,7 +38,14 @@ class ParameterEstimate:
         Their effective number, all channels together.
     converged : bool
         Whether the least-squares fit met its tolerance (not its evaluation limit).
+    positive : tuple of bool, optional
+        Per parameter, whether the model declares it positive by nature
+        (:func:`graybox.parameter_estimation.positive_parameters`): its interval is then
+        normal in the log of the value (never below 0). None in a record stored before it:
+        every interval normal in the value.
     """
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"positive"})
 
     names: tuple[str, ...]
     values: tuple[float, ...]
@@ -49,11 +58,17 @@ class ParameterEstimate:
     n_obs: int
     effective_samples: float
     converged: bool
+    positive: tuple[bool, ...] | None = None
 
     def interval(self, level: float = 0.95) -> tuple[tuple[float, float], ...]:
-        """Normal confidence intervals ``value +- z sd``, one ``(low, high)`` per parameter."""
+        """Confidence intervals, one ``(low, high)`` per parameter: ``value +- z sd``, or for a
+        positive parameter with a positive estimate ``value * exp(+- z sd / value)`` (normal
+        in its log, the delta method's ``sd(log value) = sd / value``)."""
         z = float(special.ndtri(0.5 + level / 2))        # scipy.stats.norm.ppf
-        return tuple((v - z * s, v + z * s) for v, s in zip(self.values, self.standard_errors))
+        positive = self.positive or (False,) * len(self.values)
+        return tuple((v * float(np.exp(-z * s / v)), v * float(np.exp(min(z * s / v, 700.0))))
+                     if flag and v > 0 else (v - z * s, v + z * s)
+                     for v, s, flag in zip(self.values, self.standard_errors, positive))
 
     def parameters(self) -> dict[str, float]:
         """Name -> estimate, ready as a model's parameter overrides."""

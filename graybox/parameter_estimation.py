@@ -284,4 +284,4 @@ def estimate_parameters(model: WhiteBoxModel, windows: Sequence, names: Sequence
         tuple(tuple(map(float, row)) for row in covariance), tuple(map(float, x0)),
         tuple(channels), tuple(rms for rms, _ in stats_), int(setup.horizon),
         int(sum(f.sum() for f in finite)), float(sum(n for _, n in stats_)),
-        bool(fit.status > 0))
+        bool(fit.status > 0), tuple(name in positive_parameters(model) for name in names))

@@ -45,6 +45,7 @@ def test_a_shaft_twenty_percent_off_comes_back_within_two_percent_and_its_interv
     start = dict(zip(NAMES, (1.2 * 2250.0, 0.8 * 0.5, 1.2 * 0.00075)))
     estimate = estimate_parameters(with_parameters(truth, start), [frame], NAMES)
     assert estimate.initial == tuple(start[n] for n in NAMES) and estimate.converged
+    assert estimate.positive == (True, True, True)      # the shaft's defaults are all > 0
     for name, value, (low, high) in zip(NAMES, estimate.values, estimate.interval()):
         assert value == pytest.approx(truth.parameters[name], rel=0.02)
         assert low < truth.parameters[name] < high
@@ -93,3 +94,22 @@ def test_the_estimate_round_trips_json_and_names_are_checked():
     with pytest.raises(ModelSpecError, match="cannot estimate"):
         estimate_parameters(GasTurbineShaft(), [shaft_frame(GasTurbineShaft(), n=100)],
                             ["friction"])
+
+
+def test_a_positive_parameters_interval_is_normal_in_its_log():
+    # an inertia of 1 with a standard error of 0.8: value * exp(+- 1.96 * 0.8), never below 0;
+    # a record stored before `positive` keeps the interval normal in the value
+    estimate = ParameterEstimate(("inertia", "offset"), (1.0, 1.0), (0.8, 0.8),
+                                 ((0.64, 0.0), (0.0, 0.64)), (1.0, 1.0), ("omega",), (1.2,), 12,
+                                 2000, 400.5, True, (True, False))
+    (low, high), normal = estimate.interval(0.95)
+    assert (low, high) == pytest.approx((np.exp(-1.96 * 0.8), np.exp(1.96 * 0.8)), rel=1e-3)
+    assert normal == pytest.approx((1.0 - 1.96 * 0.8, 1.0 + 1.96 * 0.8), rel=1e-3)
+    again = record_json.from_dict(ParameterEstimate, record_json.parse_json(
+        record_json.to_json(estimate), "x"))
+    assert again == estimate
+    stored = ParameterEstimate(*[getattr(estimate, f) for f in (
+        "names", "values", "standard_errors", "covariance", "initial", "channels", "error_std",
+        "horizon", "n_obs", "effective_samples", "converged")])
+    assert "positive" not in record_json.to_dict(stored)
+    assert stored.interval(0.95)[0] == pytest.approx(normal, rel=1e-3)
