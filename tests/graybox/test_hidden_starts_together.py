@@ -47,13 +47,30 @@ class LinearHidden(WhiteBoxModel):
 def _segment(model, x0, current, noise, rng):
     """The model's own run from ``x0`` under ``current`` (T, n_inputs) and its noisy
     outputs: (y, u)."""
-    x = np.empty((len(current), len(x0)))
-    x[0] = x0
-    for t in range(1, len(current)):
-        x[t] = advance(model.derivatives, x[t - 1:t], current[t - 1:t], current[t:t + 1], 1.0,
-                       Integration("rk4", 8))[0]
-    y = model.output(x, current)
-    return y + rng.normal(0, noise, y.shape), current
+    return _segments(model, [(x0, current, _noise(model, current, noise, rng))])[0]
+
+
+def _noise(model, current, noise, rng):
+    """The output noise of a run under ``current``: draw it in a test's loop where
+    :func:`_segment` would (right after the run's current), so the draws stay the same."""
+    return rng.normal(0, noise, (len(current), len(model.outputs)))
+
+
+def _segments(model, runs):
+    """(y, u) of :func:`_segment` for each ``(x0, current, drawn noise)`` of ``runs``: the runs
+    advanced side by side, one row each (the models' arithmetic is row by row, so a row is its
+    run alone), the rows of a shorter run past its end dropped."""
+    length = max(len(current) for _, current, _ in runs)
+    # the shorter runs' inputs held at their last value to the longest's end
+    inputs = np.stack([np.concatenate([current, np.repeat(current[-1:], length - len(current),
+                                                          axis=0)]) for _, current, _ in runs])
+    x = np.empty((len(runs), length, len(runs[0][0])))
+    x[:, 0] = [x0 for x0, _, _ in runs]
+    for t in range(1, length):
+        x[:, t] = advance(model.derivatives, x[:, t - 1], inputs[:, t - 1], inputs[:, t], 1.0,
+                          Integration("rk4", 8))
+    return [(model.output(x[k, :len(current)], current) + drawn, current)
+            for k, (_, current, drawn) in enumerate(runs)]
 
 
 def _separately(model, pieces):
@@ -66,10 +83,11 @@ def test_a_linear_hidden_state_is_fitted_together_as_alone_and_near_the_truth():
     truths = [-4.0, 0.0, 2.5, 7.0, 1.0]
     # lengths shorter than, equal to and longer than the 900-s fit span: padded rows
     lengths = [1500, 300, 900, 1200, 40]
-    pieces = []
+    runs = []
     for h0, n in zip(truths, lengths):
         drive = np.repeat(rng.uniform(-3, 3, n // 60 + 1), 60)[:n, None]
-        pieces.append(_segment(model, [h0, 20.0], drive, [0.05, 0.02], rng))
+        runs.append(([h0, 20.0], drive, _noise(model, drive, [0.05, 0.02], rng)))
+    pieces = _segments(model, runs)
     alone = _separately(model, pieces)
     together = initial_hidden_together(model, pieces, 1.0, RK4)
     assert together.shape == (5, 1)
@@ -81,7 +99,7 @@ def test_a_linear_hidden_state_is_fitted_together_as_alone_and_near_the_truth():
 def test_the_battery_packs_starts_fitted_together_are_the_separate_fits():
     truth = BatteryWhiteBox({"r0": 0.085, "r1": 0.02, "r2": 0.03, "capacity": 2.6e5})
     model, rng = BatteryWhiteBox(), np.random.default_rng(7)
-    pieces = []
+    runs = []
     for soc, v1, v2, level in [(0.8, 1.0, 2.0, 60.0), (0.3, -0.5, 0.0, -120.0),
                                (0.55, 0.0, 0.5, 0.05), (0.12, 2.0, 3.0, 20.0),
                                (0.65, 0.2, -1.0, 150.0)]:
@@ -89,7 +107,8 @@ def test_the_battery_packs_starts_fitted_together_are_the_separate_fits():
         # a drive-like current around ``level`` (parked: a standby trickle), ambient 15 C
         current = level * np.repeat(rng.uniform(0, 2, n // 30 + 1), 30)[:n]
         u = np.column_stack([current, np.full(n, 15.0)])
-        pieces.append(_segment(truth, [soc, v1, v2, 25.0], u, [0.05, 0.05], rng))
+        runs.append(([soc, v1, v2, 25.0], u, _noise(truth, u, [0.05, 0.05], rng)))
+    pieces = _segments(truth, runs)
     alone = _separately(model, pieces)
     together = initial_hidden_together(model, pieces, 1.0, RK4)
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
@@ -97,11 +116,12 @@ def test_the_battery_packs_starts_fitted_together_are_the_separate_fits():
 
 def test_the_battery_packs_groups_do_not_change_the_starts(monkeypatch):
     model, rng = BatteryWhiteBox(), np.random.default_rng(11)
-    pieces = []
+    runs = []
     for soc in (0.2, 0.4, 0.6, 0.9):
         current = np.repeat(rng.uniform(-50, 100, 31), 30)[:900]
         u = np.column_stack([current, np.full(900, 20.0)])
-        pieces.append(_segment(model, [soc, 0.0, 0.0, 22.0], u, [0.05, 0.05], rng))
+        runs.append(([soc, 0.0, 0.0, 22.0], u, _noise(model, u, [0.05, 0.05], rng)))
+    pieces = _segments(model, runs)
     all_at_once = initial_hidden_together(model, pieces, 1.0, RK4)
     monkeypatch.setattr(state_estimation, "SEGMENTS_TOGETHER", 3)   # groups of 3 and 1
     in_groups = initial_hidden_together(model, pieces, 1.0, RK4)
@@ -113,11 +133,12 @@ def test_an_undetermined_start_stays_where_the_separate_fit_leaves_it():
     # the state of charge, so any value there is a minimum; beside well-determined segments
     # (whose successful steps widened a shared trust region) it must not wander
     model, rng = BatteryWhiteBox(), np.random.default_rng(13)
-    pieces = []
+    runs = []
     for soc, level in [(0.3, 80.0), (0.5, -60.0), (0.7, 120.0), (1.0, 0.5), (0.4, 40.0)]:
         current = level * np.repeat(rng.uniform(0, 2, 31), 30)[:900]
         u = np.column_stack([current, np.full(900, 18.0)])
-        pieces.append(_segment(model, [soc, 0.0, 0.0, 22.0], u, [0.05, 0.05], rng))
+        runs.append(([soc, 0.0, 0.0, 22.0], u, _noise(model, u, [0.05, 0.05], rng)))
+    pieces = _segments(model, runs)
     alone = _separately(model, pieces)
     together = initial_hidden_together(model, pieces, 1.0, RK4)
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
