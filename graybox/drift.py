@@ -22,7 +22,9 @@ def tier_deltas(candidate: ChannelSignature, baseline: ChannelSignature,
     reference set of delay vectors (function space; Eq. 28 on the weights for structures stored
     before that measure, see :class:`graybox.tiers.NonlinearTierKind`). Noise tier: moment
     changes in units of the baseline noise standard deviation (mean), relative (variance), or
-    as they are (skewness, kurtosis), each scaled by the square root of :data:`graybox.noise_tier.MOMENT_WEIGHTS` (see :mod:`graybox.tiers`).
+    as they are (skewness, kurtosis), each divided by its sampling standard deviation under the
+    baseline residual's own distribution (:attr:`graybox.noise_tier.NoiseTier.moment_weights`;
+    see :mod:`graybox.tiers`).
 
     Parameters
     ----------
