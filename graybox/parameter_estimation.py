@@ -27,7 +27,9 @@ Geyer's initial positive sequence). Overlapping k-step predictions and a white b
 varying model error make the errors strongly autocorrelated; ignoring it would make the
 intervals several times too narrow. The inflation is exact for the mean of an AR-like error
 and approximate for a regression slope (it treats the Jacobian's own autocorrelation as the
-mean's); intervals are normal, ``value +- z sd``.
+mean's); intervals are normal, ``value +- z sd``, or for a parameter the model declares
+positive (:func:`positive_parameters`) normal in its log, ``value * exp(+- z sd / value)``
+(:meth:`ParameterEstimate.interval`).
 """
 from __future__ import annotations
 
