@@ -126,8 +126,8 @@ class NoiseTier:
         baseline: the inverse :attr:`moment_variances` (:data:`MOMENT_WEIGHTS` without)."""
         if self.moment_variances is None:
             return MOMENT_WEIGHTS
-        return tuple(1.0 / max(v, w) for v, w in zip(
-            self.moment_variances, np.reciprocal(MOMENT_WEIGHTS) * VARIANCE_FLOOR))
+        return tuple(1.0 / max(v, VARIANCE_FLOOR / w)
+                     for v, w in zip(self.moment_variances, MOMENT_WEIGHTS))
 
     @property
     def is_white(self) -> bool:

@@ -280,10 +280,11 @@ def estimate_parameters(model: WhiteBoxModel, windows: Sequence, names: Sequence
     covariance_delta = np.linalg.pinv(jacobian.T @ jacobian)
     covariance = covariance_delta * np.outer(scale, scale)
     values = x0 + scale * delta
+    positive = positive_parameters(model)
     return ParameterEstimate(
         names, tuple(map(float, values)), tuple(float(np.sqrt(max(v, 0.0)))
                                                 for v in np.diag(covariance)),
         tuple(tuple(map(float, row)) for row in covariance), tuple(map(float, x0)),
         tuple(channels), tuple(rms for rms, _ in stats_), int(setup.horizon),
         int(sum(f.sum() for f in finite)), float(sum(n for _, n in stats_)),
-        bool(fit.status > 0), tuple(name in positive_parameters(model) for name in names))
+        bool(fit.status > 0), tuple(name in positive for name in names))
