@@ -184,7 +184,9 @@ class Hypothesis:
         The value fitted on the window (a bias in the channel's units; a gain as a fraction,
         0.06 for +6 %; noise as the factor on the one-step innovations' spread).
     interval : tuple of (float, float)
-        Its confidence interval (95 % unless asked otherwise).
+        Its confidence interval (95 % unless asked otherwise); an end the window's errors
+        do not bound at all (a value they carry no information on, fitted in the value, not
+        its log) is infinite, and written to JSON as such.
     score : float
         ``2 * log_likelihood_gain - log(effective samples)``; positive: preferred to healthy.
     log_likelihood_gain : float
@@ -204,6 +206,7 @@ class Hypothesis:
     """
 
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"since", "bound"})
+    non_finite_fields: ClassVar[frozenset[str]] = frozenset({"interval"})
 
     hypothesis: str
     kind: str

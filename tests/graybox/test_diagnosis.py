@@ -2,14 +2,16 @@
 friction change, a sensor bias, a sensor gain and a noise change are each ranked first and
 recovered within their intervals; a healthy window has no single cause."""
 import dataclasses
+import math
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from graybox import record_json
-from graybox.diagnosis import Diagnosis, candidate_hypotheses, diagnose, diagnose_window
-from graybox.exceptions import GrayBoxError, ModelSpecError
+from graybox.diagnosis import (Diagnosis, Hypothesis, candidate_hypotheses, diagnose,
+                               diagnose_window)
+from graybox.exceptions import ArtifactError, GrayBoxError, ModelSpecError
 from graybox.innovation_spread import innovation_spreads
 from graybox.integration import Integration, advance
 from graybox.level_tier import fit_level, level_data
@@ -123,6 +125,20 @@ def test_the_diagnosis_round_trips_json_and_reads(levels):
     first = record_json.to_dict(diagnosis)["hypotheses"][0]
     assert set(first) == {"hypothesis", "kind", "target", "baseline", "estimate", "interval",
                           "score", "log_likelihood_gain"}
+
+
+def test_an_unbounded_interval_round_trips_json():
+    # a value the window's errors carry no information on: sd infinite, ends +-inf
+    unbounded = Hypothesis("speed sensor bias", "bias", "speed", 0.0, 0.0,
+                           (-math.inf, math.inf), -5.0, 0.0)
+    diagnosis = Diagnosis((unbounded,), False, 0.0, ("speed",), 100, 40.0)
+    again = record_json.from_dict(Diagnosis, record_json.parse_json(record_json.to_json(diagnosis), "d"))
+    assert again == diagnosis and again.hypotheses[0].interval == (-math.inf, math.inf)
+    # the other numbers stay finite-only
+    broken = record_json.to_dict(diagnosis)
+    broken["hypotheses"][0]["estimate"] = math.inf
+    with pytest.raises(ArtifactError, match="estimate must be a finite number"):
+        record_json.from_dict(Diagnosis, broken)
 
 
 def test_diagnose_reads_the_baselines_signature(levels):
