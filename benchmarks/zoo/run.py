@@ -116,21 +116,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     say(f"{family.name}: simulated {len(vehicles)} vehicles x {baseline_days + nights} days and "
         f"{len(faulty)} faulty assets in {clock['simulation']:.0f} s")
 
-    windows, failed_reads = {}, {}
     began = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix=f"zoo-{family.name}-") as root:
-        for asset, frame in frames.items():
-            write_telemetry(root, asset, frame)
-            first = baseline_days if asset not in {v.asset_id for v in vehicles} else 0
-            last = baseline_days + (HORIZON if first else nights)
-            for day in range(first, last):
-                begin = START + pd.Timedelta(days=day)
-                try:
-                    windows[asset, day] = gb.read_window(
-                        root, asset, model.required_columns, begin, begin + pd.Timedelta(days=1),
-                        policy=policy, inputs=model.input_columns)
-                except gb.GrayBoxError as error:
-                    failed_reads[f"{asset} day {day}"] = str(error)
+    windows, failed_reads = write_and_read(family, model, policy, frames,
+                                           {v.asset_id for v in vehicles}, baseline_days, nights)
     clock["write_read"] = time.perf_counter() - began
     del frames
 
@@ -203,6 +191,34 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                          max(1, sum(len(s.channels) for s, _ in baselines.values()))),
         "analysis_intervals": sorted({s.analysis_step for s, _ in baselines.values()}),
     })
+
+
+def write_and_read(family: Family, model, policy: gb.GridPolicy,
+                   frames: Mapping[str, pd.DataFrame], vehicles: set[str], baseline_days: int,
+                   nights: int) -> tuple[dict, dict]:
+    """Write every asset's telemetry in the store layout and read its days back as the flows
+    do: a vehicle's baseline days and ``nights``, a faulty asset's :data:`HORIZON` nights.
+
+    Returns
+    -------
+    windows : dict of (asset, day) to TelemetryWindow
+    failed_reads : dict of "asset day N" to the read's error
+    """
+    windows, failed_reads = {}, {}
+    with tempfile.TemporaryDirectory(prefix=f"zoo-{family.name}-") as root:
+        for asset, frame in frames.items():
+            write_telemetry(root, asset, frame)
+            first = baseline_days if asset not in vehicles else 0
+            last = baseline_days + (HORIZON if first else nights)
+            for day in range(first, last):
+                begin = START + pd.Timedelta(days=day)
+                try:
+                    windows[asset, day] = gb.read_window(
+                        root, asset, model.required_columns, begin, begin + pd.Timedelta(days=1),
+                        policy=policy, inputs=model.input_columns)
+                except gb.GrayBoxError as error:
+                    failed_reads[f"{asset} day {day}"] = str(error)
+    return windows, failed_reads
 
 
 def summarise(family: Family, rows: list[dict], result: dict) -> dict:
