@@ -201,7 +201,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
         Supplies epsilon per tier and channel (scaled to the candidate's sample count and
         the baseline's, see :mod:`graybox.epsilon_scaling`), at least the tier's
         :meth:`~graybox.tiers.Tier.epsilon_floor` (the level tier's: one step of a quantized
-        reading).
+        reading; the noise tier's: what the moments' sampling noise alone exceeds at the
+        calibration's per-threshold rate).
     top : int, default 3
         Parameter changes kept per entry as a root-cause hint.
     kinds : sequence of Tier, default TIER_KINDS
@@ -236,7 +237,8 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
                 epsilon = max(calibration.epsilon(channel.channel, tier,
                                                   n_samples=channel.n_samples,
                                                   baseline_samples=healthy.n_samples),
-                              kind.epsilon_floor(channel, healthy, conditions))
+                              kind.epsilon_floor(channel, healthy, conditions,
+                                                 calibration.test_alpha))
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
                                      None if parameter_zeta == zeta else parameter_zeta,
                                      beyond if beyond > 1 else None))

@@ -135,6 +135,39 @@ class NoiseTier:
         return self.ljung_box_pvalue >= 0.01
 
 
+def sampling_zeta_quantile(baseline: NoiseTier, n_candidate: int, alpha: float) -> float:
+    """The noise tier's zeta that sampling noise alone exceeds with probability ``alpha``.
+
+    A candidate's moment ``j`` and the baseline's differ by sampling noise of variance
+    ``v_j (1 / n + 1 / N)`` (``v``: the baseline's :attr:`NoiseTier.moment_variances`, a
+    Gaussian's without; ``n``, ``N``: the candidate's and the baseline's samples); zeta weighs
+    its square by :attr:`NoiseTier.moment_weights` ``w_j``, so zeta is a sum of
+    ``lambda_j chi2(1)`` with ``lambda_j = v_j w_j (1 / n + 1 / N)`` (1 where no floor binds),
+    read as ``g chi2(h)`` (Satterthwaite: ``g h = sum lambda``, ``h = (sum lambda)^2 / sum
+    lambda^2``; the moments taken as uncorrelated).
+
+    Parameters
+    ----------
+    baseline : NoiseTier
+    n_candidate : int
+        The candidate's residual samples (> 0).
+    alpha : float
+        In (0, 1).
+
+    Returns
+    -------
+    float
+    """
+    if not 0 < alpha < 1 or n_candidate <= 0:
+        raise ValueError(f"need 0 < alpha < 1 and n_candidate > 0, got {alpha}, {n_candidate}")
+    variances = baseline.moment_variances or tuple(1.0 / w for w in MOMENT_WEIGHTS)
+    scale = 1.0 / n_candidate + 1.0 / baseline.n_obs
+    weights = np.array([v * w for v, w in zip(variances, baseline.moment_weights)]) * scale
+    g = float(np.sum(weights ** 2) / np.sum(weights))
+    h = float(np.sum(weights) / g)
+    return g * float(special.chdtri(h, alpha))     # scipy.stats.chi2.isf(alpha, h)
+
+
 def describe_noise(segments: Sequence[np.ndarray] | np.ndarray, lags: int = 20) -> NoiseTier:
     """Moments and Ljung-Box test of the final residual (pooled over segments).
 

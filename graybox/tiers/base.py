@@ -236,10 +236,13 @@ class Tier:
         return max(1.0, self.outside(candidate, baseline, conditions))
 
     def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
-                      conditions: float = 0.0) -> float:
+                      conditions: float = 0.0, alpha: float | None = None) -> float:
         """The least epsilon of the tier for this pair: a zeta no measurement can tell from
         no change (:func:`graybox.drift.compute_drift` takes the larger of it and the
-        calibrated epsilon). 0: the calibration alone decides."""
+        calibrated epsilon). 0: the calibration alone decides.
+
+        ``alpha``: the calibration's per-threshold false-alarm rate, for a tier whose floor
+        is a quantile of the zeta sampling noise alone gives (None: no such quantile)."""
         return 0.0
 
     def drift_deltas(self, candidate: ChannelSignature, baseline: ChannelSignature,

@@ -96,7 +96,7 @@ class LevelTierKind(Tier):
         return extrapolation(candidate.level, baseline.level)
 
     def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
-                      conditions: float = 0.0) -> float:
+                      conditions: float = 0.0, alpha: float | None = None) -> float:
         """The zeta of a change of one step of the channel's reading (the baseline's
         ``resolution``), discounted as the change is. A steady reading rounds to its step:
         each night's level is off by up to half a step however many samples it averages, so

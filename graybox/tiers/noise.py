@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from graybox.noise_tier import NoiseTier, describe_noise
+from graybox.noise_tier import NoiseTier, describe_noise, sampling_zeta_quantile
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
 from graybox.tiers.fit_state import AssetFit
@@ -48,6 +48,20 @@ class NoiseTierKind(Tier):
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         names = ["mean", "variance", "skewness", "excess_kurtosis"]
         return names, np.asarray(channel.noise.moments)
+
+    def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
+                      conditions: float = 0.0, alpha: float | None = None) -> float:
+        """The zeta the four moments' sampling noise alone exceeds with probability
+        ``alpha`` (:func:`graybox.noise_tier.sampling_zeta_quantile`, the candidate's and
+        the baseline's samples), discounted as the changes are. The calibration's few
+        healthy days can be more alike than their own sampling noise (a 15-minute export
+        gives 96 samples a day, five days whose kurtosis happened to agree): its epsilon
+        then sits below what a healthy night's moments cross by chance alone."""
+        if alpha is None:
+            return 0.0
+        healthy = baseline.noise
+        quantile = sampling_zeta_quantile(healthy, candidate.noise.n_obs, alpha)
+        return quantile / self.discount(candidate, baseline, conditions) ** 2
 
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
         delta = super().deltas(candidate, baseline)

@@ -191,3 +191,22 @@ def test_quiet_days_leave_the_pieces_threshold_and_loud_days_set_it():
     loud = [10.0, 30.0, 20.0]
     epsilon = threshold_from_deltas(deltas, 0.01, loud)[0]
     assert epsilon == pytest.approx(20.0 * stats.f.ppf(0.99, dof, 3 * dof))
+
+
+def test_a_noise_epsilon_below_the_moments_sampling_noise_is_raised_to_it():
+    # five baseline days that happened to agree calibrate a tiny epsilon; a night's moments
+    # differ from the baseline's by their sampling noise at least
+    from graybox.noise_tier import sampling_zeta_quantile
+    base = make_signature((make_channel(moments=(0.0, 1.0, 0.0, 0.0), n_samples=400),))
+    cand = make_signature((make_channel(moments=(0.05, 1.1, 0.2, 0.5), n_samples=200),))
+    thresholds = tuple(TierThreshold("omega", tier, 1e-4, 1e-5, 2.0, (1e-5,) * 3)
+                       for tier in ("linear", "nonlinear", "noise"))
+    calibration = Calibration(thresholds, 0.01, 0.01 / 3, 200, 12)
+    entry = compute_drift(cand, base, calibration).get("omega", "noise")
+    floor = sampling_zeta_quantile(base.channels[0].noise, 200, 0.01 / 3)
+    assert entry.epsilon == pytest.approx(floor)
+    assert floor == pytest.approx((1 / 200 + 1 / 400) * stats.chi2.isf(0.01 / 3, 4))
+    # zeta 0.05^2 + 0.1^2 / 2 + 0.2^2 / 6 + 0.5^2 / 24 = 0.0246, under the floor (0.12)
+    assert entry.zeta == pytest.approx(0.0025 + 0.005 + 0.04 / 6 + 0.25 / 24) and not entry.exceeded
+    # the linear tier has no such floor: its calibrated epsilon stands
+    assert compute_drift(cand, base, calibration).get("omega", "linear").epsilon == pytest.approx(1e-4)

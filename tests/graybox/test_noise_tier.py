@@ -81,3 +81,35 @@ def test_a_light_tailed_residual_weighs_its_shape_at_most_four_times_a_gaussian(
     two_levels = np.tile([-1.0, 1.0], 5000) + np.random.default_rng(6).normal(0, 1e-3, 10_000)
     weights = describe_noise(two_levels).moment_weights
     assert weights[3] == pytest.approx(4 * MOMENT_WEIGHTS[3])
+
+
+def test_sampling_zeta_quantile_of_a_gaussian_record_is_a_scaled_chi_square():
+    from graybox.noise_tier import sampling_zeta_quantile
+    stored = NoiseTier(0.0, 1.0, 0.0, 0.0, 20.0, 0.4, 20, 800)     # Gaussian weights
+    expected = (1 / 200 + 1 / 800) * stats.chi2.isf(0.001, 4)
+    assert sampling_zeta_quantile(stored, 200, 0.001) == pytest.approx(expected, rel=1e-12)
+    # a moment whose variance sits under the floor weighs less than 1: the tail shortens
+    light = dataclasses.replace(stored, moment_variances=(1.0, 2.0, 6.0, 1.0))
+    assert sampling_zeta_quantile(light, 200, 0.001) < expected
+    with pytest.raises(ValueError):
+        sampling_zeta_quantile(stored, 200, 0.0)
+
+
+def test_sampling_zeta_quantile_is_crossed_at_its_rate_by_healthy_gaussian_nights():
+    from graybox.drift import compute_drift
+    from graybox.noise_tier import sampling_zeta_quantile
+    from graybox.tiers.noise import NoiseTierKind
+    from tests.graybox.conftest import make_channel, make_signature
+    rng = np.random.default_rng(11)
+    baseline = make_signature((dataclasses.replace(make_channel(),
+                                                   noise=describe_noise(rng.normal(size=4000))),))
+    quantile = sampling_zeta_quantile(baseline.channels[0].noise, 2000, 0.05)
+    kind = NoiseTierKind()
+    zetas = []
+    for _ in range(1000):
+        night = dataclasses.replace(make_channel(), noise=describe_noise(rng.normal(size=2000)))
+        zetas.append(float(np.sum(kind.deltas(night, baseline.channels[0]) ** 2)))
+    # binomial 50 +- 7 at 5 %; the kurtosis' finite-sample tail adds a little
+    assert 0.03 < np.mean(np.array(zetas) > quantile) < 0.08
+    assert compute_drift(make_signature((night,)), baseline).get("omega", "noise").zeta == \
+        pytest.approx(zetas[-1])
