@@ -452,7 +452,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
 
     # the baseline's explanation at the window's operating condition, read once at the
     # baseline white box's features: a hypothesis changes the prediction, not the condition
-    data = prediction_errors(model, segments, setup)
+    data = prediction_errors(model, segments, setup,
+                             {c: levels[c].drifting or () for c in channels})
     explanation = [levels[c].level + (data[c][1] - np.asarray(levels[c].center))
                    @ np.asarray(levels[c].slopes) for c in channels]
     positions = data[channels[0]][2]

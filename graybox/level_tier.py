@@ -25,14 +25,14 @@ small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Sequence
+from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
-from graybox.integration import Integration, advance
+from graybox.integration import Integration, advance, jacobian
 from graybox.operating_conditions import OperatingConditions
 from graybox.state_estimation import (WindowStates, check_prediction, estimate_states,
                                       window_arrays)
@@ -46,6 +46,8 @@ LEVEL_MAX_STEPS = 12
 #: least seconds between two predictions' starting points: the level moves far slower than
 #: a sample, and the cost is steps times starting points
 LEVEL_START_SPACING = 10.0
+#: states probed for :func:`drifting_states` (spread over the windows' samples)
+DRIFT_PROBES = 64
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,10 @@ class LevelTier:
         A candidate's feature means per telemetry window (a candidate of several nights has
         one per night): :func:`extrapolation` takes the farthest. None for baselines and
         records stored before it (the ``operating_point`` stands for the whole fit).
+    drifting : tuple of str, optional
+        A baseline's hidden states whose change since the segment's start is among its
+        features, after the inputs (:func:`drifting_states`); its candidates use the same.
+        None for candidates and records stored before it (then none is a feature).
     resolution : float, optional
         A baseline's: the step its channel's reading is logged in
         (:func:`graybox.resolution.reading_resolution`, 0 when not quantized). A level
@@ -102,10 +108,11 @@ class LevelTier:
     operating: tuple[int, ...] | None = None
     window_points: tuple[tuple[float, ...], ...] | None = None
     resolution: float | None = None
+    drifting: tuple[str, ...] | None = None
 
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach",
                                                              "operating", "window_points",
-                                                             "resolution"})
+                                                             "resolution", "drifting"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -180,10 +187,85 @@ def segment_level_data(model: WhiteBoxModel, window: WindowStates, dt: float, k:
     return measured - predicted, predicted
 
 
+def drifting_states(model: WhiteBoxModel, windows: Sequence[WindowStates]
+                    ) -> dict[str, tuple[int, ...]]:
+    """Per output channel, the hidden states whose open-loop run drifts into its k-step
+    prediction: their change since the segment's start is one of the channel's level
+    features (:func:`pool_level_data`).
+
+    A hidden state is estimated once per segment, at its start, and then runs open-loop by
+    the white box's dynamics (:mod:`graybox.state_estimation`); the k-step prediction starts
+    from that run. A hidden state that relaxes (its rate depends on its own value: an RC
+    voltage) forgets its start's error and carries only the model's recent error, which the
+    other features follow. One whose rate does not depend on its own value (an integrator:
+    a state of charge counted from the current, a volume from its flows) never forgets: a
+    rate error of the white box (a capacity 10 % off) accumulates in it with every unit it
+    moves, and the channels it enters carry that drift as a level that moves with how far
+    the state has moved since its estimate, not with the operating condition of the
+    moment. Such a state *drifts*: ``df_j/dx_j`` is 0 at every probed state (up to
+    rounding). It drifts into a channel whose output map reads it, or, for a measured state,
+    whose dynamics do (``dg_i/dx_j`` or ``df_i/dx_j`` nonzero at some probed state).
+
+    Parameters
+    ----------
+    model : WhiteBoxModel
+    windows : sequence of WindowStates
+        The states probed: :data:`DRIFT_PROBES` samples spread over them.
+
+    Returns
+    -------
+    dict of str to tuple of int
+        Per output, the positions in ``model.states`` of the hidden states drifting into it
+        (empty for every output of a model without hidden states).
+    """
+    hidden = [model.states.index(name) for name in model.hidden_states]
+    empty = {name: () for name in model.outputs}
+    windows = [w for w in windows if len(w.states)]
+    if not hidden or not windows:
+        return empty
+    x = np.concatenate([w.states for w in windows])
+    u = np.concatenate([w.u for w in windows]).reshape(len(x), -1)
+    rows = np.unique(np.linspace(0, len(x) - 1, min(DRIFT_PROBES, len(x))).astype(int))
+    x, u = x[rows], u[rows]
+    rates = model.derivatives(x, u)
+    dynamics = jacobian(model.derivatives, x, u, rates)            # (N, n, n)
+    scale = np.maximum(np.abs(rates), 1e-300)
+    # relative to the rate's own size: a forward difference of a rate that ignores the
+    # state is exactly 0; one that reads it differs by far more than rounding
+    drifting = [j for j in hidden
+                if np.all(np.abs(dynamics[:, j, j]) * np.maximum(1.0, np.abs(x[:, j]))
+                          <= 1e-6 * scale[:, j])]
+    if not drifting:
+        return empty
+    y = model.output(x, u)
+    reads = np.empty(y.shape + (len(drifting),))
+    for position, j in enumerate(drifting):
+        delta = 1e-6 * np.maximum(1.0, np.abs(x[:, j]))
+        shifted = x.copy()
+        shifted[:, j] += delta
+        reads[..., position] = (model.output(shifted, u) - y) / delta[:, None]
+    out = {}
+    for i, name in enumerate(model.outputs):
+        measured = model.states.index(name) if name in model.states else None
+        out[name] = tuple(
+            j for position, j in enumerate(drifting)
+            if np.any(np.abs(reads[:, i, position]) > 0)
+            or (measured is not None and np.any(np.abs(dynamics[:, measured, j]) > 0)))
+    return out
+
+
 def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
                     parts: Sequence[tuple[np.ndarray, np.ndarray] | None], k: int,
-                    stride: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """:func:`level_data` from each segment's :func:`segment_level_data`."""
+                    stride: int = 1, drift: Mapping[str, Sequence[str]] | None = None
+                    ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """:func:`level_data` from each segment's :func:`segment_level_data`; ``drift``: per
+    channel, the hidden states whose change is a feature (default :func:`drifting_states`
+    of these windows; a candidate passes its baseline's)."""
+    if drift is None:
+        drift = {name: tuple(model.states[j] for j in found)
+                 for name, found in drifting_states(model, windows).items()}
+    drift = {name: [model.states.index(state) for state in drift.get(name, ())]
+             for name in model.outputs}
     errors = {name: [] for name in model.outputs}
     features = {name: [] for name in model.outputs}
     segments = []
@@ -194,7 +276,8 @@ def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
         segments.append(np.full(len(error), position))
         for i, name in enumerate(model.outputs):
             errors[name].append(error[:, i])
-            features[name].append(np.column_stack([predicted[:, i], window.u[k::stride]]))
+            moved = window.states[k::stride][:, drift[name]] - window.states[0, drift[name]]
+            features[name].append(np.column_stack([predicted[:, i], window.u[k::stride], moved]))
     if not segments:
         raise InsufficientDataError(f"channel {model.outputs[0]!r}: no segment is longer "
                                     f"than the level tier's horizon of {k} samples")
@@ -205,7 +288,8 @@ def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
 
 def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFrame], dt: float,
                k: int,
-               stride: int = 1, integration: Integration | None = None
+               stride: int = 1, integration: Integration | None = None,
+               drift: Mapping[str, Sequence[str]] | None = None
                ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per output channel, the k-step errors and their operating features, pooled over
     segments (a prediction never crosses a segment border); one prediction every
@@ -214,22 +298,24 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
     Returns
     -------
     dict of str to (errors, features, segments)
-        ``errors`` of shape (N,), ``features`` of shape (N, 1 + n_inputs): the channel's
-        prediction, then the inputs at the predicted sample; ``segments`` (N,): the position
-        in ``windows`` each sample comes from.
+        ``errors`` of shape (N,), ``features`` of shape (N, 1 + n_inputs + n_drifting):
+        the channel's prediction, then the inputs at the predicted sample, then the change
+        since the segment's start of each hidden state drifting into the channel
+        (``drift``, default :func:`drifting_states`; none without hidden states);
+        ``segments`` (N,): the position in ``windows`` each sample comes from.
     """
     windows = [estimate_states(model, *window_arrays(model, window), dt,
                                integration or Integration())
                if isinstance(window, pd.DataFrame) else window for window in windows]
     parts = [segment_level_data(model, window, dt, k, stride, integration)
              for window in windows]
-    return pool_level_data(model, windows, parts, k, stride)
+    return pool_level_data(model, windows, parts, k, stride, drift)
 
 
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
               baseline: LevelTier | None = None, groups: np.ndarray | None = None,
-              operating: Sequence[int] | None = None, resolution: float | None = None
-              ) -> LevelTier:
+              operating: Sequence[int] | None = None, resolution: float | None = None,
+              drifting: Sequence[str] | None = None) -> LevelTier:
     """Regress the k-step errors on the centred operating features; keep the intercept.
 
     Parameters
@@ -251,6 +337,9 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         None: every input.
     resolution : float, optional
         A new baseline's channel's reading step (recorded; a candidate records none).
+    drifting : sequence of str, optional
+        A new baseline's hidden states whose changes are the last features (recorded; a
+        candidate records none).
 
     Returns
     -------
@@ -289,7 +378,8 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
                      float(residual.std()), int(horizon), int(len(errors)),
                      tuple(float(c) for c in features.mean(axis=0)), reach, operating, points,
-                     None if baseline is not None or resolution is None else float(resolution))
+                     None if baseline is not None or resolution is None else float(resolution),
+                     None if baseline is not None or drifting is None else tuple(drifting))
 
 
 def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float],

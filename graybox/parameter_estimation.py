@@ -150,7 +150,8 @@ class ErrorSetup:
 
 
 def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray, np.ndarray]],
-                      setup: ErrorSetup) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+                      setup: ErrorSetup, drift: Mapping[str, Sequence[str]] | None = None
+                      ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per output channel, the k-step prediction errors of ``model`` over ``segments``.
 
     Parameters
@@ -160,6 +161,10 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         Outputs (T, n_outputs) and inputs (T, n_inputs) of each operating period, at the
         telemetry rate (:func:`graybox.state_estimation.window_arrays`).
     setup : ErrorSetup
+    drift : mapping of str to sequence of str, optional
+        Per channel, the hidden states whose change is a feature (a baseline level tier's
+        ``drifting``); default found in these segments
+        (:func:`graybox.level_tier.drifting_states`).
 
     Returns
     -------
@@ -174,7 +179,7 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         states = [estimate_states(model, y[::setup.factor], u[::setup.factor],
                                   setup.sample_interval, setup.integration) for y, u in segments]
     return level_data(model, states, setup.analysis_interval, setup.horizon, setup.stride,
-                      setup.integration)
+                      setup.integration, drift)
 
 
 def _segment_pieces(values: np.ndarray, positions: np.ndarray) -> list[np.ndarray]:

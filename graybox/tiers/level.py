@@ -7,9 +7,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from graybox.exceptions import InsufficientDataError, StructureMismatchError
-from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
-                                operating_features, pool_level_data, segment_level_data,
-                                start_stride)
+from graybox.level_tier import (LevelTier, drifting_states, extrapolation, fit_level,
+                                horizon_samples, operating_features, pool_level_data,
+                                segment_level_data, start_stride)
 from graybox.resolution import reading_resolution
 from graybox.settings import GrayBoxSettings
 from graybox.state_estimation import WindowStates
@@ -66,16 +66,30 @@ class LevelTierKind(Tier):
                  cache.remember("level", model, window, (interval, horizon, stride, integration),
                                 lambda w=window: segment(w))
                  for window in asset.windows]
-        data = pool_level_data(model, asset.windows, parts, horizon, stride)
-        operating = operating_features(model, asset.conditions)   # the same for every channel
+        # the hidden states whose drift is a feature: a baseline finds them, a candidate takes
+        # its baseline's (none for a record stored before them)
+        if channels[0].reference is None:
+            drift = {name: tuple(model.states[j] for j in found)
+                     for name, found in drifting_states(model, asset.windows).items()}
+        else:
+            drift = {channel.name: reference.drifting or ()
+                     for channel, reference in zip(channels, references)}
+        data = pool_level_data(model, asset.windows, parts, horizon, stride, drift)
+        operating = operating_features(model, asset.conditions)   # the inputs: every channel's
+        first_hidden = 1 + len(model.inputs)
         for index, (channel, reference) in enumerate(zip(channels, references)):
             resolution = None if reference is not None else reading_resolution(
                 np.concatenate([window.y[:, index] for window in asset.windows]))
             try:
                 errors, features, segments = data[channel.name]
+                # a drifting hidden state's change since its estimate places a night too: a
+                # night that moves it further than the baseline's days did is outside their
+                # range (no controller sets it, and a sensor fault does not move it)
+                counted = operating + tuple(range(first_hidden, features.shape[1]))
+                drifting = None if reference is not None else drift[channel.name] or None
                 channel.records[self.name] = fit_level(errors, features, horizon, reference,
                                                        np.asarray(owners)[segments],
-                                                       operating, resolution)
+                                                       counted, resolution, drifting)
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None

@@ -402,3 +402,135 @@ def test_a_level_change_within_one_step_of_a_quantized_reading_never_alarms():
     assert Signature.from_json(baseline.to_json()) == baseline
     assert "resolution" not in make_signature((dataclasses.replace(
         make_channel(), level=_level(0.4)),)).to_json()
+
+
+class _Pack(WhiteBoxModel):
+    """A charge ``q`` counted from the current (an integrator, hidden), an RC voltage ``v``
+    (hidden, relaxing) and a measured temperature; the terminal voltage reads both."""
+
+    states = ("q", "v", "temp")
+    outputs = ("voltage", "temp")
+    inputs = ("current",)
+    default_parameters = {"capacity": 100.0, "slope": 2.0, "r": 0.5, "tau": 20.0, "r0": 0.1}
+
+    def derivatives(self, x, u):
+        p = self.parameters
+        current = u[..., 0]
+        return np.stack([-current / p["capacity"],
+                         p["r"] * current / p["tau"] - x[..., 1] / p["tau"],
+                         0.01 * current ** 2 - 0.05 * x[..., 2]], axis=-1)
+
+    def output(self, x, u):
+        p = self.parameters
+        voltage = 10.0 + p["slope"] * x[..., 0] - x[..., 1] - p["r0"] * u[..., 0]
+        return np.stack([voltage, x[..., 2]], axis=-1)
+
+
+class _HeatedByCharge(_Pack):
+    """The same pack whose temperature's dynamics read the charge."""
+
+    def derivatives(self, x, u):
+        rates = super().derivatives(x, u)
+        rates[..., 2] += 0.001 * x[..., 0]
+        return rates
+
+
+def _pack_window(model, current, dt=1.0, q0=0.5):
+    """A segment's states as the hidden-state run gives them: the model's own run (RK4, the
+    current linear inside a sample), with the temperature as read."""
+    from graybox.integration import Integration, advance
+    from graybox.state_estimation import WindowStates
+    u = current[:, None]
+    states = np.empty((len(current), 3))
+    states[0] = (q0, 0.0, 25.0)
+    for t in range(1, len(current)):
+        states[t] = advance(model.derivatives, states[t - 1:t], u[t - 1:t], u[t:t + 1], dt,
+                            Integration("rk4", 2))[0]
+    states[:, 2] = 25.0 + 0.1 * np.sin(np.arange(len(current)) / 50.0)
+    return WindowStates(model.output(states, u), u, states, {"q": q0, "v": 0.0})
+
+
+def test_a_hidden_integrator_drifts_into_the_outputs_that_read_it():
+    from graybox.level_tier import drifting_states
+    current = np.random.default_rng(0).normal(1.0, 2.0, 500)
+    pack = _Pack()
+    window = _pack_window(pack, current)
+    # q's rate ignores q (it never forgets its start); v relaxes; temp is measured and its
+    # dynamics read neither
+    assert drifting_states(pack, [window]) == {"voltage": (0,), "temp": ()}
+    heated = _HeatedByCharge()
+    assert drifting_states(heated, [_pack_window(heated, current)]) == {"voltage": (0,),
+                                                                        "temp": (0,)}
+    shaft = LangevinShaft()            # no hidden states: nothing drifts, features unchanged
+    x = np.linspace(10.0, 12.0, 50)[:, None]
+    from graybox.state_estimation import WindowStates
+    assert drifting_states(shaft, [WindowStates(x, np.ones((50, 1)), x, {})]) == {"omega": ()}
+
+
+def test_a_drifting_states_change_since_the_segment_start_is_a_level_feature():
+    from graybox.level_tier import pool_level_data, segment_level_data
+    pack = _Pack()
+    current = np.random.default_rng(1).normal(1.0, 2.0, 400)
+    window = _pack_window(pack, current, q0=0.8)
+    k = 5
+    part = segment_level_data(pack, window, 1.0, k, stride=3)
+    data = pool_level_data(pack, [window], [part], k, stride=3)
+    errors, features, _ = data["voltage"]
+    assert features.shape == (len(errors), 3)   # prediction, current, q's change
+    np.testing.assert_allclose(features[:, 2], window.states[k::3, 0] - 0.8, atol=1e-12)
+    assert data["temp"][1].shape == (len(errors), 2)
+
+
+def test_a_capacity_error_is_taken_out_of_the_level_on_a_night_that_charges():
+    """Known answer: the white box's capacity is 10 % short, so the voltage's k-step error is
+    ``-slope (1 - C/C_true)`` times the charge counted since the segment's start. Baseline
+    segments that discharge from a full pack fit that slope; a night that charges from a
+    low one keeps the level, and lies outside the baseline's range."""
+    from graybox.level_tier import pool_level_data, segment_level_data
+    pack, true = _Pack(), _Pack({"capacity": 110.0})
+    rng = np.random.default_rng(2)
+    k = 5
+
+    def segment(mean, q0=0.9):
+        current = rng.normal(mean, 1.0, 600)
+        run = _pack_window(pack, current, q0=q0)           # the white box's hidden-state run
+        truth = _pack_window(true, current, q0=q0)
+        noisy = truth.y + rng.normal(0.0, 0.001, truth.y.shape)
+        return type(run)(noisy, run.u, run.states, run.initial_hidden)
+
+    def data(windows):
+        parts = [segment_level_data(pack, w, 1.0, k) for w in windows]
+        errors, features, groups = pool_level_data(pack, windows, parts, k)["voltage"]
+        return errors, features, groups
+
+    errors, features, groups = data([segment(m) for m in (2.0, 3.0, 4.0, 2.5)])
+    baseline = fit_level(errors, features, k, groups=groups, operating=(1, 2))
+    slope = -2.0 * (1 - 100.0 / 110.0)
+    assert baseline.slopes[2] == pytest.approx(slope, rel=0.02)
+    assert baseline.residual_std < 0.01
+    night = data([segment(-3.0, q0=0.2)])       # from a low charge, charging: q moves up
+    candidate = fit_level(night[0], night[1], k, baseline=baseline)
+    assert abs(candidate.level - baseline.level) < 3 * baseline.residual_std
+    # the night moves q beyond every baseline segment's: it lies outside their range
+    assert extrapolation(fit_level(night[0], night[1], k, baseline=baseline,
+                                   groups=night[2]), baseline) > 1
+
+
+def test_a_baseline_records_its_drifting_states_and_its_candidates_use_them():
+    """The baseline's record names the drifting states (round-tripping JSON); a candidate
+    takes them from it, a record stored before them (``drifting`` None) gets none."""
+    from graybox.level_tier import pool_level_data, segment_level_data
+    pack = _Pack()
+    window = _pack_window(pack, np.random.default_rng(3).normal(1.0, 2.0, 300))
+    parts = [segment_level_data(pack, window, 1.0, 5)]
+    found = pool_level_data(pack, [window], parts, 5)
+    errors, features, groups = found["voltage"]
+    record = fit_level(errors, features, 5, groups=groups, operating=(1, 2),
+                       drifting=("q",))
+    assert record.drifting == ("q",)
+    assert from_dict(LevelTier, json.loads(json.dumps(to_dict(record)))) == record
+    assert "drifting" not in to_dict(fit_level(errors, features[:, :2], 5))
+    given = pool_level_data(pack, [window], parts, 5, drift={"voltage": record.drifting})
+    np.testing.assert_array_equal(given["voltage"][1], features)
+    older = pool_level_data(pack, [window], parts, 5, drift={"voltage": (), "temp": ()})
+    assert older["voltage"][1].shape == (len(errors), 2)
