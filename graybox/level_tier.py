@@ -90,6 +90,12 @@ class LevelTier:
         A baseline's hidden states whose change since the segment's start is among its
         features, after the inputs (:func:`drifting_states`); its candidates use the same.
         None for candidates and records stored before it (then none is a feature).
+    extent_reach : float, optional
+        A baseline with drifting states: the largest correction of one of its windows'
+        *extent*, its feature means with each drifting state's change replaced by the
+        window's sample farthest from the centre (:func:`extrapolation`). None otherwise.
+    window_extents : tuple of tuple of float, optional
+        A candidate's extent per telemetry window, where its baseline has drifting states.
     resolution : float, optional
         A baseline's: the step its channel's reading is logged in
         (:func:`graybox.resolution.reading_resolution`, 0 when not quantized). A level
@@ -109,10 +115,12 @@ class LevelTier:
     window_points: tuple[tuple[float, ...], ...] | None = None
     resolution: float | None = None
     drifting: tuple[str, ...] | None = None
+    extent_reach: float | None = None
+    window_extents: tuple[tuple[float, ...], ...] | None = None
 
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"operating_point", "reach",
-                                                             "operating", "window_points",
-                                                             "resolution", "drifting"})
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({
+        "operating_point", "reach", "operating", "window_points", "resolution", "drifting",
+        "extent_reach", "window_extents"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -366,20 +374,43 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
         center, slopes = np.asarray(baseline.center, float), np.asarray(baseline.slopes, float)
         level = float(np.mean(errors - (features - center) @ slopes))
     residual = errors - level - (features - center) @ slopes
-    reach, points = None, None
+    reach, points, extent_reach, extents = None, None, None, None
     operating = None if baseline is not None or operating is None else tuple(
         int(i) for i in operating)
+    drifts = len(drifting or ()) if baseline is None else len(baseline.drifting or ())
     if groups is not None:
-        means = [features[groups == g].mean(axis=0) for g in np.unique(groups)]
+        windows = [features[groups == g] for g in np.unique(groups)]
+        means = [window.mean(axis=0) for window in windows]
+        spans = [extent(window, center, drifts) for window in windows] if drifts else None
         if baseline is None:
             reach = max(correction(point, center, slopes, operating) for point in means)
+            if spans:
+                extent_reach = max(correction(point, center, slopes, operating)
+                                   for point in spans)
         else:
             points = tuple(tuple(float(c) for c in point) for point in means)
+            if spans:
+                extents = tuple(tuple(float(c) for c in point) for point in spans)
     return LevelTier(level, tuple(float(c) for c in slopes), tuple(float(c) for c in center),
                      float(residual.std()), int(horizon), int(len(errors)),
                      tuple(float(c) for c in features.mean(axis=0)), reach, operating, points,
                      None if baseline is not None or resolution is None else float(resolution),
-                     None if baseline is not None or drifting is None else tuple(drifting))
+                     None if baseline is not None or not drifting else tuple(drifting),
+                     extent_reach, extents)
+
+
+def extent(features: np.ndarray, center: Sequence[float], drifts: int) -> np.ndarray:
+    """A window's extent: its feature means, with each of the last ``drifts`` features (the
+    drifting states' changes) replaced by the window's value farthest from ``center``.
+
+    A drifting state's change is a path, not a condition the window holds around its mean:
+    a night that discharges a pack deep and charges it again has an ordinary mean change of
+    charge, yet spent hours where the baseline's days never took it."""
+    point = features.mean(axis=0)
+    center = np.asarray(center, float)
+    for j in range(features.shape[1] - drifts, features.shape[1]):
+        point[j] = features[np.argmax(np.abs(features[:, j] - center[j])), j]
+    return point
 
 
 def correction(point: Sequence[float], center: Sequence[float], slopes: Sequence[float],
@@ -423,5 +454,12 @@ def extrapolation(candidate: LevelTier, baseline: LevelTier) -> float:
     if candidate.operating_point is None or not baseline.reach:
         return 0.0
     points = candidate.window_points or (candidate.operating_point,)
-    return max(correction(point, baseline.center, baseline.slopes, baseline.operating)
-               for point in points) / baseline.reach
+    outside = max(correction(point, baseline.center, baseline.slopes, baseline.operating)
+                  for point in points) / baseline.reach
+    if baseline.extent_reach and candidate.window_extents:
+        # a drifting state: as far outside as its farthest excursion, too (:func:`extent`)
+        outside = max(outside, max(correction(point, baseline.center, baseline.slopes,
+                                              baseline.operating)
+                                   for point in candidate.window_extents)
+                      / baseline.extent_reach)
+    return outside

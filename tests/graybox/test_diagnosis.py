@@ -406,9 +406,9 @@ def test_a_hypothesis_is_screened_from_every_night_on_one_run(levels, monkeypatc
     runs = []
     counted = diagnosis_module.prediction_errors
 
-    def counting(model, segments, setup):
+    def counting(model, segments, setup, *drift):
         runs.append(len(segments))
-        return counted(model, segments, setup)
+        return counted(model, segments, setup, *drift)
 
     monkeypatch.setattr(diagnosis_module, "prediction_errors", counting)
     monkeypatch.setattr(diagnosis_module, "_refine", lambda objective, screened: screened)

@@ -534,3 +534,37 @@ def test_a_baseline_records_its_drifting_states_and_its_candidates_use_them():
     np.testing.assert_array_equal(given["voltage"][1], features)
     older = pool_level_data(pack, [window], parts, 5, drift={"voltage": (), "temp": ()})
     assert older["voltage"][1].shape == (len(errors), 2)
+
+
+def test_a_night_that_takes_a_drifting_state_beyond_the_baselines_days_is_outside():
+    """A drifting state's change is a path: a night that dips twice as deep as any baseline
+    day and comes back has an ordinary mean change, and is outside by its farthest
+    excursion (the extent), measured from the baseline's centre."""
+    rng = np.random.default_rng(4)
+    n = 200
+
+    def window(path):
+        return np.column_stack([rng.normal(0.0, 1.0, len(path)), rng.normal(0.0, 1.0, len(path)),
+                                path])
+
+    days = [np.linspace(0.0, -depth, n) for depth in (0.3, 0.5, 0.4)]
+    features = np.concatenate([window(path) for path in days])
+    errors = 2.0 * features[:, 2] + rng.normal(0.0, 0.01, len(features))
+    groups = np.repeat(np.arange(3), n)
+    baseline = fit_level(errors, features, 5, groups=groups, operating=(2,), drifting=("q",))
+    c = baseline.center[2]
+    assert baseline.extent_reach == pytest.approx(
+        abs(baseline.slopes[2]) * max(abs(0.0 - c), abs(-0.5 - c)))
+    night = np.full(n, -0.15)                  # an ordinary day but for one deep dip
+    night[90:110] = -np.concatenate([np.linspace(0.15, 1.0, 10), np.linspace(1.0, 0.15, 10)])
+    assert abs(night.mean() - c) < max(abs(d.mean() - c) for d in days)   # its mean is inside
+    f = window(night)
+    candidate = fit_level(2.0 * f[:, 2], f, 5, baseline=baseline, groups=np.zeros(n))
+    assert candidate.window_extents[0][2] == pytest.approx(-1.0)
+    assert extrapolation(candidate, baseline) == pytest.approx(
+        abs(-1.0 - c) / max(abs(0.0 - c), abs(-0.5 - c)), rel=1e-6)
+    # without drifting states no extent is kept, and the mean alone places the night inside
+    plain = fit_level(errors, features, 5, groups=groups, operating=(2,))
+    assert plain.extent_reach is None
+    inside = fit_level(2.0 * f[:, 2], f, 5, baseline=plain, groups=np.zeros(n))
+    assert inside.window_extents is None and extrapolation(inside, plain) < 1
