@@ -22,7 +22,8 @@ parameter change (the prediction drifts from the data over ``k`` samples), a sen
 prediction forgets its biased start; the one-step residual cannot see a bias) and a gain. With
 an inexact white box the healthy errors depend on the operating condition, so the baseline's
 explanation is taken out first: ``r(t) = e(t) - level - slopes . (z(t) - centre)`` with the
-baseline's level tier (``z``: the channel's prediction and the inputs). Healthy, ``r`` is
+baseline's level tier (``z``: the channel's prediction, the inputs and the drifting hidden
+states' changes, :func:`graybox.level_tier.drifting_states`). Healthy, ``r`` is
 modelled as Gaussian with mean 0 and the baseline's ``residual_std``.
 
 **Fitting.** A parameter, bias or gain hypothesis transforms the white box (the parameter
