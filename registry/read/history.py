@@ -103,8 +103,15 @@ def recorded_windows(backend: Backend, asset_id: str, last: int) -> list[tuple[s
     versions (ISO strings as tagged): the windows the nightly record holds. One search of
     model versions by their tags, newest first, without the runs' metrics (a run search
     loads every metric of every run: 5-7 against 26-37 ms per asset on a store of 1,000
-    assets)."""
+    assets); on an SQLAlchemy store two queries of the versions' tag rows
+    (:meth:`registry.store.sql_writes.SqlWriter.version_tag_values`, 0.5 against 5 ms)."""
     model = naming.model_name(asset_id)
+    writer = backend.sql_writer()
+    if writer is not None:
+        tags = call_with_retry(writer.version_tag_values, model, naming.TAG_ROLE,
+                               naming.CANDIDATE, (naming.TAG_WINDOW_START, naming.TAG_WINDOW_END),
+                               last, policy=backend.retry, what="read the recorded windows")
+        return [(t.get(naming.TAG_WINDOW_START), t.get(naming.TAG_WINDOW_END)) for t in tags]
     clause = (f"name = {naming.quote(model)} and "
               f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'")
     versions = backend.client.search_model_versions(clause, max_results=max(1, last),

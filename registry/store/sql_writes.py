@@ -14,7 +14,8 @@ not at all, so no half-recorded fit is ever left behind by this path.
 
 The same class answers the nightly path's other look-ups in one query or session each, with
 MLflow's entities where MLflow returns entities: a fit key's runs (:meth:`SqlWriter.runs_with_tag`),
-the version holding an alias (:meth:`SqlWriter.version_by_alias`), and the watermark, a
+the version holding an alias (:meth:`SqlWriter.version_by_alias`), the windows tagged on an
+asset's newest candidates (:meth:`SqlWriter.version_tag_values`), and the watermark, a
 registered model's tag, read and advanced (:meth:`SqlWriter.model_tag`,
 :meth:`SqlWriter.advance_model_tag`).
 
@@ -189,6 +190,36 @@ class SqlWriter:
                 SqlAlias.name == name, SqlAlias.version == row.version,
                 SqlAlias.workspace == row.workspace)]
             return version
+
+    def version_tag_values(self, name: str, key: str, value: str, keys: Sequence[str],
+                           last: int) -> list[dict[str, str]]:
+        """The tags ``keys`` of the ``last`` newest versions of the model ``name`` (by version
+        number, deleted ones left out) whose tag ``key`` is ``value``, newest first: what
+        ``search_model_versions`` with that name and tag, ordered by ``version_number DESC``,
+        returns of them, in two queries of the tags' rows instead of every version's entity.
+        """
+        SqlModelVersion, SqlTag = self.r.SqlModelVersion, self.r.SqlModelVersionTag
+        with self.registry.ManagedSessionMaker() as session:
+            versions = [number for (number,) in (
+                session.query(SqlModelVersion.version)
+                .join(SqlTag, (SqlTag.name == SqlModelVersion.name)
+                      & (SqlTag.version == SqlModelVersion.version)
+                      & (SqlTag.workspace == SqlModelVersion.workspace))
+                .filter(SqlModelVersion.name == name, SqlTag.key == key, SqlTag.value == value,
+                        SqlModelVersion.current_stage != "Deleted_Internal",
+                        *self.registry._get_workspace_clauses(SqlModelVersion))
+                .order_by(SqlModelVersion.version.desc())
+                .limit(max(1, last)))]
+            if not versions:
+                return []
+            found: dict[int, dict[str, str]] = {number: {} for number in versions}
+            for number, tag, text in (
+                    session.query(SqlTag.version, SqlTag.key, SqlTag.value)
+                    .filter(SqlTag.name == name, SqlTag.version.in_(versions),
+                            SqlTag.key.in_(list(keys)),
+                            *self.registry._get_workspace_clauses(SqlTag))):
+                found[number][tag] = text
+            return [found[number] for number in versions]
 
     def model_tag(self, name: str, key: str) -> str | None:
         """The value of a registered model's tag (None when the tag or the model is absent):

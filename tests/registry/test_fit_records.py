@@ -198,6 +198,16 @@ def test_zeta_history_and_alerts(rec, registry, fits):
         [tuple(w) for w in windows.to_numpy()][::-1]
     assert registry.recorded_windows("T-01", last=1) == [tuple(windows.to_numpy()[-1])]
     assert registry.recorded_windows("T-99", last=3) == []
+    # read from the tags' rows (SQLite) as the client's search of the versions reads them
+    assert registry.backend.sql_writer() is not None
+    registry.backend.sql_writes = False
+    try:
+        assert registry.recorded_windows("T-01", last=5) == \
+            [tuple(w) for w in windows.to_numpy()][::-1]
+        assert registry.recorded_windows("T-01", last=1) == [tuple(windows.to_numpy()[-1])]
+        assert registry.recorded_windows("T-99", last=3) == []
+    finally:
+        registry.backend.sql_writes = True
     # one Alert per exceeded (channel, tier) of each alarmed window, oldest window first
     alerts = registry.alerts()
     exceeded = len(fits.alarmed.alarms)
