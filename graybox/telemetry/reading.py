@@ -177,12 +177,54 @@ def newest_timestamp(root, asset_id: str) -> pd.Timestamp | None:
     for day, directory in reversed(partitions(root, asset_id)):
         newest = None
         for path in parquet_files(directory, root):
-            try:
-                ts, _, _ = _read_file(path, day, asset_id, [], _INT64.min, _INT64.max)
-            except TelemetryError:
-                return pd.Timestamp(day_ns(day), unit="ns", tz="UTC")
-            if len(ts):
-                newest = max(int(ts.max()), newest or _INT64.min)
+            found = _newest_by_statistics(path, day)
+            if found is _UNKNOWN:
+                try:
+                    ts, _, _ = _read_file(path, day, asset_id, [], _INT64.min, _INT64.max)
+                except TelemetryError:
+                    return pd.Timestamp(day_ns(day), unit="ns", tz="UTC")
+                found = int(ts.max()) if len(ts) else None
+            if found is not None:
+                newest = max(found, newest or _INT64.min)
         if newest is not None:
             return pd.Timestamp(newest, unit="ns", tz="UTC")
     return None
+
+
+_UNKNOWN = object()
+_NS_PER_UNIT = {"s": 1_000_000_000, "ms": 1_000_000, "us": 1_000, "ns": 1}
+
+
+def _newest_by_statistics(path: pathlib.Path, day: datetime.date):
+    """A file's newest timestamp (ns) from the Parquet statistics of its ``timestamp``
+    column (its footer alone, 0.1 against 2.5 ms for a day at 1 Hz), or None when it has no
+    rows; ``_UNKNOWN`` unless every row group with rows has exact statistics without nulls,
+    all inside the partition's day: then the file is read (:func:`_read_file`), which finds
+    the same value or the error."""
+    try:
+        metadata = pq.ParquetFile(path).metadata
+        kind = metadata.schema.to_arrow_schema().field("timestamp").type
+        column = [metadata.schema.column(i).path for i in range(metadata.num_columns)
+                  ].index("timestamp")
+    except (pa.ArrowException, OSError, KeyError, ValueError):
+        return _UNKNOWN
+    if not pa.types.is_timestamp(kind) or kind.unit not in _NS_PER_UNIT:
+        return _UNKNOWN
+    scale = _NS_PER_UNIT[kind.unit]
+    low = high = None
+    for group in range(metadata.num_row_groups):
+        chunk = metadata.row_group(group).column(column)
+        if chunk.num_values == 0:
+            continue
+        stats = chunk.statistics
+        if (chunk.physical_type != "INT64" or stats is None or not stats.has_min_max
+                or not stats.has_null_count or stats.null_count != 0):
+            return _UNKNOWN
+        low = stats.min_raw * scale if low is None else min(low, stats.min_raw * scale)
+        high = stats.max_raw * scale if high is None else max(high, stats.max_raw * scale)
+    if low is None:
+        return None if metadata.num_rows == 0 else _UNKNOWN
+    first = day_ns(day)
+    if low < first or high >= first + NS_PER_DAY:
+        return _UNKNOWN
+    return int(high)
