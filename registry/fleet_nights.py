@@ -34,7 +34,8 @@ import pandas as pd
 from mlflow.entities import RunStatus
 from mlflow.exceptions import MlflowException
 
-from registry.read.history import _asset_runs
+from registry.read.history import _asset_runs, latest_per_window
+from registry.store.retry import call_with_retry
 from registry.store import naming
 from registry.store.backend import Backend, is_already_exists, is_not_found
 from registry.store.boundary import raises_registry_errors
@@ -74,15 +75,10 @@ def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
     ends = wanted | {(pd.Timestamp(d) + pd.Timedelta(days=1)).strftime("%Y-%m-%d")
                      for d in wanted}
     for day in sorted(ends):
-        runs = _asset_runs(backend, experiment_ids, [
-            f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'",
-            f"tags.`{naming.TAG_WINDOW_END}` LIKE '{day}%'"])
-        for run in runs:
-            tags = run.data.tags
+        for tags, ratio in _night_runs(backend, experiment_ids, day):
             night = night_of_window(tags[naming.TAG_WINDOW_END])
             if night not in wanted:
                 continue
-            ratio = run.data.metrics.get("max_ratio")
             ratio = None if ratio is None or not math.isfinite(ratio) else float(ratio)
             key = (tags[naming.TAG_ASSET_ID], night)
             before = worst.get(key)
@@ -91,6 +87,29 @@ def night_ratios(backend: Backend, nights: Sequence[str]) -> list[NightRatio]:
                 worst[key] = NightRatio(key[0], tags.get(naming.TAG_VEHICLE_CLASS, ""), night,
                                         ratio)
     return [worst[key] for key in sorted(worst)]
+
+
+def _night_runs(backend: Backend, experiment_ids: list[str], day: str
+                ) -> list[tuple[Mapping[str, str], float | None]]:
+    """The tags and ``max_ratio`` of the complete candidates whose window ends on ``day``,
+    the last recorded per asset and window (:func:`registry.read.history.latest_per_window`):
+    on an SQLAlchemy store only those tags and that metric are read
+    (:meth:`registry.store.sql_writes.SqlWriter.tagged_runs`), else MLflow's run search."""
+    writer = backend.sql_writer()
+    if writer is None:
+        runs = _asset_runs(backend, experiment_ids, [
+            f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'",
+            f"tags.`{naming.TAG_WINDOW_END}` LIKE '{day}%'"])
+        return [(run.data.tags, run.data.metrics.get("max_ratio")) for run in runs]
+    runs = call_with_retry(
+        writer.tagged_runs, experiment_ids,
+        {naming.TAG_COMPLETE: "true", naming.TAG_ROLE: naming.CANDIDATE},
+        {naming.TAG_WINDOW_END: f"{day}%"},
+        (naming.TAG_ASSET_ID, naming.TAG_VEHICLE_CLASS, naming.TAG_WINDOW_START,
+         naming.TAG_WINDOW_END, naming.TAG_REANALYSIS), "max_ratio",
+        policy=backend.retry, what="read the night's candidates")
+    return [(run.tags, run.metric) for run in latest_per_window(
+        runs, lambda run: run.tags, lambda run: run.start_time)]
 
 
 @raises_registry_errors

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import pathlib
 import tempfile
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -46,18 +46,28 @@ def _asset_runs(backend: Backend, experiment_ids: list[str], filters: Iterable[s
         runs = list(backend.client.search_runs(
             experiment_ids, clause, max_results=2 * last,
             order_by=[f"tags.`{naming.TAG_WINDOW_END}` DESC", "attributes.start_time DESC"]))
+    ordered = latest_per_window(runs)
+    return ordered if last is None else ordered[-last:]
+
+
+def latest_per_window(runs: Iterable, tags_of: Callable[[Any], Mapping[str, str]] = None,
+                      start_of: Callable[[Any], int] = None) -> list:
+    """The last recorded of ``runs`` per (asset, window), reanalyses left out, by window end
+    then asset (``tags_of``, ``start_of``: a run's tags and start time, by default an MLflow
+    run's)."""
+    tags_of = tags_of or (lambda run: run.data.tags)
+    start_of = start_of or (lambda run: run.info.start_time)
     latest: dict[tuple, Any] = {}
     for run in runs:
-        tags = run.data.tags
+        tags = tags_of(run)
         if tags.get(naming.TAG_REANALYSIS) == "true":
             continue  # ad-hoc reanalyses are not part of the nightly record
         key = (tags.get(naming.TAG_ASSET_ID), tags.get(naming.TAG_WINDOW_START),
                tags.get(naming.TAG_WINDOW_END))
-        if key not in latest or run.info.start_time > latest[key].info.start_time:
+        if key not in latest or start_of(run) > start_of(latest[key]):
             latest[key] = run
-    ordered = sorted(latest.values(), key=lambda r: (r.data.tags.get(naming.TAG_WINDOW_END, ""),
-                                                     r.data.tags.get(naming.TAG_ASSET_ID, "")))
-    return ordered if last is None else ordered[-last:]
+    return sorted(latest.values(), key=lambda r: (tags_of(r).get(naming.TAG_WINDOW_END, ""),
+                                                  tags_of(r).get(naming.TAG_ASSET_ID, "")))
 
 
 def zeta_history(backend: Backend, asset_id: str, last: int | None = None) -> pd.DataFrame:

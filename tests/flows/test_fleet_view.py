@@ -228,6 +228,13 @@ def test_nightly_publishes_the_heat_map_once_per_night(workspace, monkeypatch):
     full = collect_view(registry, night)
     assert [(r.asset_id, r.ratios) for r in full.rows] == \
         [(r.asset_id, r.ratios) for r in view.rows]
+    # the ratios read from the tags' and metrics' rows (SQLite) are MLflow's run search's
+    assert registry.backend.sql_writer() is not None
+    ratios = registry.night_ratios(view.nights)
+    assert len(ratios) == len(ASSETS) * len(processed)
+    registry.backend.sql_writes = False
+    assert registry.night_ratios(view.nights) == ratios
+    registry.backend.sql_writes = True
 
     # the same night again: the same fleet run, its artifacts replaced, never a second run
     again = nightly(config_path=str(workspace.config), as_of=day(DAYS).isoformat(),
