@@ -134,7 +134,9 @@ def _read_file(path: pathlib.Path, day: datetime.date, asset_id: str, channels: 
                                  f"channel column {name!r} has type {kind}, expected a number",
                                  file=file)
     try:
-        table = handle.read(columns=["timestamp", *channels])
+        # one thread: the columns of a day decode in less time than threads take to share
+        # them (2.6 against 3.3 ms of CPU for a 1-Hz day, and no less wall time)
+        table = handle.read(columns=["timestamp", *channels], use_threads=False)
     except (pa.ArrowException, OSError) as error:
         raise _read_error(asset_id, file, error) from None
     ts_col = table.column("timestamp")

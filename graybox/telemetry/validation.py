@@ -217,6 +217,9 @@ def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:
     if policy.sample_interval is not None:
         return max(1, int(round(policy.sample_interval * NS_PER_SECOND)))
     steps = np.diff(ts)
+    if len(steps) and steps.min() == steps.max():
+        # every step alike (a logger's regular rows): the median without sorting, the same
+        return max(1, int(round(float(steps[0]))))
     typical = float(np.median(steps))
     if typical <= 0:
         return 1
