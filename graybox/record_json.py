@@ -198,12 +198,25 @@ def _decode_tuple(args: tuple, value: Any, where: str, finite: bool) -> tuple:
     if not args:
         return tuple(value)
     if len(args) == 2 and args[1] is Ellipsis:
+        if args[0] is float and _all_numbers(value, finite):
+            # a run of numbers (coefficients, weights) checked at once: what the item by item
+            # path below returns for them, which names the first bad item otherwise
+            return tuple(map(float, value))
         return tuple(_decode(args[0], item, f"{where}[{i}]", finite)
                      for i, item in enumerate(value))
     if len(value) != len(args):
         raise ArtifactError(f"{where} must have {len(args)} items, got {len(value)}")
     return tuple(_decode(arg, item, f"{where}[{i}]", finite)
                  for i, (arg, item) in enumerate(zip(args, value)))
+
+
+def _all_numbers(values, finite: bool) -> bool:
+    """Whether every item is a JSON number (an int or a float, not a bool), finite when
+    ``finite``: what :func:`_decode_scalar` accepts as a float."""
+    kinds = set(map(type, values))
+    if not kinds <= {int, float}:
+        return False
+    return not finite or float not in kinds or all(map(math.isfinite, values))
 
 
 def _decode_mapping(hint: Any, origin: Any, args: tuple, value: Any, where: str,

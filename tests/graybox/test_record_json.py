@@ -74,6 +74,14 @@ def test_defaults_fill_absent_fields_and_integers_become_floats():
     assert tree.leaves[0].weight == 2.0 and isinstance(tree.leaves[0].weight, float)
 
 
+def test_a_run_of_numbers_reads_as_floats():
+    data = record_json.to_dict(make_tree())
+    data["grid"] = [[1, 2.5, -3], []]
+    grid = record_json.from_dict(Tree, data).grid
+    assert grid == ((1.0, 2.5, -3.0), ())
+    assert all(type(v) is float for v in grid[0])
+
+
 def test_migrate_hook_applies_wherever_the_record_is_nested():
     data = record_json.to_dict(Forest((make_tree(),)))
     data["trees"][0]["old_span"] = data["trees"][0].pop("span")
@@ -95,6 +103,11 @@ def test_migrate_hook_applies_wherever_the_record_is_nested():
     (lambda d: d.update(span=[1]), "Tree.span must be a number or a string"),
     (lambda d: d.update(best=[1]), "Leaf: expected an object, got list"),
     (lambda d: d["leaves"].append(None), r"Tree.leaves\[2\] must not be null"),
+    (lambda d: d.update(grid=[[0.1, True]]), r"Tree.grid\[0\]\[1\] must be a number"),
+    (lambda d: d.update(grid=[[0.1, 2, "3"]]), r"Tree.grid\[0\]\[2\] must be a number"),
+    (lambda d: d.update(grid=[[0.1, float("nan")]]),
+     r"Tree.grid\[0\]\[1\] must be a finite number, got nan"),
+    (lambda d: d.update(grid=[[None]]), r"Tree.grid\[0\]\[0\] must not be null"),
 ])
 def test_malformed_input_names_the_record_and_field(mutate, message):
     data = record_json.to_dict(make_tree())
