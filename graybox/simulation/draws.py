@@ -10,7 +10,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from graybox.simulation.clock import MOMENT_STEP, SECONDS_PER_DAY, Clock
 from graybox.simulation.faults import fault_level
@@ -76,6 +75,7 @@ def _fuel_rate(rngs, clock: Clock) -> np.ndarray:
     # one knot past the last moment step, for instants inside that step; the normals are
     # drawn in sequence, so the other knots do not depend on it
     xi = rngs[_WANDER].standard_normal(clock.n_moment + 2)
+    from scipy.signal import lfilter   # with scipy.stats 0.5 s: not at every command's start
     knots = lfilter([WANDER_STD * math.sqrt(1 - rho ** 2)], [1.0, -rho], xi[1:],
                     zi=[rho * WANDER_STD * xi[0]])[0]  # starts in the stationary law
     if clock.per_step == 1:
@@ -97,6 +97,7 @@ def _moment(rngs, vehicle: VehicleSpec, clock: Clock):
     flutter = np.flatnonzero(kappa[1:]) + 1
     innovation[flutter] += kappa[flutter] * _hermite3(shock[flutter - 1])
     a1, a2 = moment_ar_coefficients()
+    from scipy.signal import lfilter   # with scipy.stats 0.5 s: not at every command's start
     moment = lfilter([_moment_innovation_scale(vehicle.moment_std)], [1.0, -a1, -a2], innovation)
     return moment[_BURN_IN:], innovation[_BURN_IN:], shock[_BURN_IN:]
 

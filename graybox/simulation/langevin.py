@@ -4,7 +4,6 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.signal import lfilter
 
 from graybox.rk4 import rk4_step
 from graybox.simulation.checks import finite, integer
@@ -64,5 +63,6 @@ def simulate_langevin(n: int, dt: float, gamma: float, force: np.ndarray | Calla
 
     amplification = step(1.0, 0.0, 0.0, 0.0)
     offsets = step(0.0, values[0:-1:2], values[1::2], values[2::2])
+    from scipy.signal import lfilter   # with scipy.stats 0.5 s: not at every command's start
     fine = lfilter([1.0], [1.0, -amplification], offsets, zi=[amplification * omega0])[0]
     return np.concatenate([[float(omega0)], fine[substeps - 1::substeps]])
