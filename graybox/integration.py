@@ -118,12 +118,13 @@ def advance(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float,
         return _ros2_per_sample(f, x, u0, u1, dt, substeps)
     h = dt / substeps
     state = x
+    change = u1 - u0        # the inputs' change over the sample, taken once
     for step in range(substeps):
         begin = step / substeps
-        ua = u0 + (u1 - u0) * begin
-        ub = u0 + (u1 - u0) * (begin + 1.0 / substeps)
+        ua = u0 + change * begin
+        ub = u0 + change * (begin + 1.0 / substeps)
         if integration.method == "rk4":
-            um = u0 + (u1 - u0) * (begin + 0.5 / substeps)
+            um = u0 + change * (begin + 0.5 / substeps)
             state = rk4_step(f, state, ua, um, ub, h)
         else:
             state = _ros2_step(f, state, ua, ub, h)
