@@ -262,6 +262,14 @@ def drifting_states(model: WhiteBoxModel, windows: Sequence[WindowStates]
     return out
 
 
+def drifting_state_names(model: WhiteBoxModel, windows: Sequence[WindowStates]
+                         ) -> dict[str, tuple[str, ...]]:
+    """:func:`drifting_states` by state name, as a baseline records them
+    (:attr:`LevelTier.drifting`)."""
+    return {name: tuple(model.states[j] for j in found)
+            for name, found in drifting_states(model, windows).items()}
+
+
 def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
                     parts: Sequence[tuple[np.ndarray, np.ndarray] | None], k: int,
                     stride: int = 1, drift: Mapping[str, Sequence[str]] | None = None
@@ -270,8 +278,7 @@ def pool_level_data(model: WhiteBoxModel, windows: Sequence[WindowStates],
     channel, the hidden states whose change is a feature (default :func:`drifting_states`
     of these windows; a candidate passes its baseline's)."""
     if drift is None:
-        drift = {name: tuple(model.states[j] for j in found)
-                 for name, found in drifting_states(model, windows).items()}
+        drift = drifting_state_names(model, windows)
     drift = {name: [model.states.index(state) for state in drift.get(name, ())]
              for name in model.outputs}
     errors = {name: [] for name in model.outputs}

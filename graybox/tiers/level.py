@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from graybox.exceptions import InsufficientDataError, StructureMismatchError
-from graybox.level_tier import (LevelTier, drifting_states, extrapolation, fit_level,
+from graybox.level_tier import (LevelTier, drifting_state_names, extrapolation, fit_level,
                                 horizon_samples, operating_features, pool_level_data,
                                 segment_level_data, start_stride)
 from graybox.resolution import reading_resolution
@@ -69,8 +69,7 @@ class LevelTierKind(Tier):
         # the hidden states whose drift is a feature: a baseline finds them, a candidate takes
         # its baseline's (none for a record stored before them)
         if channels[0].reference is None:
-            drift = {name: tuple(model.states[j] for j in found)
-                     for name, found in drifting_states(model, asset.windows).items()}
+            drift = drifting_state_names(model, asset.windows)
         else:
             drift = {channel.name: reference.drifting or ()
                      for channel, reference in zip(channels, references)}

@@ -59,8 +59,7 @@ class NoiseTierKind(Tier):
         then sits below what a healthy night's moments cross by chance alone."""
         if alpha is None:
             return 0.0
-        healthy = baseline.noise
-        quantile = sampling_zeta_quantile(healthy, candidate.noise.n_obs, alpha)
+        quantile = sampling_zeta_quantile(baseline.noise, candidate.noise.n_obs, alpha)
         return quantile / self.discount(candidate, baseline, conditions) ** 2
 
     def deltas(self, candidate: ChannelSignature, baseline: ChannelSignature) -> np.ndarray:
