@@ -26,7 +26,8 @@ import pandas as pd
 from benchmarks.skab.classic import CLASSIC, classic_alarms
 from benchmarks.skab.data import dataset_dir
 from benchmarks.skab.detectors import DETECTORS, WindowDetector
-from benchmarks.skab.protocol import (baseline_plan, experiments, healthy_file_rows,
+from benchmarks.skab.protocol import (RECENT_WINDOWS, baseline_plan, experiments,
+                                      healthy_file_rows,
                                       point_labels, window_labels)
 from benchmarks.skab.run import MIN_DURATION, WINDOW, Conditioned, prepare, run_gray_box
 from benchmarks.skab.scoring import (HEADER, PointCounts, point_counts, score_experiment,
@@ -35,6 +36,10 @@ from benchmarks.skab.scoring import (HEADER, PointCounts, point_counts, score_ex
 REPO = pathlib.Path(__file__).resolve().parents[2]
 #: every detector run beside the gray box on the same windows
 COMPARED = (*DETECTORS, *CLASSIC)
+
+
+def _recent(text: str) -> int | None:
+    return None if text == "all" else int(text)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -48,6 +53,14 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="comma-separated experiments such as other/5,valve1/4 (default: "
                              "all)")
     parser.add_argument("--window", default=WINDOW, help=f"[nightly] window (default {WINDOW})")
+    parser.add_argument("--recent-windows", type=_recent, default=RECENT_WINDOWS,
+                        help="each baseline takes its session's latest N whole healthy "
+                             "windows before the experiment; \"all\": every one of them "
+                             f"(default {RECENT_WINDOWS})")
+    parser.add_argument("--later", action="store_true",
+                        help="an experiment with too few earlier healthy windows is baselined "
+                             "on its session's earliest healthy windows after it (not causal; "
+                             "listed in the report)")
     parser.add_argument("--candidate-nights", type=int, default=1,
                         help="[nightly] candidate_nights (default 1)")
     parser.add_argument("--workdir", type=pathlib.Path,
@@ -66,11 +79,14 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
     chosen = [e for e in every if not args.experiments
               or e.name in args.experiments.split(",")]
     healthy = healthy_file_rows(args.data)
-    plans, unplanned = {}, {}
+    plans, unplanned, later = {}, {}, {}
     for experiment in chosen:
-        plan = baseline_plan(experiment, every, healthy, window, cover)
+        plan = baseline_plan(experiment, every, healthy, window, cover, args.recent_windows,
+                             args.later)
         if plan.usable:
             plans[experiment.asset] = (experiment, plan)
+            if plan.later:
+                later[experiment.name] = ", ".join(plan.sources)
         else:
             unplanned[experiment.name] = plan.reason
     data = {asset: Conditioned.of(*planned) for asset, planned in plans.items()}
@@ -111,18 +127,26 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
             print(f"{experiment.name}: not analysed: {failed[0]}", file=sys.stderr)
     summaries = [summarise(name, scores[name], points[name]) for name in scores]
     return {"window": args.window, "candidate_nights": args.candidate_nights,
+            "recent_windows": args.recent_windows,
             "seconds": time.perf_counter() - began, "summaries": [asdict(s) for s in summaries],
             "summary_rows": [s.row() for s in summaries],
             "experiments": {name: [asdict(s) for s in scores[name]] for name in scores},
-            "not_baselined": unplanned, "windows": windows}
+            "not_baselined": unplanned, "baselined_on_later_windows": later,
+            "windows": windows}
 
 
 def report(results: dict) -> str:
     """The Markdown tables of a run."""
     lines = [f"SKAB, `[nightly] window = \"{results['window']}\"`, candidate_nights = "
-             f"{results['candidate_nights']}; {results['seconds']:.0f} s.", "",
+             f"{results['candidate_nights']}, baselines on the latest "
+             f"{results.get('recent_windows') or 'all'} healthy windows; "
+             f"{results['seconds']:.0f} s.", "",
              "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     lines += ["| " + " | ".join(row) + " |" for row in results["summary_rows"]]
+    if results.get("baselined_on_later_windows"):
+        lines += ["", "Baselined on later healthy windows (not causal):", ""]
+        lines += [f"- {name}: {sources}"
+                  for name, sources in results["baselined_on_later_windows"].items()]
     if results["not_baselined"]:
         lines += ["", "Not baselined (not scored):", ""]
         lines += [f"- {name}: {why}" for name, why in results["not_baselined"].items()]

@@ -1,21 +1,31 @@
 """Which healthy data each SKAB experiment is judged against, and how its windows are labelled.
 
-SKAB's 34 test experiments come in four sessions of the one testbed, each at its own operating
-point: ``other/5-14`` on 2020-02-08 (right after the anomaly-free file), ``other/1-4`` on
-2020-03-01, ``valve1/0-15`` and ``valve2/0-3`` on 2020-03-09. Every experiment is one asset
-of the benchmark's fleet (``other-5``, ``valve1-3``; the experiments of a session overlap in
-time, so one asset per experiment keeps each one's rows its own), and its baseline is fitted
-on healthy rows of its own session that are not part of it:
+SKAB's 34 test experiments come in three sessions of the one testbed (one day's log each),
+each at its own operating point: ``other/5-14`` on 2020-02-08 (right after the anomaly-free
+file; flow 126 l/min), ``other/1-4`` on 2020-03-01 (77 l/min), and ``valve1/0-15`` then
+``valve2/0-3`` on 2020-03-09 (32 l/min). The two valve folders are one session: one log from
+07:14 to 14:14 UTC, the files back to back but for a 22-minute pause after ``valve1/15``, the
+same operating point (flow 32 l/min, vibration 0.027 and 0.040 g, motor 68-70 C); only the
+valve the fault closes differs (inlet, outlet). Every experiment is one asset of the
+benchmark's fleet (``other-5``, ``valve1-3``; the experiments of a session overlap in time, so
+one asset per experiment keeps each one's rows its own), and its baseline is fitted on healthy
+rows of its own session that are not part of it:
 
 the session's healthy rows *before* the experiment, as an engineer who has watched the testbed
 so far would have them: the *healthy prefixes* (the rows before the first labelled anomaly) of
 the session's earlier experiments, and for ``other/5-14`` the anomaly-free file first (its
 last 572 rows, which are the first rows of ``other/5``, cut). Only whole windows are taken
-(rows spanning at least the class grid's ``min_duration``). No row of the judged experiment is
-ever in its baseline; rows of *earlier* test experiments are, where they precede those
-experiments' faults (without them only ``other/5-14`` could be baselined). An experiment whose
-earlier healthy rows do not fill :data:`MIN_BASELINE_WINDOWS` windows cannot be baselined and
-is reported as such (never scored).
+(rows spanning at least the class grid's ``min_duration``). With ``recent`` (an integer), only
+the most recent ``recent`` of those whole windows are kept: the engineer re-baselines on the
+last stretch of healthy running, as after a maintenance or a test that changed the plant
+(:func:`baseline_plan`). No row of the judged experiment is ever in its baseline; rows of
+*earlier* test experiments are, where they precede those experiments' faults (without them
+only ``other/5-14`` could be baselined). An experiment whose earlier healthy rows do not fill
+:data:`MIN_BASELINE_WINDOWS` windows cannot be baselined and is reported as such (never
+scored); with ``later`` (an option, off by default) it is baselined on the *earliest* whole
+healthy windows of its session after it instead (the prefixes of later experiments, after
+its last window): none of its own rows, the same operating point, but not what an engineer
+watching the testbed live could have had, so the report lists such experiments.
 
 Windows are the product's analysis windows (``[nightly] window``, aligned to UTC). A window
 is *fault* when it holds a labelled anomaly row, *overlap* when it holds none of its own but
@@ -37,10 +47,14 @@ import pandas as pd
 from benchmarks.skab.data import HEALTHY_FILE, HEALTHY_OVERLAP_ROWS, read_skab_csv
 
 #: the sessions: folder, the first-row date that picks its experiments, the session's name
+#: (valve1 and valve2 are one log of 2020-03-09 at one operating point: module docstring)
 SESSIONS = (("other", "2020-02-08", "other-feb08"), ("other", "2020-03-01", "other-mar01"),
-            ("valve1", None, "valve1"), ("valve2", None, "valve2"))
+            ("valve1", None, "valve-mar09"), ("valve2", None, "valve-mar09"))
 #: whole windows of healthy rows a baseline needs (flows.baseline.MIN_WINDOWS)
 MIN_BASELINE_WINDOWS = 3
+#: whole healthy windows a baseline takes, the latest before the experiment (None: all); see
+#: :func:`baseline_plan`
+RECENT_WINDOWS: int | None = 12
 #: the rows' column marking rows another file labels anomalous at the same time
 FOREIGN = "foreign_anomaly"
 
@@ -135,6 +149,7 @@ class BaselinePlan:
     start: pd.Timestamp | None
     end: pd.Timestamp | None
     reason: str = ""
+    later: bool = False                # on windows after the experiment (baseline_plan)
 
     @property
     def usable(self) -> bool:
@@ -142,31 +157,81 @@ class BaselinePlan:
 
 
 def baseline_plan(experiment: Experiment, every: list[Experiment], healthy: pd.DataFrame,
-                  window: pd.Timedelta, min_cover: pd.Timedelta) -> BaselinePlan:
+                  window: pd.Timedelta, min_cover: pd.Timedelta,
+                  recent: int | None = None, later: bool = False) -> BaselinePlan:
     """The healthy data of ``experiment``'s session that is not in it (module docstring):
     only the rows of windows they cover for at least ``min_cover`` (the class grid's
-    ``min_duration``), as an engineer picks the whole healthy windows to fit on."""
+    ``min_duration``), as an engineer picks the whole healthy windows to fit on; with
+    ``recent``, only the latest ``recent`` of those windows (all of them when None).
+
+    With ``later``, an experiment whose earlier healthy rows are too few is baselined on the
+    *earliest* whole healthy windows of its session after it instead (up to ``recent``): the
+    prefixes of later experiments, none of its own rows, but not what a user watching the
+    testbed live could have had; the plan says so (``later``)."""
     candidates = [] if experiment.session != "other-feb08" else [("anomaly-free", healthy)]
     for e in every:
         if e.session == experiment.session and e.start < experiment.start:
             prefix = e.prefix()
             if len(prefix) and prefix["timestamp"].iloc[-1] < experiment.start:
                 candidates.append((f"{e.name} prefix", prefix))
-    kept = [(source, whole) for source, rows in candidates
+    plan = _plan(_recent(_whole(candidates, window, min_cover), window, recent, latest=True),
+                 window, end=experiment.start.floor(window))
+    if plan.usable or not later:
+        return plan
+    after = experiment.end.ceil(window)
+    candidates = [(f"{e.name} prefix", prefix[prefix["timestamp"] >= after])
+                  for e in every if e.session == experiment.session and e is not experiment
+                  and len(prefix := e.prefix()) and prefix["timestamp"].iloc[-1] >= after]
+    found = _plan(_recent(_whole(candidates, window, min_cover), window, recent, latest=False),
+                  window, later=True)
+    return found if found.usable else plan
+
+
+def _whole(candidates, window, min_cover) -> list[tuple[str, pd.DataFrame]]:
+    return [(source, whole) for source, rows in candidates
             if len(whole := _whole_windows(rows, window, min_cover))]
+
+
+def _recent(kept, window, recent, latest: bool) -> list[tuple[str, pd.DataFrame]]:
+    return kept if recent is None else _latest_windows(kept, window, recent, latest)
+
+
+def _plan(kept: list[tuple[str, pd.DataFrame]], window: pd.Timedelta,
+          end: pd.Timestamp | None = None, later: bool = False) -> BaselinePlan:
+    """The plan of the whole windows ``kept`` (source, rows), ending at ``end`` at the
+    latest."""
     sources, parts = tuple(s for s, _ in kept), tuple(p for _, p in kept)
+    where = "later" if later else "earlier"
     if not parts:
-        return BaselinePlan((), (), None, None, "no earlier healthy rows in its session")
+        return BaselinePlan((), (), None, None, f"no {where} healthy rows in its session",
+                            later)
     start = min(p["timestamp"].iloc[0] for p in parts).floor(window)
-    end = min(max(p["timestamp"].iloc[-1] for p in parts).floor(window) + window,
-              experiment.start.floor(window))
+    stop = max(p["timestamp"].iloc[-1] for p in parts).floor(window) + window
+    stop = stop if end is None else min(stop, end)
     covered = len({t for p in parts for t in p["timestamp"].dt.floor(window)
-                   if start <= t < end})
+                   if start <= t < stop})
     if covered < MIN_BASELINE_WINDOWS:
         return BaselinePlan(sources, parts, None, None,
-                            f"its session's earlier healthy rows cover {covered} whole "
-                            f"window(s) of {window}; a baseline needs {MIN_BASELINE_WINDOWS}")
-    return BaselinePlan(sources, parts, start, end)
+                            f"its session's {where} healthy rows cover {covered} whole "
+                            f"window(s) of {window}; a baseline needs {MIN_BASELINE_WINDOWS}",
+                            later)
+    return BaselinePlan(sources, parts, start, stop, later=later)
+
+
+def _latest_windows(parts: list[tuple[str, pd.DataFrame]], window: pd.Timedelta, count: int,
+                    latest: bool = True) -> list[tuple[str, pd.DataFrame]]:
+    """The rows of the latest (``latest``, else the earliest) ``count`` windows ``parts``
+    (source, rows) fall in; a part left without rows is dropped."""
+    if count < 1:
+        raise ValueError(f"recent must be at least 1 window, not {count}")
+    starts = sorted({t for _, rows in parts for t in rows["timestamp"].dt.floor(window)})
+    kept = set(starts[-count:] if latest else starts[:count])
+    out = []
+    for source, rows in parts:
+        inside = rows["timestamp"].dt.floor(window).isin(list(kept)).to_numpy()
+        if inside.any():
+            out.append((source, rows[inside]))
+    return out
 
 
 def _whole_windows(rows: pd.DataFrame, window: pd.Timedelta, min_cover: pd.Timedelta

@@ -74,6 +74,42 @@ def test_a_session_baseline_takes_only_earlier_whole_healthy_windows():
     assert not baseline_plan(first, every, None, WINDOW, pd.Timedelta("4min")).usable
 
 
+def test_a_recent_baseline_takes_the_latest_whole_healthy_windows_only():
+    every = [_experiment(f"valve1/{k}", _rows(f"2020-03-09 07:{20 * k:02d}:00", 1200, onset=900))
+             for k in range(3)] + [_experiment("valve1/3", _rows("2020-03-09 08:00:00", 1200,
+                                                                 onset=900))]
+    later = every[-1]
+    plan = baseline_plan(later, every, None, WINDOW, pd.Timedelta("4min"), recent=4)
+    # the latest four of the nine earlier whole windows: valve1/2's three (07:40 to 07:55)
+    # and valve1/1's last (07:30); valve1/0 is left out
+    assert plan.sources == ("valve1/1 prefix", "valve1/2 prefix")
+    assert plan.start == pd.Timestamp("2020-03-09 07:30", tz="UTC")
+    assert plan.end == pd.Timestamp("2020-03-09 07:55", tz="UTC")
+    starts = {t for part in plan.parts for t in part["timestamp"].dt.floor(WINDOW)}
+    assert sorted(starts) == [pd.Timestamp(f"2020-03-09 07:{m}", tz="UTC")
+                              for m in ("30", "40", "45", "50")]
+    # fewer windows than asked: every one is kept
+    assert baseline_plan(later, every, None, WINDOW, pd.Timedelta("4min"),
+                         recent=50).start == pd.Timestamp("2020-03-09 07:00", tz="UTC")
+
+
+def test_a_first_experiment_may_take_the_earliest_later_windows_when_asked():
+    every = [_experiment(f"valve1/{k}", _rows(f"2020-03-09 07:{20 * k:02d}:00", 1200, onset=900))
+             for k in range(3)]
+    first = every[0]
+    assert not baseline_plan(first, every, None, WINDOW, pd.Timedelta("4min")).usable
+    plan = baseline_plan(first, every, None, WINDOW, pd.Timedelta("4min"), recent=4, later=True)
+    # valve1/1's three prefix windows (07:20 to 07:35) and valve1/2's first (07:40)
+    assert plan.usable and plan.later
+    assert plan.sources == ("valve1/1 prefix", "valve1/2 prefix")
+    assert (plan.start, plan.end) == (pd.Timestamp("2020-03-09 07:20", tz="UTC"),
+                                      pd.Timestamp("2020-03-09 07:45", tz="UTC"))
+    assert all((part["timestamp"] >= first.end).all() for part in plan.parts)
+    # an experiment with enough earlier windows keeps them
+    assert not baseline_plan(every[2], every, None, WINDOW, pd.Timedelta("4min"), recent=4,
+                             later=True).later
+
+
 def plan_rows_after(plan, moment) -> bool:
     return any((part["timestamp"] >= moment).any() for part in plan.parts)
 
