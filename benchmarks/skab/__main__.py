@@ -138,8 +138,9 @@ def run(args: argparse.Namespace, workdir: pathlib.Path) -> dict:
 def report(results: dict) -> str:
     """The Markdown tables of a run."""
     lines = [f"SKAB, `[nightly] window = \"{results['window']}\"`, candidate_nights = "
-             f"{results['candidate_nights']}, baselines on the latest "
-             f"{results.get('recent_windows') or 'all'} healthy windows; "
+             f"{results['candidate_nights']}, baselines on "
+             + (f"the latest {results['recent_windows']}" if results.get("recent_windows")
+                else "all the") + " earlier whole healthy windows; "
              f"{results['seconds']:.0f} s.", "",
              "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     lines += ["| " + " | ".join(row) + " |" for row in results["summary_rows"]]
