@@ -45,6 +45,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.skab.data import HEALTHY_FILE, HEALTHY_OVERLAP_ROWS, read_skab_csv
+from graybox.telemetry.policy import format_duration
 
 #: the sessions: folder, the first-row date that picks its experiments, the session's name
 #: (valve1 and valve2 are one log of 2020-03-09 at one operating point: module docstring)
@@ -53,7 +54,8 @@ SESSIONS = (("other", "2020-02-08", "other-feb08"), ("other", "2020-03-01", "oth
 #: whole windows of healthy rows a baseline needs (flows.baseline.MIN_WINDOWS)
 MIN_BASELINE_WINDOWS = 3
 #: whole healthy windows a baseline takes, the latest before the experiment (None: all); see
-#: :func:`baseline_plan`
+#: :func:`baseline_plan`. One hour of 5-minute windows, chosen before any run with it;
+#: docs/benchmarks.md ("SKAB") shows 6, 9 and all beside it
 RECENT_WINDOWS: int | None = 12
 #: the rows' column marking rows another file labels anomalous at the same time
 FOREIGN = "foreign_anomaly"
@@ -213,7 +215,8 @@ def _plan(kept: list[tuple[str, pd.DataFrame]], window: pd.Timedelta,
     if covered < MIN_BASELINE_WINDOWS:
         return BaselinePlan(sources, parts, None, None,
                             f"its session's {where} healthy rows cover {covered} whole "
-                            f"window(s) of {window}; a baseline needs {MIN_BASELINE_WINDOWS}",
+                            f"window(s) of {format_duration(window.total_seconds())}; a "
+                            f"baseline needs {MIN_BASELINE_WINDOWS}",
                             later)
     return BaselinePlan(sources, parts, start, stop, later=later)
 
