@@ -56,3 +56,19 @@ def test_inverse_columns_of_a_known_matrix():
     np.testing.assert_allclose(inverse[..., 0], [[0.5, 0.0], [-0.125, 0.25]], rtol=1e-15)
     np.testing.assert_allclose(apply_columns(inverse, np.array([[2.0, 9.0]])), [[1.0, 2.0]],
                                rtol=1e-15)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_inverse_columns_are_the_lu_solves_of_the_unit_vectors_to_the_bit(n):
+    # the entry-by-entry inverse does lu_factor's and solve's operations in their order
+    rng = np.random.default_rng(20 + n)
+    a = rng.normal(size=(3000, n, n)) * rng.choice([1e-3, 1.0, 1e3], size=(3000, 1, 1))
+    if n > 1:
+        a[::5, 0, 0] = 0.0                                   # pivots
+        a[1::5, :, 0] = np.abs(a[1::5, :1, 0])               # ties: the first row wins
+        a[2::97, 1, 1] = np.nan
+    factors = lu_factor(a)
+    expected = np.stack([factors.solve(np.tile(np.eye(n)[j], (len(a), 1))) for j in range(n)],
+                        axis=-1)                             # (N, i, j)
+    inverse = inverse_columns(a)
+    assert np.array_equal(np.moveaxis(inverse, -1, 0), expected, equal_nan=True)
