@@ -40,12 +40,18 @@ class FitSettings:
 
 @dataclass(frozen=True)
 class NetworkFit:
-    """Raw result of one series' fit."""
+    """Raw result of one series' fit.
+
+    ``prediction`` is the network's output on the fitted design's rows at ``(w, W)``,
+    ``tanh(tanh(X w^T) W)``, where the fit computed it that way (the output-layer fit), else
+    None.
+    """
 
     w: np.ndarray
     W: np.ndarray
     mse: float
     iterations: int
+    prediction: np.ndarray | None = None
 
 
 def initial_weights(hidden: int, dim: int, seed, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:

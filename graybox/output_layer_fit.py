@@ -49,7 +49,8 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
         W, prediction, iterations = _levenberg_marquardt(
             np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
-        out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations))
+        out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations,
+                              prediction))
     return out
 
 

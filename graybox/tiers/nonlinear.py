@@ -175,6 +175,7 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.records["nonlinear"] = NonlinearTier.from_arrays(
                     fit.w, fit.W, fit.mse, None, fit.iterations)
+                channel.network_prediction = fit.prediction
         if fresh:
             _fit_fresh(fresh, hidden, settings, chunk_size)
 
@@ -228,6 +229,7 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         for i, fit in zip(chosen, fits):
             members[i][2].records["nonlinear"] = NonlinearTier.from_arrays(
                 fit.w, fit.W, fit.mse, gains[i], fit.iterations)
+            members[i][2].network_prediction = fit.prediction
 
 
 def _finite(tier: NonlinearTier) -> bool:

@@ -59,3 +59,23 @@ def test_each_series_alone_or_together():
         alone = fit_output_layers([p], [s], 8, settings)[0]
         np.testing.assert_array_equal(alone.W, fit.W)
         assert alone.mse == fit.mse
+
+
+def test_the_prediction_kept_is_the_networks_on_each_segment_to_rounding():
+    # the noise tier reads the fit's prediction instead of running the network again: the
+    # same numbers but for the last rows of a segment, whose output-layer sum BLAS adds in
+    # another order (a difference at the sum's rounding, 1e-16)
+    from graybox.nonlinear_tier import NonlinearTier
+
+    rng = np.random.default_rng(7)
+    segments = [rng.normal(0, 0.25, n) for n in (2000, 3, 517, 1200)]   # one without rows
+    dim, tau, hidden = 3, 2, 32
+    parts = [lagged(s, dim, tau) for s in segments]
+    X, y = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    w, W = initial_weights(hidden, dim, 3, 4.0)
+    fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], hidden, FitSettings())
+    tier = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None, fit.iterations)
+    expected = np.concatenate(tier.predict(segments, tau))
+    assert fit.prediction.shape == (len(y),)
+    np.testing.assert_allclose(fit.prediction, expected, rtol=0.0, atol=1e-15)
+    assert np.mean(fit.prediction == expected) > 0.99
