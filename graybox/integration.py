@@ -47,7 +47,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from graybox.batched_lu import apply_columns, inverse_columns, lu_factor
+from graybox.batched_lu import (LARGEST, _inverse_entries, apply_columns, inverse_columns,
+                                 lu_factor)
 from graybox.exceptions import GrayBoxError
 from graybox.rk4 import rk4_step
 
@@ -167,23 +168,42 @@ def _ros2_per_sample(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float
     n = x.shape[-1]
     h = dt / substeps
     # the non-autonomous term: df/du along the inputs' (constant) rate over the sample
-    rate = (u1 - u0) / dt
+    change = u1 - u0        # the inputs' change over the sample, taken once
+    rate = change / dt
     state = x
     for step in range(substeps):
         begin = step / substeps
-        ua = u0 + (u1 - u0) * begin
-        ub = u0 + (u1 - u0) * (begin + 1.0 / substeps)
+        ua = u0 + change * begin
+        ub = u0 + change * (begin + 1.0 / substeps)
         slope = f(state, ua)
         if step % JACOBIAN_SUBSTEPS == 0:
-            jacobian_x = jacobian(f, state, ua, slope)
             epsilon = 1e-7 * max(1.0, float(np.max(np.abs(ua), initial=0.0)))
             f_t = (f(state, ua + epsilon * rate) - slope) / epsilon if ua.shape[-1] else 0.0
             shift = _GAMMA * h * f_t
-            inverse = inverse_columns(np.eye(n) - _GAMMA * h * jacobian_x)
+            inverse = _stage_inverse(f, state, ua, slope, _GAMMA * h)
         k1 = apply_columns(inverse, slope + shift)
         k2 = apply_columns(inverse, f(state + h * k1, ub) - 2.0 * k1 - shift)
         state = state + 1.5 * h * k1 + 0.5 * h * k2
     return state
+
+
+def _stage_inverse(f, x: np.ndarray, u: np.ndarray, fx: np.ndarray, gh: float) -> np.ndarray:
+    """``inverse_columns(I - gh J)`` with ``J = jacobian(f, x, u, fx)``, the matrix built
+    entry by entry (the same numbers as :func:`jacobian` and the subtraction, without the
+    batch of ``n x n`` matrices in between) where the inverse is taken that way too."""
+    n = x.shape[-1]
+    if n > LARGEST or x.ndim != 2:
+        return inverse_columns(np.eye(n) - gh * jacobian(f, x, u, fx))
+    identity = np.eye(n)
+    entries = np.empty((n, n, len(x)))
+    for j in range(n):
+        delta = 1e-7 * np.maximum(1.0, np.abs(x[..., j]))
+        shifted = x.copy()
+        shifted[..., j] += delta
+        difference = f(shifted, u) - fx
+        for i in range(n):
+            entries[i, j] = identity[i, j] - gh * (difference[..., i] / delta)
+    return _inverse_entries(entries)
 
 
 def error_estimate(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float,

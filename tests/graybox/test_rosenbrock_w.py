@@ -126,3 +126,22 @@ def test_where_the_shared_terms_fail_their_estimate_the_choice_stays_ros2(monkey
     x = np.column_stack([np.sin(u[:, 0]), np.cumsum(rng.normal(0, 0.1, 400))])
     change = np.sqrt(np.mean(np.diff(x, axis=0) ** 2, axis=0))
     assert choose_integration(_SteepLag(), x, u, 1.0, change).method == "rosenbrock"
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_the_shared_stage_matrix_is_the_inverse_of_the_jacobians_to_the_bit(n):
+    # built entry by entry, it is inverse_columns(I - gamma h J) of the forward-difference
+    # Jacobian: the same numbers (and from 4 states the very same call)
+    from graybox.batched_lu import inverse_columns
+    from graybox.integration import _stage_inverse, jacobian
+
+    rng = np.random.default_rng(n)
+    coupling = rng.normal(size=(n, n))
+
+    def f(x, u):
+        return np.tanh(x @ coupling) * 50.0 - x * u[..., :1] + u[..., 1:] * x ** 2
+
+    x, u = rng.normal(size=(500, n)) * 3.0, rng.uniform(0.5, 2.0, size=(500, 2))
+    fx = f(x, u)
+    expected = inverse_columns(np.eye(n) - 0.085 * jacobian(f, x, u, fx))
+    assert np.array_equal(_stage_inverse(f, x, u, fx, 0.085), expected)
