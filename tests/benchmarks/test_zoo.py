@@ -144,6 +144,8 @@ def test_the_cost_benchmark_measures_a_small_family_run():
     assert result["s_per_baseline_day"] > 0 and result["s_per_night"] > 0
     assert result["analysis_interval"] == 60.0 and result["states"] == 2
     assert "residual" in result["baseline_stages"] and "residual" in result["night_stages"]
+    assert result["cpu_per_baseline_day"] > 0 and result["cpu_per_night"] > 0
+    assert set(result["baseline_cpu_stages"]) == set(result["baseline_stages"])
 
 
 def test_envelope_places_each_healthy_night_against_the_baseline_range():
