@@ -47,11 +47,11 @@ class ChannelFit:
     records : dict of str to record
         Per tier name, the fitted record (None: the tier is absent); also read as attributes,
         ``channel.linear`` for ``channel.records["linear"]``.
-    network_prediction : ndarray or None
-        The nonlinear tier's one-step prediction (scaled units) on its design's rows, all
-        ``w_segments`` one after another, where its fit computed it
-        (:attr:`graybox.network_settings.NetworkFit.prediction`); the noise tier reads it
-        instead of running the network again.
+    network_noise : NoiseTier or None
+        The moments of the needed network's one-step errors, described by the nonlinear tier
+        from its fit's own prediction (:attr:`graybox.network_settings.NetworkFit.prediction`)
+        while that was at hand; the noise tier records them instead of running the network
+        over the data again. None where the fit kept no prediction (a trained network).
     """
 
     name: str
@@ -63,7 +63,7 @@ class ChannelFit:
     n_samples: int = 0
     selection: Selection | None = None
     records: dict[str, Any] = field(default_factory=dict)
-    network_prediction: np.ndarray | None = None
+    network_noise: Any = None
 
     def __getattr__(self, name: str) -> Any:
         records = self.__dict__.get("records", {})

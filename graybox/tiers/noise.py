@@ -37,15 +37,16 @@ class NoiseTierKind(Tier):
         for channel in asset.channels:
             structure, w = channel.structure, channel.w_segments
             span = structure.embedding_dim * structure.tau
+            if structure.nonlinear_needed and channel.network_noise is not None:
+                # described by the nonlinear tier from its fit's prediction (network_errors)
+                channel.records[self.name] = channel.network_noise
+                continue
             if structure.nonlinear_needed:
-                predictions = _fitted_predictions(channel, span)
-                if predictions is None:
-                    predictions = channel.nonlinear.predict(
-                        [s / structure.nn_scale for s in w], structure.tau)
+                predictions = channel.nonlinear.predict([s / structure.nn_scale for s in w],
+                                                        structure.tau)
                 noise = [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]
             else:
                 noise = [s[span:] for s in w]
-            channel.network_prediction = None          # read once
             channel.records[self.name] = describe_noise(noise)
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
@@ -71,20 +72,3 @@ class NoiseTierKind(Tier):
         delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
         return delta * np.sqrt(baseline.noise.moment_weights)
 
-
-def _fitted_predictions(channel, span: int) -> list[np.ndarray] | None:
-    """The network's predictions of each of ``channel``'s ``w_segments`` (after its first
-    ``span`` samples) as its fit left them, or None when the fit kept none (a trained
-    network's) or they do not line up with the segments. The output-layer fit computes them
-    as :meth:`graybox.nonlinear_tier.NonlinearTier.predict` does, on the segments' delay
-    vectors one after another: the same numbers (but for a segment's last few rows, whose
-    output-layer sum BLAS adds in another order when the segment is run alone: a difference
-    at that sum's rounding, about 1e-16) without a second pass of the network over the data
-    (most of the noise tier's time)."""
-    prediction = channel.network_prediction
-    if prediction is None:
-        return None
-    lengths = [max(0, len(s) - span) for s in channel.w_segments]
-    if sum(lengths) != len(prediction):
-        return None
-    return np.split(prediction, np.cumsum(lengths)[:-1])

@@ -11,6 +11,7 @@ import numpy as np
 from graybox.channel_structure import ChannelStructure
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError, StructureMismatchError
+from graybox.noise_tier import NoiseTier, describe_noise
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
@@ -175,7 +176,7 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.records["nonlinear"] = NonlinearTier.from_arrays(
                     fit.w, fit.W, fit.mse, None, fit.iterations)
-                channel.network_prediction = fit.prediction
+                channel.network_noise = network_errors(channel, fit.prediction)
         if fresh:
             _fit_fresh(fresh, hidden, settings, chunk_size)
 
@@ -229,7 +230,34 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         for i, fit in zip(chosen, fits):
             members[i][2].records["nonlinear"] = NonlinearTier.from_arrays(
                 fit.w, fit.W, fit.mse, gains[i], fit.iterations)
-            members[i][2].network_prediction = fit.prediction
+            members[i][2].network_noise = network_errors(members[i][2], fit.prediction)
+
+
+def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseTier | None:
+    """The noise tier's description (:func:`graybox.noise_tier.describe_noise`) of a needed
+    network's one-step errors ``w(t) - nn_scale * f(z(t))`` over the channel's segments, from
+    the fit's own ``prediction`` (its design's rows, the segments one after another); None
+    for a channel whose network is not needed, or without a prediction (a trained network's
+    fit), or one that does not line up with the segments.
+
+    The output-layer fit computes the prediction as
+    :meth:`graybox.nonlinear_tier.NonlinearTier.predict` does, on the segments' delay vectors
+    one after another: the same numbers (but for a segment's last few rows, whose output-layer
+    sum BLAS adds in another order when the segment is run alone: a difference at that sum's
+    rounding, about 1e-16) without a second pass of the network over the data, which was most
+    of the noise tier's time. Described here, while the prediction is at hand, so that no
+    array of the series' length is kept for the noise tier.
+    """
+    structure = channel.structure
+    if prediction is None or not structure.nonlinear_needed:
+        return None
+    span = structure.embedding_dim * structure.tau
+    lengths = [max(0, len(s) - span) for s in channel.w_segments]
+    if sum(lengths) != len(prediction):
+        return None
+    predictions = np.split(prediction, np.cumsum(lengths)[:-1])
+    return describe_noise([s[span:] - structure.nn_scale * p
+                           for s, p in zip(channel.w_segments, predictions)])
 
 
 def _finite(tier: NonlinearTier) -> bool:
