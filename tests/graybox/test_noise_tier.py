@@ -113,3 +113,40 @@ def test_sampling_zeta_quantile_is_crossed_at_its_rate_by_healthy_gaussian_night
     assert 0.03 < np.mean(np.array(zetas) > quantile) < 0.08
     assert compute_drift(make_signature((night,)), baseline).get("omega", "noise").zeta == \
         pytest.approx(zetas[-1])
+
+
+def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
+    # graybox.tiers.nonlinear.network_errors reads the output-layer fit's own prediction: the
+    # noise tier's record without running the network again, to the sums' rounding
+    from graybox.channel_structure import ChannelStructure
+    from graybox.network_settings import FitSettings, initial_weights
+    from graybox.nonlinear_tier import NonlinearTier, lagged
+    from graybox.noise_tier import describe_noise
+    from graybox.output_layer_fit import fit_output_layers
+    from graybox.tiers.fit_state import ChannelFit
+    from graybox.tiers.nonlinear import network_errors
+
+    rng = np.random.default_rng(5)
+    segments = []
+    for n in (3000, 800, 5):                                   # the last one has no rows
+        x = rng.normal(0.0, 0.3, n)
+        x[2:] += 0.4 * np.tanh(3.0 * x[:-2])
+        segments.append(x)
+    structure = ChannelStructure(period=0, seasonal_order=0, diff_order=0, ar_order=1,
+                                 center=0.0, scale=1.0, tau=2, embedding_dim=3, hidden_units=32,
+                                 nn_scale=0.6, nonlinear_needed=True, init_seed=4)
+    parts = [lagged(s / structure.nn_scale, 3, 2) for s in segments]
+    X, y = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    w, W = initial_weights(32, 3, 4, 4.0)
+    fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], 32, FitSettings())
+    channel = ChannelFit("c", [], 0, structure=structure, w_segments=segments)
+    described = network_errors(channel, fit.prediction)
+    tier = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None, fit.iterations)
+    expected = describe_noise([s[6:] - 0.6 * p for s, p in
+                               zip(segments, tier.predict([s / 0.6 for s in segments], 2))])
+    assert described.n_obs == expected.n_obs == len(y)
+    np.testing.assert_allclose(described.moments, expected.moments, rtol=1e-12, atol=1e-15)
+    # a network that is not needed, or a fit without a prediction, leaves it to the noise tier
+    assert network_errors(channel, None) is None
+    channel.structure = dataclasses.replace(structure, nonlinear_needed=False)
+    assert network_errors(channel, fit.prediction) is None
