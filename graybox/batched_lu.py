@@ -88,7 +88,7 @@ def inverse_columns(a: np.ndarray) -> np.ndarray:
     matrix's inverse, shape (n, n, ...).
 
     Up to :data:`LARGEST` states the factorisation and the ``n`` solves for the unit vectors
-    run entry by entry (:func:`_inverse_entries`): the operations of :func:`lu_factor` and
+    run entry by entry (:func:`inverse_entries`): the operations of :func:`lu_factor` and
     :meth:`BatchedLU.solve`, in the same order, on one contiguous array per matrix entry, so
     the inverse is theirs to the bit (two and a half times faster for 86,400 3 x 3 matrices).
 
@@ -101,7 +101,7 @@ def inverse_columns(a: np.ndarray) -> np.ndarray:
     n, batch = a.shape[-1], a.shape[:-2]
     flat = a.reshape(-1, n, n)
     if n <= LARGEST:
-        return _inverse_entries(np.moveaxis(flat, 0, -1)).reshape((n, n) + batch)
+        return inverse_entries(np.moveaxis(flat, 0, -1)).reshape((n, n) + batch)
     factors = lu_factor(flat)
     columns = [factors.solve(np.broadcast_to(np.eye(n)[j], (len(flat), n)).copy())
                for j in range(n)]
@@ -110,10 +110,28 @@ def inverse_columns(a: np.ndarray) -> np.ndarray:
                     ).reshape((n, n) + batch)
 
 
-def _inverse_entries(a: np.ndarray) -> np.ndarray:
-    """:func:`inverse_columns` of ``a`` laid out by entry (shape (n, n, N)), for ``n <=``
-    :data:`LARGEST`: :func:`lu_factor`'s partial pivoting and elimination, then
-    :meth:`BatchedLU.solve` of each unit vector, each operation on whole entries."""
+def inverse_entries(a: np.ndarray) -> np.ndarray:
+    """:func:`inverse_columns` of matrices given entry by entry, for ``n <=`` :data:`LARGEST`.
+
+    :func:`lu_factor`'s partial pivoting and elimination, then :meth:`BatchedLU.solve` of each
+    unit vector, each operation on whole entries (one contiguous array per entry): the same
+    numbers as those functions give.
+
+    Parameters
+    ----------
+    a : ndarray of shape (n, n, N)
+        ``a[i, j]`` is entry ``(i, j)`` of every matrix of the batch.
+
+    Returns
+    -------
+    ndarray of shape (n, n, N)
+        Entry ``(i, j)`` of every inverse, as :func:`inverse_columns` lays it out.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If a matrix is singular.
+    """
     n = a.shape[0]
     lu = [[a[i, j].copy() for j in range(n)] for i in range(n)]
     rows = [np.full(a.shape[-1], i) for i in range(n)]

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from graybox.batched_lu import (LARGEST, _inverse_entries, apply_columns, inverse_columns,
+from graybox.batched_lu import (LARGEST, apply_columns, inverse_columns, inverse_entries,
                                  lu_factor)
 from graybox.exceptions import GrayBoxError
 from graybox.rk4 import rk4_step
@@ -203,7 +203,7 @@ def _stage_inverse(f, x: np.ndarray, u: np.ndarray, fx: np.ndarray, gh: float) -
         difference = f(shifted, u) - fx
         for i in range(n):
             entries[i, j] = identity[i, j] - gh * (difference[..., i] / delta)
-    return _inverse_entries(entries)
+    return inverse_entries(entries)
 
 
 def error_estimate(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float,
