@@ -15,7 +15,7 @@ others of a call.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -24,7 +24,9 @@ from graybox.network_settings import FitSettings, NetworkFit
 
 def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
                       starts: Sequence[np.ndarray], hidden: int,
-                      settings: FitSettings) -> list[NetworkFit]:
+                      settings: FitSettings,
+                      summarise: Callable[[int, np.ndarray], object] | None = None
+                      ) -> list[NetworkFit]:
     """Fit ``W`` of each problem with its hidden layer fixed at its start.
 
     Parameters
@@ -37,20 +39,24 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         Hidden units J.
     settings : FitSettings
         ``weight_decay`` (lambda), ``tolerance`` and ``max_iter`` as for the full network.
+    summarise : callable, optional
+        ``summarise(i, prediction)`` with problem ``i``'s network output on its rows at the
+        fitted weights (computed by the fit anyway); its result is kept as the fit's
+        ``summary`` (and the prediction, of the series' length, is not kept).
 
     Returns
     -------
     list of NetworkFit
     """
     out = []
-    for (X, y), start in zip(problems, starts):
+    for index, ((X, y), start) in enumerate(zip(problems, starts)):
         X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         dim = X.shape[1]
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
         W, prediction, iterations = _levenberg_marquardt(
             np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
         out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations,
-                              prediction))
+                              None if summarise is None else summarise(index, prediction)))
     return out
 
 

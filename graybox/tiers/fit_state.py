@@ -49,8 +49,8 @@ class ChannelFit:
         ``channel.linear`` for ``channel.records["linear"]``.
     network_noise : NoiseTier or None
         The moments of the needed network's one-step errors, described by the nonlinear tier
-        from its fit's own prediction (:attr:`graybox.network_settings.NetworkFit.prediction`)
-        while that was at hand; the noise tier records them instead of running the network
+        from its fit's own prediction as each fit ends
+        (:attr:`graybox.network_settings.NetworkFit.summary`); the noise tier records them instead of running the network
         over the data again. None where the fit kept no prediction (a trained network).
     """
 

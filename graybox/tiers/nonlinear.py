@@ -172,11 +172,12 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                                               settings.network.init_scale) if retrain
                               else source.channel(channel.name).nonlinear.weight_arrays())
             fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
-                                train_input_weights=train)
+                                train_input_weights=train,
+                                summarise=lambda i, p, m=members_now: network_errors(m[i][2], p))
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.records["nonlinear"] = NonlinearTier.from_arrays(
                     fit.w, fit.W, fit.mse, None, fit.iterations)
-                channel.network_noise = network_errors(channel, fit.prediction)
+                channel.network_noise = fit.summary
         if fresh:
             _fit_fresh(fresh, hidden, settings, chunk_size)
 
@@ -226,11 +227,12 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         trained = (not fixed) if needed else settings.null_network == "trained"
         fits = fit_networks(problems, needed_units if needed else hidden, None, settings.network,
                             random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
-                            train_input_weights=trained)
+                            train_input_weights=trained,
+                            summarise=lambda k, p, c=chosen: network_errors(members[c[k]][2], p))
         for i, fit in zip(chosen, fits):
             members[i][2].records["nonlinear"] = NonlinearTier.from_arrays(
                 fit.w, fit.W, fit.mse, gains[i], fit.iterations)
-            members[i][2].network_noise = network_errors(members[i][2], fit.prediction)
+            members[i][2].network_noise = fit.summary
 
 
 def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseTier | None:
@@ -245,8 +247,8 @@ def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseT
     one after another: the same numbers (but for a segment's last few rows, whose output-layer
     sum BLAS adds in another order when the segment is run alone: a difference at that sum's
     rounding, about 1e-16) without a second pass of the network over the data, which was most
-    of the noise tier's time. Described here, while the prediction is at hand, so that no
-    array of the series' length is kept for the noise tier.
+    of the noise tier's time. Described as each fit ends (the fit's ``summarise``), so that
+    no array of the series' length is kept for the noise tier.
     """
     structure = channel.structure
     if prediction is None or not structure.nonlinear_needed:

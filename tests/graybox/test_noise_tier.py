@@ -138,9 +138,11 @@ def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     parts = [lagged(s / structure.nn_scale, 3, 2) for s in segments]
     X, y = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     w, W = initial_weights(32, 3, 4, 4.0)
-    fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], 32, FitSettings())
     channel = ChannelFit("c", [], 0, structure=structure, w_segments=segments)
-    described = network_errors(channel, fit.prediction)
+    fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], 32, FitSettings(),
+                             summarise=lambda index, prediction: (
+                                 prediction, network_errors(channel, prediction)))
+    prediction, described = fit.summary
     tier = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None, fit.iterations)
     expected = describe_noise([s[6:] - 0.6 * p for s, p in
                                zip(segments, tier.predict([s / 0.6 for s in segments], 2))])
@@ -149,4 +151,4 @@ def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     # a network that is not needed, or a fit without a prediction, leaves it to the noise tier
     assert network_errors(channel, None) is None
     channel.structure = dataclasses.replace(structure, nonlinear_needed=False)
-    assert network_errors(channel, fit.prediction) is None
+    assert network_errors(channel, prediction) is None
