@@ -50,8 +50,9 @@ class ChannelFit:
     network_noise : NoiseTier or None
         The moments of the needed network's one-step errors, described by the nonlinear tier
         from its fit's own prediction as each fit ends
-        (:attr:`graybox.network_settings.NetworkFit.summary`); the noise tier records them instead of running the network
-        over the data again. None where the fit kept no prediction (a trained network).
+        (:attr:`graybox.network_settings.NetworkFit.summary`); the noise tier records them
+        instead of running the network over the data again. None where the fit computed no
+        prediction (a trained network).
     """
 
     name: str

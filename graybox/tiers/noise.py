@@ -71,4 +71,3 @@ class NoiseTierKind(Tier):
         variance = baseline.noise.variance
         delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
         return delta * np.sqrt(baseline.noise.moment_weights)
-
