@@ -24,7 +24,7 @@ def main() -> None:
         k = horizon_samples(step)
         start = time.perf_counter()
         errors, features, _ = level_data(model, [frame.iloc[::round(step / dt)]], step, k,
-                                      start_stride(step))["omega"]
+                                      start_stride(step, k))["omega"]
         fit_level(errors, features, k)
         level = time.perf_counter() - start
         start = time.perf_counter()
@@ -57,7 +57,7 @@ def _pump() -> None:
     if "timestamp" in frame:
         frame = frame.set_index("timestamp")
     start = time.perf_counter()
-    level_data(model, [frame], 1.0, horizon_samples(1.0), start_stride(1.0))
+    level_data(model, [frame], 1.0, horizon_samples(1.0), start_stride(1.0, horizon_samples(1.0)))
     level = time.perf_counter() - start
     start = time.perf_counter()
     residual_frame(model, frame, "one_step", 1.0)

@@ -47,6 +47,8 @@ from graybox.state_estimation import WindowStates, estimate_states, window_array
 from graybox.residual import infer_sample_interval
 
 OPERATING_POINTS = 64
+#: the analysis interval the dynamics ask for, in fastest time constants
+ANALYSIS_FRACTION = 0.5
 
 
 def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
@@ -68,13 +70,35 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
     float
         0 when the model has no state dynamics (or they cannot be evaluated).
     """
+    eigenvalues = linearised_eigenvalues(model, frames, points)
+    if eigenvalues is None:
+        return 0.0
+    return float(np.quantile(np.abs(eigenvalues).max(axis=1), quantile))
+
+
+def integrates(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
+               points: int = OPERATING_POINTS) -> bool:
+    """Whether the white box has a mode that never decays (an eigenvalue with zero real part
+    at every point: a tank's volume counted from its flows, a receiver's pressure)."""
+    eigenvalues = linearised_eigenvalues(model, frames, points)
+    if eigenvalues is None:
+        return False
+    scale = np.abs(eigenvalues).max(axis=1, keepdims=True)
+    return bool((np.abs(eigenvalues.real) <= 1e-9 * np.maximum(scale, 1e-300)).any(axis=1).all())
+
+
+def linearised_eigenvalues(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
+                           points: int = OPERATING_POINTS) -> np.ndarray | None:
+    """Eigenvalues of ``df/dx`` (central differences) at up to ``points`` operating points
+    of the data, evenly spaced over all frames: shape (points, states). None when no sample
+    is finite or the Jacobian is not."""
     windows = [_full_states(model, f) for f in frames]
     x = np.concatenate([w.states for w in windows])
     u = np.concatenate([w.u for w in windows])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
     x, u = x[finite], u[finite]
     if len(x) == 0:
-        return 0.0
+        return None
     take = np.unique(np.linspace(0, len(x) - 1, min(points, len(x))).round().astype(int))
     x, u = x[take], u[take]
     n = x.shape[1]
@@ -86,9 +110,8 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
         down[:, j] -= step
         jacobian[:, :, j] = (model.derivatives(up, u) - model.derivatives(down, u)) / (2 * step)[:, None]
     if not np.isfinite(jacobian).all():
-        return 0.0
-    rates = np.abs(np.linalg.eigvals(jacobian)).max(axis=1)
-    return float(np.quantile(rates, quantile))
+        return None
+    return np.linalg.eigvals(jacobian)
 
 
 def _full_states(model: WhiteBoxModel, frame) -> WindowStates:
@@ -100,7 +123,7 @@ def _full_states(model: WhiteBoxModel, frame) -> WindowStates:
 
 
 def choose_analysis_interval(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
-                             sample_interval: float, fraction: float = 0.5,
+                             sample_interval: float, fraction: float = ANALYSIS_FRACTION,
                              shortest_window: int | None = None, samples_needed: int = 0) -> float:
     """The analysis interval in seconds: a whole multiple of ``sample_interval``.
 

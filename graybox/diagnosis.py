@@ -377,9 +377,9 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
         raise InsufficientDataError("the baseline has no level tier (stored before it existed): "
                                     "refit the baseline to diagnose its alerts")
     analysis = baseline.analysis_step
+    horizon = next(iter(levels.values())).horizon
     setup = ErrorSetup(baseline.sample_interval, max(1, round(analysis / baseline.sample_interval)),
-                       next(iter(levels.values())).horizon, start_stride(analysis),
-                       baseline.integration_used)
+                       horizon, start_stride(analysis, horizon), baseline.integration_used)
     frames, interval = operating_segments(windows)
     # the innovations from each window on: a noise change may begin with any of them (each
     # period's residual computed once)

@@ -18,9 +18,12 @@ the mean error after the baseline's operating-condition share is taken out. A bi
 moves it by ``b``; a night at another load does not, as long as the baseline's relation
 holds there.
 
-Cost: ``k`` RK4 integrations of a whole window at once (vectorized over time), started every
-10 s at most, so at most 12 one-step residuals' worth at 10 s and about one at 1 s, plus one
-small least-squares fit per channel. ``k`` covers 120 s, but at most 12 analysis steps.
+``k`` (:func:`level_horizon`, recorded by the baseline): 120 s, at most 12 steps (several time
+constants of the shaft models); where the analysis interval is capped below what the white
+box's dynamics ask for (a slow plant logged every minute), 12 of the intervals they ask for,
+within the baseline's segments and calibration pieces. Cost: ``k`` RK4 integrations of a whole window at
+once (vectorized over time), started every 10 s or every twelfth of the horizon, plus one
+small least-squares fit per channel.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ from typing import ClassVar, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from graybox.analysis_rate import ANALYSIS_FRACTION
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
 from graybox.integration import Integration, advance, jacobian
@@ -37,15 +41,22 @@ from graybox.operating_conditions import OperatingConditions
 from graybox.state_estimation import (WindowStates, check_prediction, estimate_states,
                                       window_arrays)
 
-#: how far ahead the prediction runs, in seconds; several time constants of the shaft
-#: models (1 / gamma ~ 17 s), so the start's bias has decayed to rounding level
+#: the shortest horizon, in seconds: several time constants of the shaft models
+#: (1 / gamma ~ 17 s), and the whole horizon of records stored before it followed the model
 LEVEL_HORIZON_SECONDS = 120.0
-#: most RK4 sample steps of a prediction: bounds the cost at fast analysis intervals (a
-#: shorter horizon keeps the part ``1 - J^k`` of a bias, still a level change)
+#: most RK4 sample steps of :func:`horizon_samples`' horizon (records stored before
+#: :func:`level_horizon`)
 LEVEL_MAX_STEPS = 12
+#: the horizon in analysis intervals as the white box's dynamics ask for them (half its
+#: fastest time constant each, :mod:`graybox.analysis_rate`): the fixed horizon's 12 steps
+LEVEL_ASKED_STEPS = 12
+#: most RK4 sample steps of :func:`level_horizon`'s horizon: bounds the cost
+LEVEL_LONGEST_STEPS = 256
 #: least seconds between two predictions' starting points: the level moves far slower than
 #: a sample, and the cost is steps times starting points
 LEVEL_START_SPACING = 10.0
+#: starting points per horizon at most: predictions that overlap more say nothing new
+LEVEL_STARTS_PER_HORIZON = 12
 #: states probed for :func:`drifting_states` (spread over the windows' samples)
 DRIFT_PROBES = 64
 
@@ -125,13 +136,86 @@ class LevelTier:
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
     """``k`` for samples every ``sample_interval`` seconds: ``seconds`` ahead, at least 1 and
-    at most :data:`LEVEL_MAX_STEPS`."""
+    at most :data:`LEVEL_MAX_STEPS` (the horizon before :func:`level_horizon`)."""
     return int(np.clip(np.ceil(seconds / sample_interval - 1e-9), 1, LEVEL_MAX_STEPS))
 
 
-def start_stride(sample_interval: float) -> int:
-    """Samples between two predictions' starting points (:data:`LEVEL_START_SPACING`)."""
-    return max(1, int(round(LEVEL_START_SPACING / sample_interval)))
+def level_horizon(time_constant: float, sample_interval: float, segment_lengths: Sequence[int],
+                  piece_samples: int, integrating: bool = False) -> int:
+    """A baseline's ``k``: the fixed horizon (:func:`horizon_samples`), or, where the analysis
+    interval is at most half what the white box's dynamics ask for, :data:`LEVEL_ASKED_STEPS`
+    of the interval they ask for.
+
+    The fixed horizon (120 s, at most 12 steps) is several time constants of a shaft that
+    settles in 17 s. A slow plant logged every minute has its analysis interval capped far
+    below what its dynamics ask for (half its fastest time constant), to keep the samples a
+    day needs (:func:`graybox.analysis_rate.choose_analysis_interval`), and its horizon
+    shrank with it: a heated room whose air settles in an hour and a half got 2 steps and
+    kept ``1 - J^k`` = 2 % of a sensor bias, and of a shift of its equilibrium (a weaker
+    heater) as little. Counted in the steps its dynamics ask for, the horizon is what it was
+    meant to be. A plant analysed at the interval it asks for keeps the fixed horizon
+    exactly (lengthening it there was tried and moved a conveyor's thermal level: healthy
+    alarms 4 -> 8 of 300). So does a plant with a mode that never decays (``integrating``:
+    a start's error is never forgotten, and a longer horizon only accumulates the white
+    box's rate errors; a compressor's receiver pressure lost a small leak), and one whose
+    caps leave the horizon shorter than one fastest time constant (too little is forgotten
+    and the rest accumulates: a pump station's 11-18 h tank over 6 h alarmed on one healthy
+    station's 10 nights of 15, and where the caps left 6 h for a 12-h tank, faults were
+    lost).
+    At most :data:`LEVEL_LONGEST_STEPS` (cost), half of
+    ``piece_samples`` (each calibration piece keeps errors of its own) and half of the
+    median operating segment (a prediction never crosses a segment's border). The steps are
+    a rung ``2^n`` or ``1.5 * 2^n`` (the first at or above the wanted steps, or the last
+    within the caps), so that a baseline refitted on some of its days (calibration) gets
+    the same horizon and reuses the segments' predictions.
+
+    Parameters
+    ----------
+    time_constant : float
+        Seconds: ``1 /`` :func:`graybox.analysis_rate.fastest_rate` (0 for a model without
+        dynamics).
+    sample_interval : float
+        Seconds between the samples predicted (the analysis interval).
+    segment_lengths : sequence of int
+        Samples of the baseline's operating segments.
+    piece_samples : int
+        Samples of a calibration piece (at least ``min_samples``).
+    integrating : bool, default False
+        The white box has a mode that never decays
+        (:func:`graybox.analysis_rate.integrates`).
+
+    Returns
+    -------
+    int
+    """
+    floor = horizon_samples(sample_interval)
+    asked = ANALYSIS_FRACTION * time_constant
+    if integrating or not asked >= 2 * sample_interval:
+        return floor
+    wanted = LEVEL_ASKED_STEPS * asked / sample_interval
+    cap = min(LEVEL_LONGEST_STEPS, piece_samples // 2,
+              int(np.median(segment_lengths)) // 2 if len(segment_lengths) else 0)
+    steps = min(np.ceil(wanted - 1e-9), cap) if np.isfinite(wanted) else cap
+    rungs = [r for r in _rungs(cap) if r > floor]
+    if steps <= floor or not rungs or rungs[-1] * sample_interval < time_constant:
+        return floor
+    return next((r for r in rungs if r >= steps), rungs[-1])
+
+
+def _rungs(most: int) -> list[int]:
+    """``2^n`` and ``1.5 * 2^n`` up to ``most``: 1, 2, 3, 4, 6, 8, 12, 16, 24, ..."""
+    rungs, power = [1], 2
+    while power <= most:
+        rungs += [r for r in (power, 3 * power // 2) if r <= most]
+        power *= 2
+    return rungs
+
+
+def start_stride(sample_interval: float, horizon: int) -> int:
+    """Samples between two predictions' starting points: :data:`LEVEL_START_SPACING`, or a
+    :data:`LEVEL_STARTS_PER_HORIZON`-th of a longer horizon of ``horizon`` samples."""
+    spacing = max(LEVEL_START_SPACING, horizon * sample_interval / LEVEL_STARTS_PER_HORIZON)
+    return max(1, int(round(spacing / sample_interval)))
 
 
 def k_step_prediction(model: WhiteBoxModel, x: np.ndarray, u: np.ndarray, dt: float, k: int,

@@ -145,8 +145,9 @@ class ErrorSetup:
         factor = 1 if analysis_interval is None else max(1, round(analysis_interval
                                                                   / sample_interval))
         step = factor * sample_interval
-        return cls(sample_interval, factor, horizon or horizon_samples(step),
-                   stride or start_stride(step), integration or Integration())
+        horizon = horizon or horizon_samples(step)
+        return cls(sample_interval, factor, horizon, stride or start_stride(step, horizon),
+                   integration or Integration())
 
 
 def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray, np.ndarray]],

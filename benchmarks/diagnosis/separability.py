@@ -70,7 +70,7 @@ def night_geometry(signature, windows, model, faulty_from: int = 0) -> dict:
     level = signature.channel("omega").level
     step = signature.analysis_step
     setup = ErrorSetup(signature.sample_interval, max(1, round(step / signature.sample_interval)),
-                       level.horizon, start_stride(step), signature.integration_used)
+                       level.horizon, start_stride(step, level.horizon), signature.integration_used)
     frames, _ = operating_segments(windows)
     # the night each operating period is of (prediction_errors numbers the periods)
     night_of = np.concatenate([np.full(len(window_periods(w)), i)

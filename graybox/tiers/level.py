@@ -6,15 +6,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from graybox.analysis_rate import fastest_rate, integrates
 from graybox.exceptions import InsufficientDataError, StructureMismatchError
 from graybox.level_tier import (LevelTier, drifting_state_names, extrapolation, fit_level,
-                                horizon_samples, operating_features, pool_level_data,
+                                level_horizon, operating_features, pool_level_data,
                                 segment_level_data, start_stride)
 from graybox.resolution import reading_resolution
 from graybox.settings import GrayBoxSettings
 from graybox.state_estimation import WindowStates
 from graybox.tiers.base import Tier
-from graybox.tiers.fit_state import AssetFit
+from graybox.tiers.fit_state import AssetFit, per_window
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from graybox.signature import ChannelSignature
@@ -48,7 +49,7 @@ class LevelTierKind(Tier):
         model, interval, owners = asset.request.model, asset.analysis_interval, asset.owners
         channels = asset.channels
         if channels[0].reference is None:
-            horizon, references = horizon_samples(interval), [None] * len(channels)
+            horizon, references = self.horizon(asset, settings), [None] * len(channels)
         else:
             references = [channel.reference.level for channel in channels]
             if any(level is None for level in references):
@@ -56,7 +57,7 @@ class LevelTierKind(Tier):
                     channel.records[self.name] = None
                 return
             horizon = references[0].horizon
-        stride, integration = start_stride(interval), asset.integration
+        stride, integration = start_stride(interval, horizon), asset.integration
 
         def segment(window: WindowStates):
             return segment_level_data(model, window, interval, horizon, stride, integration)
@@ -92,6 +93,19 @@ class LevelTierKind(Tier):
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None
+
+    @staticmethod
+    def horizon(asset: AssetFit, settings: GrayBoxSettings) -> int:
+        """A baseline's ``k`` (:func:`~graybox.level_tier.level_horizon`): from the white
+        box's fastest time constant at the baseline's states, within its segments and
+        calibration pieces."""
+        lengths = [len(window.y) for window in asset.windows]
+        piece = max(settings.min_sample_count,
+                    int(per_window(lengths, asset.owners).min()) // settings.calibration_splits)
+        model = asset.request.model
+        rate = fastest_rate(model, asset.windows)
+        return level_horizon(1.0 / rate if rate > 0 else 0.0, asset.analysis_interval,
+                             lengths, piece, integrates(model, asset.windows))
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         if channel.level is None:

@@ -4,7 +4,8 @@ import pytest
 
 from graybox import GrayBoxSettings, load_model
 from graybox.analysis_rate import (choose_analysis_interval, decimate, decimation_factor,
-                                   fastest_rate)
+                                   fastest_rate, integrates)
+from graybox.models.base import WhiteBoxModel
 from graybox.models.linear import DriveTrain, LinearStateSpace, linear_parameters
 
 
@@ -46,6 +47,24 @@ class SlowRoom(LinearStateSpace):
     states = ("air",)
     inputs = ("heater",)
     default_parameters = linear_parameters(states, inputs, A=[[-1 / 7200]], B=[[1e-4]])
+
+
+class TankAndHeater(WhiteBoxModel):
+    """A tank's volume counted from its flows (never decays) beside a relaxing temperature."""
+
+    states = ("volume", "temp")
+    inputs = ("flow",)
+    default_parameters = {"area": 2.0, "rate": 1e-3}
+
+    def derivatives(self, x, u):
+        p = self.parameters
+        return np.column_stack([u[:, 0] / p["area"], -p["rate"] * (x[:, 1] - 20.0)])
+
+
+def test_a_mode_that_never_decays_integrates():
+    assert integrates(TankAndHeater(), [frame(TankAndHeater())])
+    assert not integrates(SlowRoom(), [frame(SlowRoom())])
+    assert not integrates(DriveTrain(), [frame(DriveTrain())])
 
 
 @pytest.mark.parametrize("dt, day, expected", [

@@ -10,8 +10,10 @@ import pytest
 
 from graybox import Calibration, FitRequest, Signature, compute_drift, fit_baselines, fit_signatures
 from graybox.drift import Drift
+from graybox.analysis_rate import fastest_rate
 from graybox.level_tier import (LevelTier, extrapolation, fit_level, horizon_samples,
-                                k_step_prediction, level_data, operating_features)
+                                k_step_prediction, level_data, level_horizon,
+                                operating_features)
 from graybox.models.base import WhiteBoxModel
 from graybox.operating_conditions import operating_conditions
 from graybox.record_json import from_dict, to_dict
@@ -80,6 +82,49 @@ def test_the_level_of_a_biased_sensor_is_its_bias():
     level = fit_level(errors, features, k)
     assert level.level == pytest.approx(0.5 * (1 - np.exp(-0.06 * 120)), rel=0.02)
     assert level.n_obs == len(frame) - k and level.horizon == 12
+
+
+def test_the_horizon_is_twelve_steps_of_the_interval_the_dynamics_ask_for():
+    # 500 s asks for 250-s steps, 4 analysis intervals of 60 s: 12 x 250 s is 50 steps,
+    # rounded up to the rung 64 (2^n or 1.5 * 2^n)
+    assert level_horizon(500.0, 60.0, [1440], 200) == 64
+    # a slower plant: the caps decide, the last rung within half a 200-sample piece ...
+    assert level_horizon(3000.0, 60.0, [1440], 200) == 96
+    # ... or within half the median operating segment, or the cost cap
+    assert level_horizon(1500.0, 60.0, [30, 90, 1440], 200) == 32
+    assert level_horizon(200.0, 1.0, [86400], 10800) == 256
+    # caps that leave the horizon shorter than one fastest time constant: the fixed horizon
+    # (a 12-h tank at 15 min, capped at 24 steps = 6 h; a 2-h room capped at 96 minutes)
+    assert level_horizon(12 * 3600.0, 900.0, [96], 48) == horizon_samples(900.0) == 1
+    assert level_horizon(7200.0, 60.0, [1440], 200) == 2
+    assert level_horizon(5400.0, 60.0, [1440], 200) == 96
+    # nor does a mode that never decays
+    assert level_horizon(500.0, 60.0, [1440], 200, integrating=True) == 2
+    # a plant analysed at (more than half) the interval it asks for keeps the fixed 120 s:
+    # the gas turbine's shaft (1 / 0.06 s) at 8 s and 10 s, a 200-s plant at 60 s; as does
+    # a model without dynamics
+    assert level_horizon(1 / 0.06, 10.0, [8640], 1080) == horizon_samples(10.0) == 12
+    assert level_horizon(1 / 0.06, 8.0, [10800], 1350) == horizon_samples(8.0) == 12
+    assert level_horizon(200.0, 60.0, [1440], 200) == horizon_samples(60.0) == 2
+    assert level_horizon(0.0, 10.0, [8640], 1080) == 12
+
+
+def test_a_slow_plants_level_carries_its_bias():
+    # a shaft that settles in 1000 s, logged every 60 s: the fixed 120-s horizon (2 steps)
+    # keeps 1 - exp(-0.12) = 11 % of a sensor bias; 96 steps (the piece's cap) keep it all
+    model = LangevinShaft({"gamma": 1e-3, "fuel_gain": 0.05})
+    rng = np.random.default_rng(3)
+    n, dt = 1440, 60.0
+    fuel = 1.0 + 0.2 * np.sin(2 * np.pi * np.arange(n) / 400) + 0.02 * rng.standard_normal(n)
+    x = _free_run(model, 1000.0, fuel.reshape(-1, 1), dt=dt)
+    index = pd.date_range("2026-01-01", periods=n, freq="60s", tz="UTC")
+    frame = pd.DataFrame({"omega": x[:, 0] + 0.5, "fuel_rate": fuel}, index=index)
+    assert fastest_rate(model, [frame]) == pytest.approx(1e-3, rel=1e-6)
+    k = level_horizon(1 / fastest_rate(model, [frame]), dt, [n], 200)
+    assert k == 96
+    for steps, kept in ((horizon_samples(dt), 1 - np.exp(-0.12)), (k, 1 - np.exp(-k * 0.06))):
+        errors, features, _ = level_data(model, [frame], dt, steps)["omega"]
+        assert fit_level(errors, features, steps).level == pytest.approx(0.5 * kept, rel=0.02)
 
 
 def test_fit_level_returns_the_intercept_at_the_baselines_operating_point():
