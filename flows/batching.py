@@ -30,10 +30,15 @@ from flows.discovery import AssetRef, batches, discover
 from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, describe_error,
                            is_transient, now_iso)
 from flows.errors import TransientError
-from flows.task_runner import batch_runner, batch_size_for
+from flows.compute_pool import active_pool, compute_pool
+from flows.task_runner import SequentialBatches, batch_runner, batch_size_for
 from registry import RegistryError
 
 logger = logging.getLogger(__name__)
+
+#: the flows whose batches a compute pool computes (``[nightly] processes``): those whose
+#: commit needs no telemetry (a baseline's draws its plots from it)
+POOLED_FLOWS = ("nightly", "reanalysis")
 
 
 def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
@@ -72,7 +77,13 @@ def batch_task(flow: str) -> Task:
         from flows.pipeline import execute   # the pipeline imports this module
 
         clock = StageClock()
-        config, plan = BatchJob.from_dict(job).plan(clock)
+        batch = BatchJob.from_dict(job)
+        pool = active_pool()
+        if pool is not None and batch.flow in POOLED_FLOWS:
+            from flows.pooled_execute import execute_pooled
+
+            return BatchOutput(execute_pooled(batch, pool, clock), clock.to_dict()).to_dict()
+        config, plan = batch.plan(clock)
         return BatchOutput(execute(config, plan, clock), clock.to_dict()).to_dict()
 
     # Dask names a task's keys after its function: one name per flow, e.g. nightly_batch
@@ -137,6 +148,16 @@ def batch_results(outcome, batch: Sequence[AssetRef], config: FleetConfig,
     return batch_failed(batch, reason, task_attempts(outcome, reason, config.nightly.retries))
 
 
+def _processes(config: FleetConfig, runner, job: BatchJob, assets: int) -> int:
+    """Worker processes of the run's compute pool (``[nightly] processes``; 1: none): only
+    beside the sequential runner, for a flow of :data:`POOLED_FLOWS` with more than one
+    asset."""
+    if not isinstance(runner, SequentialBatches) or job.flow not in POOLED_FLOWS \
+            or assets < 2:
+        return 1
+    return config.nightly.process_count()
+
+
 def no_telemetry(ref: AssetRef) -> AssetResult:
     """The result of an asset listed in fleet.toml without any telemetry in the store."""
     return AssetResult(ref.asset_id, ref.vehicle_class, NO_TELEMETRY,
@@ -163,17 +184,21 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
         retries=config.nightly.retries, retry_delay_seconds=config.nightly.retry_delay_seconds)
     clock = StageClock()
     with batch_runner(config) as runner:
+        processes = _processes(config, runner, job, len(fleet.assets))
+        summary.extra["processes"] = processes
         parts = batches(list(fleet.assets), batch_size_for(len(fleet.assets),
                                                            config.nightly.batch_size,
                                                            runner.slots))
         outputs: list[list[AssetResult]] = [[] for _ in parts]
-        for batch in parts:
-            label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
-                     if len(batch) > 1 else batch[0].asset_id)
-            runner.submit(configured, {"job": job.for_batch(batch).to_dict(), "label": label})
-        for index, outcome in runner.completed():
-            outputs[index] = batch_results(outcome, parts[index], config, clock,
-                                           runner.in_process)
+        with compute_pool(processes):
+            for batch in parts:
+                label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
+                         if len(batch) > 1 else batch[0].asset_id)
+                runner.submit(configured, {"job": job.for_batch(batch).to_dict(),
+                                           "label": label})
+            for index, outcome in runner.completed():
+                outputs[index] = batch_results(outcome, parts[index], config, clock,
+                                               runner.in_process)
     summary.assets = [result for output in outputs for result in output]
     summary.assets += [without_telemetry(ref) for ref in fleet.without_telemetry]
     summary.extra["stages"] = clock.to_dict()

@@ -182,6 +182,9 @@ class PendingWindow:
     drift: Drift | None = None            #: against the reference (:func:`compare`)
     diagnosis: Diagnosis | DiagnosisFailure | None = None   #: of an alarmed window
     failure: Exception | None = None      #: what stopped its drift or diagnosis
+    #: the registry's hash of :attr:`recorded_data`, when taken before its telemetry was
+    #: dropped (:func:`travelling`); None: the registry hashes the telemetry
+    data_hash: str | None = None
 
     @property
     def night(self) -> pd.Timestamp:
@@ -263,6 +266,21 @@ class PendingAsset:
         if self.result.error is None:
             self.result.status = FAILED
             self.result.error = described
+
+
+def travelling(asset: PendingAsset, plots: str) -> PendingAsset:
+    """``asset``, fitted and compared, made light to send to the process that commits it
+    (:mod:`flows.pooled_execute`): each window's data hash is taken
+    (:func:`registry.write.submission.data_hash`, what the registry would take) and its telemetry is
+    dropped unless the ``[nightly] plots`` policy ``plots`` draws it."""
+    from registry.write.submission import data_hash
+
+    for window in asset.windows:
+        if window.drift is not None:        # only a compared window is recorded
+            window.data_hash = data_hash(window.recorded_data)
+        if window.drift is None or not _plots(plots, window.drift.alarmed):
+            window.telemetry, window.earlier = None, ()
+    return asset
 
 
 def configured_models(config: FleetConfig, ref: AssetRef) -> frozenset[str]:
@@ -740,7 +758,7 @@ def _submission(config: FleetConfig, asset: PendingAsset, window: PendingWindow,
     return FitSubmission(
         asset.asset_id, asset.ref.vehicle_class, window.fit, role="candidate", drift=drift,
         window=window.recorded_data, window_start=window.start, window_end=window.end,
-        baseline_version=asset.reference.version,
+        baseline_version=asset.reference.version, data_hash=window.data_hash,
         plots=_plots(config.nightly.plots, drift.alarmed), reanalysis=reanalysis,
         diagnosis=window.diagnosis)
 

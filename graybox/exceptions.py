@@ -56,6 +56,12 @@ class TelemetryError(GrayBoxError):
             where += f", row {row}"
         super().__init__(f"{where}: {message} [{kind}]")
 
+    def __reduce__(self):
+        # rebuilt from its fields (the default rebuilds from the message alone and fails):
+        # the error travels back from a process computing a night (flows.pooled_execute)
+        return type(self), (self.asset_id, self.kind, self.message, self.file, self.row,
+                            self.channel, self.excess)
+
 
 class InsufficientDataError(GrayBoxError):
     """Too little data for the requested fit (for example a window shorter than the model needs)."""

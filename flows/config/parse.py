@@ -159,7 +159,7 @@ def _positive_duration(check: Checker, key: str, text: str, example: str,
 def _nightly(check: Checker, table: Mapping) -> NightlySettings:
     check.keys("nightly", table, ("batch_size", "window", "plots", "retries",
                                   "retry_delay_seconds", "memory_budget", "lookback",
-                                  "task_runner", "candidate_nights"))
+                                  "task_runner", "candidate_nights", "processes"))
     default = NightlySettings()
     batch = check.integer("nightly.batch_size", table.get("batch_size", default.batch_size),
                           low=1)
@@ -196,8 +196,11 @@ def _nightly(check: Checker, table: Mapping) -> NightlySettings:
                                                  f"got {runner!r}")
     nights = check.integer("nightly.candidate_nights",
                            table.get("candidate_nights", default.candidate_nights), low=1)
+    processes = table.get("processes", default.processes)
+    if processes != "auto":
+        processes = check.integer("nightly.processes", processes, low=1)
     return NightlySettings(batch, window, plots, retries, delay, budget, lookback,
-                           task_runner=runner, candidate_nights=nights)
+                           task_runner=runner, candidate_nights=nights, processes=processes)
 
 
 def _dask(check: Checker, table: Mapping) -> DaskSettings:

@@ -127,7 +127,12 @@ def sections() -> list[Section]:
                                 "docs/operations.md)",
                  "candidate_nights": "windows each candidate is fitted on: the night and the "
                                      "N - 1 before it (integer >= 1; \"Multi-night "
-                                     "candidates\" below)"},
+                                     "candidates\" below)",
+                 "processes": "with the sequential runner, processes that read, fit and "
+                              "compare the candidates while the flow's own process records "
+                              "them in order (integer >= 1; `\"auto\"`: one per core, at "
+                              "most 4; 1: everything in the flow's process; \"Processes\" "
+                              "below)"},
                 sizes=("memory_budget",)),
         Section("[dask]", "dask", "Used with `[nightly] task_runner = \"dask\"`.",
                 _fields(DaskSettings),

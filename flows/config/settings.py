@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+import os
 import pathlib
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,6 +23,8 @@ DEFAULT_TRACKING_URI = "sqlite:///mlflow.db"
 PLOT_POLICIES = ("alarms", "all", "none")
 #: how a flow runs its batch tasks: one after another in its process, or on a Dask cluster
 TASK_RUNNERS = ("sequential", "dask")
+#: ``[nightly] processes = "auto"`` takes at most this many cores
+MAX_AUTO_PROCESSES = 4
 
 #: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
@@ -106,6 +109,9 @@ class NightlySettings:
     task_runner: str = "sequential"
     #: nightly windows each candidate is fitted on: the night and the N - 1 before it
     candidate_nights: int = 2
+    #: processes computing a night's candidates beside the flow's (``"auto"``: one per core,
+    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process)
+    processes: int | str = "auto"
 
     @property
     def window_delta(self) -> pd.Timedelta:
@@ -114,6 +120,17 @@ class NightlySettings:
     @property
     def lookback_delta(self) -> pd.Timedelta:
         return pd.Timedelta(self.lookback)
+
+    def process_count(self, cores: int | None = None) -> int:
+        """The processes of ``processes``: an integer as it is, ``"auto"`` the usable
+        cores (``cores``, default this process's CPU affinity) up to
+        :data:`MAX_AUTO_PROCESSES`; 1 on one core (the flow's own process only)."""
+        if self.processes != "auto":
+            return int(self.processes)
+        if cores is None:
+            cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
+                else (os.cpu_count() or 1)
+        return max(1, min(cores, MAX_AUTO_PROCESSES))
 
 
 @dataclass(frozen=True)

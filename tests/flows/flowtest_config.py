@@ -12,13 +12,18 @@ columns = { omega = "shaft_speed" }'''
 
 def config_text(telemetry: pathlib.Path, db: pathlib.Path, plots: str = "none",
                 retries: int = 2, batch_size: int = 64, extra: str = "",
-                classes: str = TURBINES, candidate_nights: int = 1) -> str:
+                classes: str = TURBINES, candidate_nights: int = 1,
+                processes: int | str = 1) -> str:
     """A fleet.toml of ``classes`` (their tables) whose telemetry is ``telemetry`` and
     whose store is the SQLite file ``db``; ``extra`` is added at the end.
 
     One-night candidates unless ``candidate_nights`` says otherwise: the flow tests' known
     answers are per night (windows, alerts, watermarks); the default of two nights has its own
-    tests (test_candidate_nights.py, and test_demo.py runs the rendered default)."""
+    tests (test_candidate_nights.py, and test_demo.py runs the rendered default).
+
+    The flow's own process computes everything (``processes = 1``) unless ``processes``
+    says otherwise: tests that patch a stage patch it in this process
+    (test_pooled_execute.py runs the same nights with a compute pool)."""
     return f'''
 [telemetry]
 root = "{telemetry}"
@@ -33,6 +38,7 @@ plots = "{plots}"
 retries = {retries}
 retry_delay_seconds = 0
 candidate_nights = {candidate_nights}
+processes = {processes if processes != "auto" else '"auto"'}
 {classes}
 {extra}
 '''
@@ -40,8 +46,9 @@ candidate_nights = {candidate_nights}
 
 def write_config(path: pathlib.Path, telemetry: pathlib.Path, db: pathlib.Path,
                  plots: str = "none", retries: int = 2, batch_size: int = 64,
-                 extra: str = "", candidate_nights: int = 1) -> pathlib.Path:
+                 extra: str = "", candidate_nights: int = 1,
+                 processes: int | str = 1) -> pathlib.Path:
     """:func:`config_text` of the turbines, written at ``path``."""
     path.write_text(config_text(telemetry, db, plots, retries, batch_size, extra,
-                                candidate_nights=candidate_nights))
+                                candidate_nights=candidate_nights, processes=processes))
     return path
