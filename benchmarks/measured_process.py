@@ -24,7 +24,10 @@ class Measured:
     wall : float
         Seconds from start to reaping.
     user, system : float
-        CPU seconds of the child and the descendants it waited for (``wait4``).
+        CPU seconds of the child and its descendants (``wait4``): those it waited for, and
+        those it left behind (a ``forkserver``, and through it the workers it forked,
+        outlive the child for a moment: this process is their subreaper, reaps them and
+        counts them).
     max_rss : int
         Bytes: the largest resident size of any single process among those (``ru_maxrss``).
     tree_rss : int
@@ -61,6 +64,7 @@ def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Meas
     out_path, err_path = log_dir / f"{name}.out", log_dir / f"{name}.err"
     load, tree_peak = [], 0
     with open(out_path, "w") as out, open(err_path, "w") as err:
+        become_subreaper()
         start = time.perf_counter()
         child = subprocess.Popen(command, cwd=cwd, env=env, stdout=out, stderr=err,
                                  stdin=subprocess.DEVNULL)
@@ -73,9 +77,41 @@ def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Meas
             load.append(os.getloadavg()[0])
             time.sleep(SAMPLE_SECONDS)
     child.returncode = os.waitstatus_to_exitcode(status)   # keep Popen from waiting again
-    return Measured(command, child.returncode, wall, usage.ru_utime, usage.ru_stime,
-                    usage.ru_maxrss * 1024, tree_peak, load, out_path.read_text(),
-                    err_path.read_text()[-3000:])
+    user, system, max_rss = usage.ru_utime, usage.ru_stime, usage.ru_maxrss
+    for orphan in reap_orphans():
+        user, system = user + orphan.ru_utime, system + orphan.ru_stime
+        max_rss = max(max_rss, orphan.ru_maxrss)
+    return Measured(command, child.returncode, wall, user, system, max_rss * 1024, tree_peak,
+                    load, out_path.read_text(), err_path.read_text()[-3000:])
+
+
+def become_subreaper() -> bool:
+    """Make this process the reaper of its orphaned descendants (Linux ``prctl``
+    ``PR_SET_CHILD_SUBREAPER``), so that :func:`reap_orphans` can count their CPU; False
+    where that is not possible."""
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def reap_orphans(timeout: float = 30.0) -> list:
+    """Wait for the descendants a finished child left to this process (see
+    :func:`become_subreaper`) and return their ``rusage`` (they end once the child has: a
+    ``forkserver`` when its parent's pipe closes)."""
+    found, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            pid, _, usage = os.wait4(-1, os.WNOHANG)
+        except ChildProcessError:
+            break
+        if pid:
+            found.append(usage)
+        else:
+            time.sleep(0.05)
+    return found
 
 
 def tree_resident_bytes(root: int) -> int:

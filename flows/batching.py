@@ -39,6 +39,9 @@ logger = logging.getLogger(__name__)
 #: the flows whose batches a compute pool computes (``[nightly] processes``): those whose
 #: commit needs no telemetry (a baseline's draws its plots from it)
 POOLED_FLOWS = ("nightly", "reanalysis")
+#: batches whose work a compute pool has before their tasks run (the running one's and the
+#: next: the workers never wait for a batch task to start)
+AHEAD = 2
 
 
 def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
@@ -148,6 +151,17 @@ def batch_results(outcome, batch: Sequence[AssetRef], config: FleetConfig,
     return batch_failed(batch, reason, task_attempts(outcome, reason, config.nightly.retries))
 
 
+def _compute_ahead(pool, job: BatchJob, parts: Sequence[Sequence[AssetRef]]) -> None:
+    """Give a compute pool (if any) these batches' work before their tasks run
+    (:func:`flows.pooled_execute.compute_ahead`)."""
+    if pool is None:
+        return
+    from flows.pooled_execute import compute_ahead   # it imports the pipeline, which this
+
+    for batch in parts:
+        compute_ahead(pool, job.for_batch(batch))
+
+
 def _processes(config: FleetConfig, runner, job: BatchJob, assets: int) -> int:
     """Worker processes of the run's compute pool (``[nightly] processes``; 1: none): only
     beside the sequential runner, for a flow of :data:`POOLED_FLOWS` with more than one
@@ -190,13 +204,15 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
                                                            config.nightly.batch_size,
                                                            runner.slots))
         outputs: list[list[AssetResult]] = [[] for _ in parts]
-        with compute_pool(processes):
+        with compute_pool(processes) as pool:
             for batch in parts:
                 label = (f"{batch[0].asset_id}..{batch[-1].asset_id} ({len(batch)} assets)"
                          if len(batch) > 1 else batch[0].asset_id)
                 runner.submit(configured, {"job": job.for_batch(batch).to_dict(),
                                            "label": label})
+            _compute_ahead(pool, job, parts[:AHEAD])
             for index, outcome in runner.completed():
+                _compute_ahead(pool, job, parts[index + AHEAD:index + AHEAD + 1])
                 outputs[index] = batch_results(outcome, parts[index], config, clock,
                                                runner.in_process)
     summary.assets = [result for output in outputs for result in output]

@@ -53,6 +53,9 @@ class ComputePool:
             raise ValueError(f"a compute pool needs at least 2 processes, got {processes}")
         self.processes = processes
         self._executor: ProcessPoolExecutor | None = None
+        #: work submitted ahead of the batch task that takes it, by the task's job
+        #: (:func:`flows.pooled_execute.compute_ahead`)
+        self.ahead: dict = {}
 
     def __enter__(self) -> "ComputePool":
         self._executor = self._new_executor()
@@ -60,6 +63,7 @@ class ComputePool:
 
     def __exit__(self, *exc) -> None:
         executor, self._executor = self._executor, None
+        self.ahead = {}
         if executor is not None:
             executor.shutdown(wait=True, cancel_futures=True)
 

@@ -33,6 +33,7 @@ received from outside is ever unpickled (docs/design.md section 5.6).
 from __future__ import annotations
 
 import functools
+import json
 import logging
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
@@ -128,9 +129,7 @@ def execute_pooled(job: BatchJob, pool: ComputePool, clock: StageClock
     """
     config, plan = job.for_batch(()).plan(clock)        # the flow's commit policy
     commit = plan.commit
-    size = chunk_size(len(job.refs), pool.processes)
-    chunks = [job.refs[i:i + size] for i in range(0, len(job.refs), size)]
-    futures = [_submit(pool, job, chunk) for chunk in chunks]
+    chunks, futures = pool.ahead.pop(_key(job), None) or _submit_batch(pool, job)
     results: list[AssetResult] = []
     index = 0
     try:
@@ -153,6 +152,24 @@ def execute_pooled(job: BatchJob, pool: ComputePool, clock: StageClock
         for future in futures[index:]:
             future.cancel()
     return results
+
+
+def compute_ahead(pool: ComputePool, job: BatchJob) -> None:
+    """Submit ``job``'s chunks now, before its batch task runs (:func:`execute_pooled` takes
+    them): the workers go on from one batch to the next while the flow's process commits
+    the one before and Prefect starts the next task."""
+    pool.ahead[_key(job)] = _submit_batch(pool, job)
+
+
+def _key(job: BatchJob) -> str:
+    return json.dumps(job.to_dict(), sort_keys=True, default=str)
+
+
+def _submit_batch(pool: ComputePool, job: BatchJob) -> tuple[list, list[Future]]:
+    """The job's chunks (:func:`chunk_size`) and their futures."""
+    size = chunk_size(len(job.refs), pool.processes)
+    chunks = [job.refs[i:i + size] for i in range(0, len(job.refs), size)]
+    return chunks, [_submit(pool, job, chunk) for chunk in chunks]
 
 
 def _submit(pool: ComputePool, job: BatchJob, refs: Sequence[AssetRef]) -> Future:
