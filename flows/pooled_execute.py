@@ -39,7 +39,7 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from typing import Sequence
 
-from graybox.stage_clock import StageClock
+from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
 from flows.compute_pool import ComputePool
@@ -53,6 +53,9 @@ from flows.results import FAILED, AssetResult, describe_error, is_transient
 
 logger = logging.getLogger(__name__)
 
+#: the stage of the flow's process waiting for a chunk (its wall seconds: how long the
+#: commits waited for the workers; the workers' own stages are added under their names)
+WAIT_STAGE = "pool_wait"
 #: assets a worker plans, reads and fits at once (one batched fit, one commit group at least)
 MAX_CHUNK = 8
 
@@ -182,7 +185,8 @@ def _items(config: FleetConfig, job: BatchJob, chunks: list, futures: list[Futur
     worker: see the module docstring's failures."""
     chunk = chunks[index]
     try:
-        items, stages = futures[index].result()
+        with timed(clock, WAIT_STAGE):
+            items, stages = futures[index].result()
     except BrokenProcessPool as error:
         logger.warning("a compute worker died while computing %s (%s); computing them "
                        "again one at a time", ", ".join(r.asset_id for r in chunk), error)
