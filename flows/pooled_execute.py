@@ -57,18 +57,23 @@ logger = logging.getLogger(__name__)
 #: commits waited for the workers; the workers' own stages are added under their names)
 WAIT_STAGE = "pool_wait"
 #: assets a worker plans, reads and fits at once (one batched fit, one commit group at least)
-MAX_CHUNK = 8
+MAX_CHUNK = 32
 
 
 def chunk_size(assets: int, processes: int) -> int:
-    """Assets per chunk: at most :data:`MAX_CHUNK`, and at least two chunks per worker.
+    """Assets per chunk: a batch shared among the workers, at most :data:`MAX_CHUNK`.
+
+    Larger chunks cost less per asset (a worker's numpy temporaries are reused across more
+    assets: at 1 Hz a chunk of 8 took about 4 ms more CPU per asset-night in the residual
+    than one of 48); the chunks of the next batches are queued before their tasks run
+    (:func:`compute_ahead`), so the workers do not wait for the commits.
 
     Examples
     --------
-    >>> chunk_size(64, 2), chunk_size(6, 2), chunk_size(1, 2)
-    (8, 2, 1)
+    >>> chunk_size(64, 2), chunk_size(6, 2), chunk_size(1, 2), chunk_size(200, 2)
+    (32, 3, 1, 32)
     """
-    return max(1, min(MAX_CHUNK, -(-assets // (2 * processes))))
+    return max(1, min(MAX_CHUNK, -(-assets // processes)))
 
 
 @functools.lru_cache(maxsize=4)
