@@ -130,7 +130,7 @@ def sections() -> list[Section]:
                                      "candidates\" below)",
                  "processes": "with the sequential runner, processes that read, fit and "
                               "compare the candidates while the flow's own process records "
-                              "them in order (integer >= 1; `\"auto\"`: one per core, at "
+                              "them in order (integer >= 1 or `\"auto\"`: one per core, at "
                               "most 4; 1: everything in the flow's process; \"Processes\" "
                               "below)"},
                 sizes=("memory_budget",)),

@@ -56,7 +56,7 @@ retry_delay_seconds = {retry_delay_seconds:g}
 lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
 candidate_nights = {candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
 task_runner = "{nightly.task_runner}"            # "dask": batches at once on the [dask] cluster
-processes = "{nightly.processes}"                     # candidates computed in this many processes ("auto": one per core)
+processes = {nightly.processes!r}                        # processes computing the candidates ('auto': one per core)
 
 # [dask]                                   # with task_runner = "dask" (docs/operations.md)
 # address = "tcp://scheduler:8786"         # an existing cluster; or (not both) a LocalCluster per run:
