@@ -110,9 +110,8 @@ class NightlySettings:
     #: nightly windows each candidate is fitted on: the night and the N - 1 before it
     candidate_nights: int = 2
     #: processes computing a night's candidates beside the flow's (``"auto"``: one per core,
-    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process). 1 until a
-    #: quiet 2-core machine shows the pool's gain (docs/performance.md, "Branch ``moon2``")
-    processes: int | str = 1
+    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process)
+    processes: int | str = "auto"
 
     @property
     def window_delta(self) -> pd.Timedelta:
