@@ -1,5 +1,5 @@
 """The processes that compute a night's candidates beside the flow's own: ``[nightly]
-processes`` (default ``"auto"``: one per core, at most 4; 1: none).
+processes`` (default 1: none, everything in the flow's process).
 
 With the sequential task runner a night's batches run in the flow's process, and most of a
 candidate's time (planning's look-ups, reading, the residual, the tiers, the drift) is its

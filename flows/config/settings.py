@@ -110,8 +110,9 @@ class NightlySettings:
     #: nightly windows each candidate is fitted on: the night and the N - 1 before it
     candidate_nights: int = 2
     #: processes computing a night's candidates beside the flow's (``"auto"``: one per core,
-    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process)
-    processes: int | str = "auto"
+    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process). 1 until the
+    #: pool is tested with plots on and on PostgreSQL (docs/configuration.md, "Processes")
+    processes: int | str = 1
 
     @property
     def window_delta(self) -> pd.Timedelta:
