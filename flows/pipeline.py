@@ -271,9 +271,9 @@ class PendingAsset:
 def travelling(asset: PendingAsset, plots: str) -> PendingAsset:
     """``asset``, fitted and compared, made light to send to the process that commits it
     (:mod:`flows.pooled_execute`): each window's data hash is taken
-    (:func:`registry.write.submission.data_hash`, what the registry would take) and its telemetry is
+    (:func:`registry.data_hash`, what the registry would take) and its telemetry is
     dropped unless the ``[nightly] plots`` policy ``plots`` draws it."""
-    from registry.write.submission import data_hash
+    from registry import data_hash
 
     for window in asset.windows:
         if window.drift is not None:        # only a compared window is recorded

@@ -28,11 +28,13 @@ from typing import TYPE_CHECKING
 __all__ = ["Registry", "FitSubmission", "FitRecord", "VersionInfo", "AssetSummary",
            "LoadedVersion", "RegistryError", "NotFoundError", "PromotionError",
            "UnusableBaselineError", "StoreError", "TransientStoreError", "RetryPolicy",
-           "NightRatio", "night_of_window", "resolve_store", "file_lock", "load_mlflow"]
+           "NightRatio", "night_of_window", "resolve_store", "file_lock", "load_mlflow",
+           "data_hash"]
 
 _LOCATIONS = {
     "Registry": "registry.registry",
     "FitSubmission": "registry.write.submission",
+    "data_hash": "registry.write.submission",
     "FitRecord": "registry.records",
     "VersionInfo": "registry.records",
     "AssetSummary": "registry.records",
@@ -60,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from registry.store.locks import file_lock
     from registry.store.retry import RetryPolicy
     from registry.store.tracking_store import load_mlflow, resolve_store
-    from registry.write.submission import FitSubmission
+    from registry.write.submission import FitSubmission, data_hash
 
 
 def __getattr__(name: str):
