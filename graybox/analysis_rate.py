@@ -70,21 +70,24 @@ def fastest_rate(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
     float
         0 when the model has no state dynamics (or they cannot be evaluated).
     """
-    eigenvalues = linearised_eigenvalues(model, frames, points)
+    return largest_rate(linearised_eigenvalues(model, frames, points), quantile)
+
+
+def largest_rate(eigenvalues: np.ndarray | None, quantile: float = 0.9) -> float:
+    """:func:`fastest_rate` from :func:`linearised_eigenvalues`' output (0 for None)."""
     if eigenvalues is None:
         return 0.0
     return float(np.quantile(np.abs(eigenvalues).max(axis=1), quantile))
 
 
-def integrates(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
-               points: int = OPERATING_POINTS) -> bool:
-    """Whether the white box has a mode that never decays (an eigenvalue with zero real part
-    at every point: a tank's volume counted from its flows, a receiver's pressure)."""
-    eigenvalues = linearised_eigenvalues(model, frames, points)
+def integrates(eigenvalues: np.ndarray | None) -> bool:
+    """Whether the white box has a mode that never decays: at every point of
+    :func:`linearised_eigenvalues`' output, an eigenvalue with zero real part (a tank's
+    volume counted from its flows, a receiver's pressure). False for None."""
     if eigenvalues is None:
         return False
     scale = np.abs(eigenvalues).max(axis=1, keepdims=True)
-    return bool((np.abs(eigenvalues.real) <= 1e-9 * np.maximum(scale, 1e-300)).any(axis=1).all())
+    return bool((np.abs(eigenvalues.real) <= 1e-9 * scale).any(axis=1).all())
 
 
 def linearised_eigenvalues(model: WhiteBoxModel, frames: Sequence[pd.DataFrame],

@@ -182,7 +182,7 @@ def level_horizon(time_constant: float, sample_interval: float, segment_lengths:
         Samples of a calibration piece (at least ``min_samples``).
     integrating : bool, default False
         The white box has a mode that never decays
-        (:func:`graybox.analysis_rate.integrates`).
+        (:func:`graybox.analysis_rate.integrates` of the baseline's eigenvalues).
 
     Returns
     -------
@@ -195,7 +195,7 @@ def level_horizon(time_constant: float, sample_interval: float, segment_lengths:
     wanted = LEVEL_ASKED_STEPS * asked / sample_interval
     cap = min(LEVEL_LONGEST_STEPS, piece_samples // 2,
               int(np.median(segment_lengths)) // 2 if len(segment_lengths) else 0)
-    steps = min(np.ceil(wanted - 1e-9), cap) if np.isfinite(wanted) else cap
+    steps = min(np.ceil(wanted - 1e-9), cap)
     rungs = [r for r in _rungs(cap) if r > floor]
     if steps <= floor or not rungs or rungs[-1] * sample_interval < time_constant:
         return floor

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from graybox.analysis_rate import fastest_rate, integrates
+from graybox.analysis_rate import integrates, largest_rate, linearised_eigenvalues
 from graybox.exceptions import InsufficientDataError, StructureMismatchError
 from graybox.level_tier import (LevelTier, drifting_state_names, extrapolation, fit_level,
                                 level_horizon, operating_features, pool_level_data,
@@ -102,10 +102,10 @@ class LevelTierKind(Tier):
         lengths = [len(window.y) for window in asset.windows]
         piece = max(settings.min_sample_count,
                     int(per_window(lengths, asset.owners).min()) // settings.calibration_splits)
-        model = asset.request.model
-        rate = fastest_rate(model, asset.windows)
+        eigenvalues = linearised_eigenvalues(asset.request.model, asset.windows)
+        rate = largest_rate(eigenvalues)
         return level_horizon(1.0 / rate if rate > 0 else 0.0, asset.analysis_interval,
-                             lengths, piece, integrates(model, asset.windows))
+                             lengths, piece, integrates(eigenvalues))
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         if channel.level is None:
