@@ -65,6 +65,7 @@ def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Meas
     load, tree_peak = [], 0
     with open(out_path, "w") as out, open(err_path, "w") as err:
         become_subreaper()
+        earlier_children = children_of(os.getpid())
         start = time.perf_counter()
         child = subprocess.Popen(command, cwd=cwd, env=env, stdout=out, stderr=err,
                                  stdin=subprocess.DEVNULL)
@@ -78,7 +79,7 @@ def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Meas
             time.sleep(SAMPLE_SECONDS)
     child.returncode = os.waitstatus_to_exitcode(status)   # keep Popen from waiting again
     user, system, max_rss = usage.ru_utime, usage.ru_stime, usage.ru_maxrss
-    for orphan in reap_orphans():
+    for orphan in reap_orphans(earlier_children):
         user, system = user + orphan.ru_utime, system + orphan.ru_stime
         max_rss = max(max_rss, orphan.ru_maxrss)
     return Measured(command, child.returncode, wall, user, system, max_rss * 1024, tree_peak,
@@ -97,50 +98,72 @@ def become_subreaper() -> bool:
         return False
 
 
-def reap_orphans(timeout: float = 30.0) -> list:
+def reap_orphans(earlier_children: set[int], timeout: float = 30.0) -> list:
     """Wait for the descendants a finished child left to this process (see
     :func:`become_subreaper`) and return their ``rusage`` (they end once the child has: a
-    ``forkserver`` when its parent's pipe closes)."""
+    ``forkserver`` when its parent's pipe closes).
+
+    Only processes that became this process's children since ``earlier_children`` was taken
+    are waited for: a caller's own long-lived children (a test's database or Prefect server)
+    are neither reaped nor waited on until the timeout."""
     found, deadline = [], time.monotonic() + timeout
     while time.monotonic() < deadline:
-        try:
-            pid, _, usage = os.wait4(-1, os.WNOHANG)
-        except ChildProcessError:
+        orphans = children_of(os.getpid()) - earlier_children
+        if not orphans:
             break
-        if pid:
-            found.append(usage)
-        else:
-            time.sleep(0.05)
+        for orphan in orphans:
+            try:
+                pid, _, usage = os.wait4(orphan, os.WNOHANG)
+            except ChildProcessError:
+                continue
+            if pid:
+                found.append(usage)
+        time.sleep(0.05)
     return found
 
 
-def tree_resident_bytes(root: int) -> int:
-    """Summed resident bytes of ``root`` and its descendants now (0 without ``/proc``)."""
+def process_parents() -> dict[int, int]:
+    """Every process's parent id, from ``/proc`` (empty without it)."""
     parents: dict[int, int] = {}
-    rss: dict[int, int] = {}
-    page = os.sysconf("SC_PAGE_SIZE")
     try:
         entries = os.listdir("/proc")
     except OSError:
-        return 0
+        return parents
     for entry in entries:
         if not entry.isdigit():
             continue
         try:
             with open(f"/proc/{entry}/stat") as stat:
                 fields = stat.read().rsplit(")", 1)[1].split()
-            with open(f"/proc/{entry}/statm") as statm:
-                rss[int(entry)] = int(statm.read().split()[1]) * page
-        except (OSError, IndexError, ValueError):
+        except (OSError, IndexError):
             continue
         parents[int(entry)] = int(fields[1])        # after "pid (comm)": state, ppid
+    return parents
+
+
+def children_of(parent: int) -> set[int]:
+    """The ids of ``parent``'s children now, zombies included."""
+    return {pid for pid, ppid in process_parents().items() if ppid == parent}
+
+
+def tree_resident_bytes(root: int) -> int:
+    """Summed resident bytes of ``root`` and its descendants now (0 without ``/proc``)."""
+    parents = process_parents()
+    page = os.sysconf("SC_PAGE_SIZE")
     tree, frontier = {root}, [root]
     while frontier:
         parent = frontier.pop()
         children = [pid for pid, ppid in parents.items() if ppid == parent and pid not in tree]
         tree.update(children)
         frontier += children
-    return sum(rss.get(pid, 0) for pid in tree)
+    total = 0
+    for pid in tree:
+        try:
+            with open(f"/proc/{pid}/statm") as statm:
+                total += int(statm.read().split()[1]) * page
+        except (OSError, IndexError, ValueError):
+            continue
+    return total
 
 
 def stop_on_signals() -> None:

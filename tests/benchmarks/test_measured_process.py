@@ -1,4 +1,5 @@
 """A benchmark told to stop runs its ``finally`` blocks (where it stops its servers)."""
+import os
 import pathlib
 import signal
 import subprocess
@@ -36,3 +37,27 @@ def test_a_signal_ends_the_benchmark_through_its_finally(tmp_path, signum):
     child.wait(timeout=60)
     assert mark.read_text() == "stopped"
     assert child.returncode != 0
+
+
+def test_orphans_are_reaped_and_earlier_children_left_alone():
+    # a child that exits at once and leaves a grandchild behind, beside a long-lived child of
+    # this process (a test's database server): only the grandchild is waited for and reaped
+    from benchmarks.measured_process import become_subreaper, children_of, reap_orphans
+
+    if not become_subreaper():
+        pytest.skip("no PR_SET_CHILD_SUBREAPER here")
+    server = subprocess.Popen(["sleep", "60"])
+    try:
+        earlier = children_of(os.getpid())
+        assert server.pid in earlier
+        parent = subprocess.Popen([sys.executable, "-c",
+                                   "import subprocess; subprocess.Popen(['sleep', '0.3'])"])
+        parent.wait(timeout=60)
+        start = time.monotonic()
+        reaped = reap_orphans(earlier, timeout=30.0)
+        assert len(reaped) == 1
+        assert time.monotonic() - start < 30.0          # did not wait for the server
+        assert server.poll() is None                     # neither reaped nor stopped
+    finally:
+        server.kill()
+        server.wait()
