@@ -24,9 +24,11 @@ Stores and Prefect:
   ``tests/postgres_server.py`` does, data in ``<workdir>/postgres``): the baselines in the
   database ``baselined``, each run on a copy of it (``CREATE DATABASE ... TEMPLATE``),
   through a ``postgresql+psycopg://`` tracking URI.
-* Prefect's temporary server started by each run, or with ``--prefect-postgres`` one
-  ``prefect server start`` for the whole benchmark, on the same PostgreSQL server
-  (``PREFECT_API_DATABASE_CONNECTION_URL``, asyncpg), its address given to every run.
+* Prefect's temporary server started by each run; or with ``--prefect-server`` one
+  ``prefect server start`` for the whole benchmark (on SQLite in the work directory), its
+  address given to every run, as production runs on a running server; with
+  ``--prefect-postgres`` that server on the same PostgreSQL server
+  (``PREFECT_API_DATABASE_CONNECTION_URL``, asyncpg).
 
 With a server, the CPU seconds its processes spent during each run are recorded too
 (``postgres_cpu``, ``prefect_cpu``): on a machine of two cores the workers share the cores
@@ -81,6 +83,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                              "fixed start-up)")
     parser.add_argument("--mlflow-postgres", action="store_true",
                         help="MLflow on a PostgreSQL server started here")
+    parser.add_argument("--prefect-server", action="store_true",
+                        help="one Prefect server (on SQLite) for every run, instead of a "
+                             "temporary one each")
     parser.add_argument("--prefect-postgres", action="store_true",
                         help="one Prefect server on PostgreSQL for every run")
     parser.add_argument("--sample-interval", type=float, default=1.0,
@@ -271,6 +276,11 @@ class Bench:
                 self.postgres.execute('CREATE DATABASE "prefect"')
             say("Prefect server on PostgreSQL ...")
             self.prefect = PrefectServer(self.root, self.postgres.uri("prefect", "asyncpg"))
+        elif self.args.prefect_server:
+            say("Prefect server on SQLite ...")
+            self.prefect = PrefectServer(
+                self.root, f"sqlite+aiosqlite:///{self.root / 'prefect-server.db'}")
+        if self.prefect is not None:
             self.prefect.start()
             self.env = dict(self.env, PREFECT_API_URL=self.prefect.api_url)
 
@@ -424,7 +434,8 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
                   "%Y-%m-%d %H:%M UTC"),
               "family": args.family, "assets": args.assets, "batch_size": args.batch_size,
               "mlflow": "postgresql" if args.mlflow_postgres else "sqlite",
-              "prefect": "server on postgresql" if args.prefect_postgres else "temporary",
+              "prefect": ("server on postgresql" if args.prefect_postgres
+                          else "server on sqlite" if args.prefect_server else "temporary"),
               "baseline_wall": plan.get("baseline_wall"), "runs": runs}
     if not args.workdir:
         shutil.rmtree(root, ignore_errors=True)

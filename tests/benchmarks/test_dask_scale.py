@@ -79,12 +79,14 @@ def test_options():
 def test_one_small_run_end_to_end(tmp_path):
     """One gas-turbine asset at 60-s samples: baseline, then the sequential and the
     one-worker night (the idle runs and the cost model they feed are checked on known numbers
-    above: each run here is a child process with its own Prefect server)."""
+    above: each run here is a child process, all of them on one Prefect server the benchmark
+    starts; each child's own temporary server is benchmarks.nightly_scale's smoke run)."""
     out = tmp_path / "runs.json"
     env = dict(os.environ, PYTHONPATH=str(REPO))
     done = subprocess.run([sys.executable, "-m", "benchmarks.dask_scale", "--assets", "1",
                            "--batch-size", "1", "--workers", "1", "--repeats", "1",
-                           "--sample-interval", "60", "--workdir", str(tmp_path / "work"),
+                           "--sample-interval", "60", "--prefect-server",
+                           "--workdir", str(tmp_path / "work"),
                            "--json", str(out)],
                           cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -92,4 +94,6 @@ def test_one_small_run_end_to_end(tmp_path):
     assert [r["runner"] for r in result["runs"]] == ["sequential", "dask-1"]
     assert all(r["windows"] == 1 and not r.get("idle") for r in result["runs"])
     assert result.get("model") is None                       # it needs the idle runs
+    assert result["prefect"] == "server on sqlite"
+    assert all(r["prefect_cpu"] > 0 for r in result["runs"])  # the runs used that server
     assert "| dask-1 | 1 |" in done.stdout
