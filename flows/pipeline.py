@@ -11,9 +11,10 @@
    groups that fit the memory budget (:func:`memory_groups`), so a batch's peak memory does
    not grow with its size, and runs every group through the same stages:
 
-   a. one batched fit of the group: :func:`fit_candidates` against each reference's frozen
-      structure, or :func:`fit_baselines` (stages ``residual``, ``stationarize_ar``,
-      ``network``, ``noise``);
+   a. one batched fit of the group: :func:`graybox.signature_fit.fit_signatures` of its
+      :func:`candidate_requests` against each reference's frozen structure, or
+      :func:`fit_baselines` (stages ``residual``, ``stationarize_ar``, ``network``,
+      ``noise``);
    b. :func:`compare` -- each candidate's drift against its reference (``drift``) and the
       physical diagnosis of an alarmed window (``diagnosis``);
 3. **Commit.** The flow's policy: :func:`record_group` (the registry record, stage
@@ -478,7 +479,8 @@ class BatchPlan:
 def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = None
             ) -> list[AssetResult]:
     """Run a batch's plan: read its jobs (:func:`read`) in groups within ``[nightly]
-    memory_budget`` (:func:`memory_groups`), and per group fit (:func:`fit_candidates` or
+    memory_budget`` (:func:`memory_groups`), and per group fit (the
+    :func:`candidate_requests` by :func:`graybox.signature_fit.fit_signatures`, or
     :func:`fit_baselines`), compare (:func:`compare`) and commit (``plan.commit``); each
     asset is reported on the progress line when its result is final.
 
@@ -502,8 +504,7 @@ def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = Non
             for pending in group:
                 pending.baseline_fit = fits[pending.asset_id]
         else:
-            fit_candidates(group, clock)
-            compare(group, clock)
+            compare(group, fit_signatures(candidate_requests(group), clock=clock), clock)
         for pending in commit.commit(group):
             _report(pending.result, commit)
     return [job.result for job in plan.jobs]
@@ -548,15 +549,13 @@ def memory_groups(assets: Iterable[PendingAsset | None], budget: MemoryBudget
         yield group
 
 
-def fit_candidates(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
-    """One batched fit of every window of every asset against its reference's frozen
-    structure; sets each window's ``fit`` (a Signature or the GrayBoxError that stopped it)."""
-    work = [(window, FitRequest(asset.model, window.parts,
-                                baseline=asset.reference.signature, asset_id=asset.asset_id))
+def candidate_requests(assets: Sequence[PendingAsset]) -> list[FitRequest]:
+    """One fit request per window of every asset, in order: the window's telemetry against
+    its reference's frozen structure (:func:`graybox.signature_fit.fit_signatures` fits them
+    in one batched call; :func:`compare` takes its results in the same order)."""
+    return [FitRequest(asset.model, window.parts, baseline=asset.reference.signature,
+                       asset_id=asset.asset_id)
             for asset in assets for window in asset.windows]
-    fits = fit_signatures([request for _, request in work], clock=clock) if work else []
-    for (window, _), fit in zip(work, fits):
-        window.fit = fit
 
 
 def fit_baselines(assets: Sequence[PendingAsset], classes: Mapping[str, VehicleClass],
@@ -609,14 +608,23 @@ def _fit_alone(request: FitRequest, settings, false_alarm_rate: float,
                             f"{type(error).__name__}: {error}")
 
 
-def compare(assets: Sequence[PendingAsset], clock: StageClock | None = None) -> None:
-    """Each fitted window's drift against its asset's reference (stage ``drift``) and, when
-    it alarms, its physical diagnosis (:func:`diagnose_alarm`, stage ``diagnosis``); sets the
-    window's ``drift`` and ``diagnosis``, or the ``failure`` that stopped them.
+def compare(assets: Sequence[PendingAsset], fits: Sequence[Signature | GrayBoxError],
+            clock: StageClock | None = None) -> None:
+    """Each window's fit and its drift against its asset's reference (stage ``drift``) and,
+    when it alarms, its physical diagnosis (:func:`diagnose_alarm`, stage ``diagnosis``);
+    sets the window's ``fit``, ``drift`` and ``diagnosis``, or the ``failure`` that stopped
+    them.
 
-    A window whose fit or comparison failed stops an asset that ``stop_at_error`` (its later
-    windows are not compared: they wait for the next run); otherwise the others go on.
+    ``fits``: the fit of every window of every asset, in order (a Signature or the
+    GrayBoxError that stopped it), i.e. :func:`graybox.signature_fit.fit_signatures` of
+    :func:`candidate_requests`. A window whose fit or comparison failed stops an asset that
+    ``stop_at_error`` (its later windows are not compared: they wait for the next run);
+    otherwise the others go on.
     """
+    fitted = iter(fits)
+    for asset in assets:
+        for window in asset.windows:
+            window.fit = next(fitted)
     for asset in assets:
         reference = asset.reference
         for window in asset.windows:

@@ -4,8 +4,9 @@ chunks, the flow's process commits them in the plan's order.
 
 Worker side, :func:`compute_chunk`: the flow's planner plans the chunk (its registry
 look-ups: the watermark, the reference's load and verification), then :func:`flows.pipeline.read`,
-:func:`~flows.pipeline.fit_candidates` and :func:`~flows.pipeline.compare`, in groups within
-the worker's share of ``[nightly] memory_budget``. Before a fitted asset goes back, each
+:func:`~graybox.signature_fit.fit_signatures` of :func:`~flows.pipeline.candidate_requests`
+and :func:`~flows.pipeline.compare`, in groups within the worker's share of ``[nightly]
+memory_budget``. Before a fitted asset goes back, each
 window's data hash is taken (what the registry would hash) and its telemetry is dropped
 unless the window's plots need it: what travels is the fits, drifts and diagnoses.
 
@@ -39,6 +40,7 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from typing import Sequence
 
+from graybox.signature_fit import fit_signatures
 from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
@@ -47,7 +49,7 @@ from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef
 from flows.errors import TransientError
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, _report, compare, execute, fit_candidates,
+from flows.pipeline import (PendingAsset, _report, candidate_requests, compare, execute,
                             memory_groups, read, travelling)
 from flows.results import FAILED, AssetResult, describe_error, is_transient
 
@@ -112,8 +114,7 @@ def compute_chunk(job: dict, processes: int) -> tuple[list, dict]:
     budget = MemoryBudget.for_batch(config.nightly.memory_budget // processes, baseline=False)
     pending: dict[str, PendingAsset] = {}
     for group in memory_groups((read(config, j, clock) for j in plan.jobs), budget):
-        fit_candidates(group, clock)
-        compare(group, clock)
+        compare(group, fit_signatures(candidate_requests(group), clock=clock), clock)
         for asset in group:
             pending[asset.asset_id] = travelling(asset, config.nightly.plots)
     items = [pending.get(j.ref.asset_id, j.result) for j in plan.jobs]

@@ -355,11 +355,38 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
     # these are many small vector products: BLAS threads spin-waiting on a busy machine made
     # each 5 ms instead of microseconds (measured); parallelism belongs to processes
     with threadpool_limits(limits=1):
-        for effective, positions in groups.items():
-            for position, result in zip(positions, _fit_group([requests[p] for p in positions],
-                                                              effective, chunk_size, clock,
-                                                              cache, kinds)):
-                results[position] = result
+        # per group of requests with the same settings: tune each white box, fit the hidden
+        # starts side by side, prepare each asset (its residual and early tiers), every
+        # tier's batched fit across the group's assets, then each asset's late tiers
+        for group_settings, positions in groups.items():
+            tuned: dict[int, tuple[FitRequest, ParameterEstimate | None]] = {}
+            for position in positions:
+                try:
+                    with timed(clock, "tuning"):
+                        tuned[position] = tuned_request(requests[position])
+                except Exception as error:  # noqa: BLE001 - one asset never stops the others
+                    results[position] = _as_graybox_error(error, requests[position])
+            group_cache = cache
+            if group_cache is None and any(t[0].model.hidden_states for t in tuned.values()):
+                group_cache = SegmentCache(storing=False)
+            with timed(clock, "residual"):
+                _fit_hidden_starts([t[0] for t in tuned.values()], group_settings, group_cache)
+            prepared: dict[int, AssetFit] = {}
+            for position, (request, tuning) in tuned.items():
+                try:
+                    prepared[position] = _prepare(request, group_settings, clock, group_cache,
+                                                  kinds)
+                    prepared[position].tuning = tuning
+                except Exception as error:  # noqa: BLE001 - as above
+                    results[position] = _as_graybox_error(error, request)
+            failed = _fit_batched(list(prepared.values()), group_settings, chunk_size, kinds,
+                                  clock)
+            for position, item in prepared.items():
+                try:
+                    results[position] = (failed[id(item)] if id(item) in failed else
+                                         _finish(item, group_settings, clock, kinds))
+                except Exception as error:  # noqa: BLE001
+                    results[position] = _as_graybox_error(error, item.request)
     return results
 
 
@@ -380,44 +407,6 @@ def _resolved(settings: GrayBoxSettings, request: FitRequest) -> GrayBoxSettings
 def _shortest_window(frames: Sequence[pd.DataFrame], owners: Sequence[int]) -> int:
     """Operating samples of the window with the fewest (:func:`_operating_segments`' output)."""
     return int(per_window([len(f) for f in frames], owners).min())
-
-
-def _fit_group(requests: Sequence[FitRequest], settings: GrayBoxSettings,
-               chunk_size: int, clock: StageClock | None, cache: SegmentCache | None,
-               kinds: Sequence[Tier]) -> list[Signature | GrayBoxError]:
-    results: list[Signature | GrayBoxError | None] = [None] * len(requests)
-    tuned: list[tuple[FitRequest, ParameterEstimate | None] | None] = [None] * len(requests)
-    for position, request in enumerate(requests):
-        try:
-            with timed(clock, "tuning"):
-                tuned[position] = tuned_request(request)
-        except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
-            results[position] = _as_graybox_error(error, request)
-    if cache is None and any(t is not None and t[0].model.hidden_states for t in tuned):
-        cache = SegmentCache(storing=False)
-    with timed(clock, "residual"):
-        _fit_hidden_starts([t[0] for t in tuned if t is not None], settings, cache)
-    prepared, positions = [], []
-    for position, request in enumerate(requests):
-        if tuned[position] is None:
-            continue
-        try:
-            request, tuning = tuned[position]
-            prepared.append(_prepare(request, settings, clock, cache, kinds))
-            prepared[-1].tuning = tuning
-            positions.append(position)
-        except Exception as error:  # noqa: BLE001 - one asset's data never stops the others
-            results[position] = _as_graybox_error(error, request)
-    failed = _fit_batched(prepared, settings, chunk_size, kinds, clock)
-    for position, item in zip(positions, prepared):
-        if id(item) in failed:
-            results[position] = failed[id(item)]
-            continue
-        try:
-            results[position] = _finish(item, settings, clock, kinds)
-        except Exception as error:  # noqa: BLE001
-            results[position] = _as_graybox_error(error, item.request)
-    return results
 
 
 def _fit_batched(prepared: list[AssetFit], settings: GrayBoxSettings, chunk_size: int,
