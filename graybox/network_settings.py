@@ -42,16 +42,16 @@ class FitSettings:
 class NetworkFit:
     """Raw result of one series' fit.
 
-    ``summary`` is what the fit's ``summarise`` made of the network's output on the fitted
-    design's rows at ``(w, W)``, ``tanh(tanh(X w^T) W)``, where the fit computed it that way
-    (the output-layer fit) and was given one, else None.
+    ``prediction`` is the network's output on the fitted design's rows at ``(w, W)``,
+    ``tanh(tanh(X w^T) W)``, where the fit computed it that way (the output-layer fit) and
+    was asked to keep it, else None.
     """
 
     w: np.ndarray
     W: np.ndarray
     mse: float
     iterations: int
-    summary: object = None
+    prediction: np.ndarray | None = None
 
 
 def initial_weights(hidden: int, dim: int, seed, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:

@@ -12,7 +12,7 @@ instead of thousands of small ones.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, ClassVar, Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
@@ -100,8 +100,7 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                  settings: FitSettings = FitSettings(),
                  random_state: int | Sequence[int] | None = 0,
                  chunk_size: int = 32, train_input_weights: bool = True,
-                 chunk_samples: int = CHUNK_SAMPLES,
-                 summarise: Callable[[int, np.ndarray], object] | None = None
+                 chunk_samples: int = CHUNK_SAMPLES, keep_predictions: bool = False
                  ) -> list[NetworkFit]:
     """Fit one Eq. 25 network per problem, in batches of independent series.
 
@@ -128,10 +127,10 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
         When False the hidden layer ``w_jk`` keeps its starting values (fixed random
         features) and only ``W_1j`` is fitted: a well-posed problem with one minimum, used
         where there is no nonlinear structure to learn (see :mod:`graybox.signature_fit`).
-    summarise : callable, optional
-        With ``train_input_weights=False``: ``summarise(i, prediction)`` with problem ``i``'s
-        network output on its rows, kept as the fit's ``summary``
-        (:func:`graybox.output_layer_fit.fit_output_layers`); a trained network's fit has none.
+    keep_predictions : bool, default False
+        With ``train_input_weights=False``: keep each problem's network output on its rows as
+        the fit's ``prediction`` (:func:`graybox.output_layer_fit.fit_output_layers`); a
+        trained network's fit has none.
 
     Returns
     -------
@@ -160,7 +159,7 @@ def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
         starts.append(np.concatenate([w.ravel(), W]))
     if not train_input_weights:
         # one minimum: Levenberg-Marquardt on the output weights, series by series, no torch
-        return fit_output_layers(problems, starts, hidden, settings, summarise)
+        return fit_output_layers(problems, starts, hidden, settings, keep_predictions)
     # Series are padded to a length bucket and batched only with series of the same bucket:
     # every array shape a series meets then depends on its own length alone, so its float
     # rounding (and hence its optimization path) is the same in any batch as alone.

@@ -15,7 +15,7 @@ others of a call.
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -24,8 +24,7 @@ from graybox.network_settings import FitSettings, NetworkFit
 
 def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
                       starts: Sequence[np.ndarray], hidden: int,
-                      settings: FitSettings,
-                      summarise: Callable[[int, np.ndarray], object] | None = None
+                      settings: FitSettings, keep_predictions: bool = False
                       ) -> list[NetworkFit]:
     """Fit ``W`` of each problem with its hidden layer fixed at its start.
 
@@ -39,24 +38,23 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         Hidden units J.
     settings : FitSettings
         ``weight_decay`` (lambda), ``tolerance`` and ``max_iter`` as for the full network.
-    summarise : callable, optional
-        ``summarise(i, prediction)`` with problem ``i``'s network output on its rows at the
-        fitted weights (computed by the fit anyway); its result is kept as the fit's
-        ``summary`` (and the prediction, of the series' length, is not kept).
+    keep_predictions : bool, default False
+        Keep each problem's network output on its rows at the fitted weights (computed by the
+        fit anyway) as the fit's ``prediction``: an array of the series' length per problem.
 
     Returns
     -------
     list of NetworkFit
     """
     out = []
-    for index, ((X, y), start) in enumerate(zip(problems, starts)):
+    for (X, y), start in zip(problems, starts):
         X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         dim = X.shape[1]
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
         W, prediction, iterations = _levenberg_marquardt(
             np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
         out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations,
-                              None if summarise is None else summarise(index, prediction)))
+                              prediction if keep_predictions else None))
     return out
 
 

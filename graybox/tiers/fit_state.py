@@ -47,12 +47,13 @@ class ChannelFit:
     records : dict of str to record
         Per tier name, the fitted record (None: the tier is absent); also read as attributes,
         ``channel.linear`` for ``channel.records["linear"]``.
-    network_noise : NoiseTier or None
-        The moments of the needed network's one-step errors, described by the nonlinear tier
-        from its fit's own prediction as each fit ends
-        (:attr:`graybox.network_settings.NetworkFit.summary`); the noise tier records them
-        instead of running the network over the data again. None where the fit computed no
-        prediction (a trained network).
+    network_errors : list of ndarray or None
+        The needed network's in-sample one-step errors per segment (after its delays), set by
+        the nonlinear tier from its fit's own prediction
+        (:func:`graybox.tiers.nonlinear.network_errors`): what the noise tier describes,
+        without running the network over the data again; it drops them once described. None
+        where the network is not needed or its fit computed no prediction (a trained
+        network).
     """
 
     name: str
@@ -64,7 +65,7 @@ class ChannelFit:
     n_samples: int = 0
     selection: Selection | None = None
     records: dict[str, Any] = field(default_factory=dict)
-    network_noise: Any = None
+    network_errors: list[np.ndarray] | None = None
 
     def __getattr__(self, name: str) -> Any:
         records = self.__dict__.get("records", {})

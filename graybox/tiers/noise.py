@@ -9,7 +9,7 @@ import numpy as np
 from graybox.noise_tier import NoiseTier, describe_noise, sampling_zeta_quantile
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
-from graybox.tiers.fit_state import AssetFit
+from graybox.tiers.fit_state import AssetFit, ChannelFit
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from graybox.signature import ChannelSignature
@@ -32,22 +32,12 @@ class NoiseTierKind(Tier):
     early = False
 
     def fit(self, asset: AssetFit, settings: GrayBoxSettings) -> None:
-        """Describe the final residual: the network's prediction error where the network is
-        needed, else the AR residual itself (after the network's delays either way)."""
+        """Describe the final residual (:func:`describe_noise`): the network's one-step errors
+        where the network is needed, else the AR residual itself (after the network's delays
+        either way)."""
         for channel in asset.channels:
-            structure, w = channel.structure, channel.w_segments
-            span = structure.embedding_dim * structure.tau
-            if structure.nonlinear_needed and channel.network_noise is not None:
-                # described by the nonlinear tier from its fit's prediction (network_errors)
-                channel.records[self.name] = channel.network_noise
-                continue
-            if structure.nonlinear_needed:
-                predictions = channel.nonlinear.predict([s / structure.nn_scale for s in w],
-                                                        structure.tau)
-                noise = [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]
-            else:
-                noise = [s[span:] for s in w]
-            channel.records[self.name] = describe_noise(noise)
+            channel.records[self.name] = describe_noise(final_residual(channel))
+            channel.network_errors = None      # described: an array of the series' length
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         names = ["mean", "variance", "skewness", "excess_kurtosis"]
@@ -71,3 +61,18 @@ class NoiseTierKind(Tier):
         variance = baseline.noise.variance
         delta = delta / np.array([np.sqrt(variance), variance, 1.0, 1.0])
         return delta * np.sqrt(baseline.noise.moment_weights)
+
+
+def final_residual(channel: ChannelFit) -> list[np.ndarray]:
+    """What the linear and nonlinear tiers leave of a channel's residual, per segment, after
+    the network's delays: a needed network's one-step errors (the nonlinear tier's
+    ``network_errors``, from its fit; where its fit kept no prediction, a trained network's,
+    the network is run over the AR residual here), else the AR residual itself."""
+    structure, w = channel.structure, channel.w_segments
+    span = structure.embedding_dim * structure.tau
+    if not structure.nonlinear_needed:
+        return [s[span:] for s in w]
+    if channel.network_errors is not None:
+        return channel.network_errors
+    predictions = channel.nonlinear.predict([s / structure.nn_scale for s in w], structure.tau)
+    return [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]

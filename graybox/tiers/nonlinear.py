@@ -4,14 +4,14 @@ across assets, and its drift measured in function space."""
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Iterator, Sequence
 
 import numpy as np
 
 from graybox.channel_structure import ChannelStructure
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError, StructureMismatchError
-from graybox.noise_tier import NoiseTier, describe_noise
+from graybox.network_settings import FitSettings, NetworkFit
 from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
@@ -171,13 +171,12 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                 starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
                                               settings.network.init_scale) if retrain
                               else source.channel(channel.name).nonlinear.weight_arrays())
-            fits = fit_networks(problems, hidden, starts, settings.network, chunk_size=chunk_size,
-                                train_input_weights=train,
-                                summarise=lambda i, p, m=members_now: network_errors(m[i][2], p))
+            fits = _one_by_one(problems, hidden, starts, None, settings.network, chunk_size,
+                               train)
             for (item, _, channel), fit in zip(members_now, fits):
                 channel.records["nonlinear"] = NonlinearTier.from_arrays(
                     fit.w, fit.W, fit.mse, None, fit.iterations)
-                channel.network_noise = fit.summary
+                channel.network_errors = network_errors(channel, fit.prediction)
         if fresh:
             _fit_fresh(fresh, hidden, settings, chunk_size)
 
@@ -225,20 +224,44 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
             continue
         problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
         trained = (not fixed) if needed else settings.null_network == "trained"
-        fits = fit_networks(problems, needed_units if needed else hidden, None, settings.network,
-                            random_state=[seeds[i] for i in chosen], chunk_size=chunk_size,
-                            train_input_weights=trained,
-                            summarise=lambda k, p, c=chosen: network_errors(members[c[k]][2], p))
+        fits = _one_by_one(problems, needed_units if needed else hidden, None,
+                           [seeds[i] for i in chosen], settings.network, chunk_size, trained)
         for i, fit in zip(chosen, fits):
             members[i][2].records["nonlinear"] = NonlinearTier.from_arrays(
                 fit.w, fit.W, fit.mse, gains[i], fit.iterations)
-            members[i][2].network_noise = fit.summary
+            members[i][2].network_errors = network_errors(members[i][2], fit.prediction)
 
 
-def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseTier | None:
-    """The noise tier's description (:func:`graybox.noise_tier.describe_noise`) of a needed
-    network's one-step errors ``w(t) - nn_scale * f(z(t))`` over the channel's segments, from
-    the fit's own ``prediction`` (its design's rows, the segments one after another); None
+def _one_by_one(problems: list, hidden: int, starts: list | None, seeds: list | None,
+                network: FitSettings, chunk_size: int, trained: bool) -> Iterator[NetworkFit]:
+    """Each problem's network fit (:func:`fit_networks`), in order, as the caller takes it.
+
+    Trained networks are fitted in batched computations, without their prediction. An
+    output layer is fitted on its own either way (:mod:`graybox.output_layer_fit`): here one
+    problem at a time, with its prediction, and each problem is let go of (its entry in
+    ``problems`` set to None) once fitted. The caller keeps what it needs of a fit (the
+    network's errors, :func:`network_errors`) before it takes the next, so no more than one
+    prediction of a series' length is alive at a time, and the errors kept take the place of
+    a problem's design, which is larger: the fits of a group never hold more memory than its
+    problems did.
+    """
+    if trained:
+        yield from fit_networks(problems, hidden, starts, network, random_state=seeds,
+                                chunk_size=chunk_size, train_input_weights=True)
+        return
+    for index in range(len(problems)):
+        problem, problems[index] = problems[index], None
+        yield from fit_networks([problem], hidden, None if starts is None else [starts[index]],
+                                network, random_state=None if seeds is None else [seeds[index]],
+                                chunk_size=chunk_size, train_input_weights=False,
+                                keep_predictions=True)
+
+
+def network_errors(channel: ChannelFit, prediction: np.ndarray | None
+                   ) -> list[np.ndarray] | None:
+    """A needed network's in-sample one-step errors ``w(t) - nn_scale * f(z(t))``, per
+    segment of the channel (after the network's delays), from the fit's own ``prediction``
+    (its design's rows, the segments one after another): what the noise tier describes. None
     for a channel whose network is not needed, or without a prediction (a trained network's
     fit), or one that does not line up with the segments.
 
@@ -247,8 +270,7 @@ def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseT
     one after another: the same numbers (but for a segment's last few rows, whose output-layer
     sum BLAS adds in another order when the segment is run alone: a difference at that sum's
     rounding, about 1e-16) without a second pass of the network over the data, which was most
-    of the noise tier's time. Described as each fit ends (the fit's ``summarise``), so that
-    no array of the series' length is kept for the noise tier.
+    of the noise tier's time.
     """
     structure = channel.structure
     if prediction is None or not structure.nonlinear_needed:
@@ -258,8 +280,7 @@ def network_errors(channel: ChannelFit, prediction: np.ndarray | None) -> NoiseT
     if sum(lengths) != len(prediction):
         return None
     predictions = np.split(prediction, np.cumsum(lengths)[:-1])
-    return describe_noise([s[span:] - structure.nn_scale * p
-                           for s, p in zip(channel.w_segments, predictions)])
+    return [s[span:] - structure.nn_scale * p for s, p in zip(channel.w_segments, predictions)]
 
 
 def _finite(tier: NonlinearTier) -> bool:

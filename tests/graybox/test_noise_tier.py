@@ -117,7 +117,8 @@ def test_sampling_zeta_quantile_is_crossed_at_its_rate_by_healthy_gaussian_night
 
 def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     # graybox.tiers.nonlinear.network_errors reads the output-layer fit's own prediction: the
-    # noise tier's record without running the network again, to the sums' rounding
+    # noise tier describes them, its record without running the network again, to the sums'
+    # rounding
     from graybox.channel_structure import ChannelStructure
     from graybox.network_settings import FitSettings, initial_weights
     from graybox.nonlinear_tier import NonlinearTier, lagged
@@ -140,14 +141,19 @@ def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     w, W = initial_weights(32, 3, 4, 4.0)
     channel = ChannelFit("c", [], 0, structure=structure, w_segments=segments)
     fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], 32, FitSettings(),
-                             summarise=lambda index, prediction: (
-                                 prediction, network_errors(channel, prediction)))
-    prediction, described = fit.summary
+                             keep_predictions=True)
+    prediction = fit.prediction
+    described = describe_noise(network_errors(channel, prediction))
     tier = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None, fit.iterations)
     expected = describe_noise([s[6:] - 0.6 * p for s, p in
                                zip(segments, tier.predict([s / 0.6 for s in segments], 2))])
     assert described.n_obs == expected.n_obs == len(y)
     np.testing.assert_allclose(described.moments, expected.moments, rtol=1e-12, atol=1e-15)
+    # the noise tier describes the errors the nonlinear tier left on the channel
+    from graybox.tiers.noise import final_residual
+
+    channel.network_errors = network_errors(channel, prediction)
+    assert describe_noise(final_residual(channel)) == described
     # a network that is not needed, or a fit without a prediction, leaves it to the noise tier
     assert network_errors(channel, None) is None
     channel.structure = dataclasses.replace(structure, nonlinear_needed=False)

@@ -74,13 +74,13 @@ def test_the_prediction_kept_is_the_networks_on_each_segment_to_rounding():
     X, y = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     w, W = initial_weights(hidden, dim, 3, 4.0)
     fit, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], hidden, FitSettings(),
-                             summarise=lambda index, prediction: (index, prediction))
+                             keep_predictions=True)
     tier = NonlinearTier.from_arrays(fit.w, fit.W, fit.mse, None, fit.iterations)
     expected = np.concatenate(tier.predict(segments, tau))
-    index, prediction = fit.summary
-    assert index == 0 and prediction.shape == (len(y),)
+    prediction = fit.prediction
+    assert prediction.shape == (len(y),)
     np.testing.assert_allclose(prediction, expected, rtol=0.0, atol=1e-15)
     assert np.mean(prediction == expected) > 0.99
-    # without summarise nothing of the series' length is kept
+    # unless asked, nothing of the series' length is kept
     assert fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], hidden,
-                             FitSettings())[0].summary is None
+                             FitSettings())[0].prediction is None
