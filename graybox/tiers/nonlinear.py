@@ -241,9 +241,9 @@ def _one_by_one(problems: list, hidden: int, starts: list | None, seeds: list | 
     problem at a time, with its prediction, and each problem is let go of (its entry in
     ``problems`` set to None) once fitted. The caller keeps what it needs of a fit (the
     network's errors, :func:`network_errors`) before it takes the next, so no more than one
-    prediction of a series' length is alive at a time, and the errors kept take the place of
-    a problem's design, which is larger: the fits of a group never hold more memory than its
-    problems did.
+    prediction of a series' length is alive at a time, and the errors a channel keeps (one
+    array of its series' length, until the noise tier has described them) take the place of
+    its problem's design, which is larger.
     """
     if trained:
         yield from fit_networks(problems, hidden, starts, network, random_state=seeds,
