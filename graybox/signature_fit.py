@@ -387,6 +387,7 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
                                          _finish(item, group_settings, clock, kinds))
                 except Exception as error:  # noqa: BLE001
                     results[position] = _as_graybox_error(error, item.request)
+            del prepared         # the group's residuals, not held while the next is prepared
     return results
 
 
