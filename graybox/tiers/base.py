@@ -55,8 +55,9 @@ class Tier:
     the asset, each tier's :meth:`fit_batch` on all assets of the call together, and each
     late tier's :meth:`fit`. :meth:`fit` sets ``channel.records[name]`` for every channel
     (None where the tier is absent); a tier may read the records (and ``structure``,
-    ``w_segments``) the tiers before it set. The residual segments and the states are there
-    for the early tiers only (dropped before the batched fits, to keep memory low).
+    ``w_segments``, ``network_errors``) the tiers before it set: tiers hand each other data
+    on the channel, never a callback. The residual segments and the states are there for the
+    early tiers only (dropped before the batched fits, to keep memory low).
 
     :meth:`fit_batch` exists for speed: a tier whose work is many small computations of the
     same shape across assets (the network's training) does them in one batched computation
