@@ -198,7 +198,11 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     # the zetas' own spread gives a second estimate (g chi2(h) has variance 2 g^2 h); it
     # guards against non-Gaussian changes, e.g. a network landing in different minima
     spread = float(zetas.var(ddof=1))
-    dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread
+    # the variance of k zetas is estimated without bias, its inverse is not: for a sample
+    # variance on k - 1 degrees of freedom E[1 / s^2] = (k - 1) / (k - 3) / sigma^2, so
+    # 2 mean^2 / s^2 overstates h, on five zetas by half (a light tail where five days
+    # happened to agree); (k - 3) / (k - 1) removes that bias
+    dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread * (k - 3) / (k - 1)
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
     # special.fdtri is scipy.stats.f.ppf's own; scipy.stats takes 0.5 s to import
     epsilon = mean * float(special.fdtri(dof, k * dof, 1.0 - alpha))
