@@ -17,7 +17,10 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
    g * chi2(h) (Satterthwaite): g h = tr(Sigma), h = tr(Sigma)^2 / tr(Sigma^2). tr(Sigma) is the
    mean of the zetas; tr(Sigma^2) is estimated without bias from the cross products
    (d_k . d_l)^2 of distinct pieces. A second estimate of h comes from the spread of the
-   zetas themselves (variance 2 g^2 h); the smaller h (the heavier tail) is used.
+   zetas themselves (variance 2 g^2 h), without the small-sample bias of an inverse sample
+   variance (times (k - 3) / (k - 1): five zetas that happen to agree would otherwise read
+   as a light tail, and a new healthy zeta would cross epsilon at about twice alpha); the
+   smaller h (the heavier tail) is used.
 4. With g estimated from only K q pieces, a new healthy zeta divided by their mean is
    F(h, K q h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K q h): the
    uncertainty of a small sample is part of the threshold, not ignored.

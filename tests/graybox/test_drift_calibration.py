@@ -112,6 +112,34 @@ def test_threshold_meets_its_false_alarm_rate_for_gaussian_changes():
     assert rate > alpha / 10       # and not absurdly conservative
 
 
+def test_the_zetas_spread_gives_h_without_its_small_sample_bias():
+    """Known answer: five orthogonal changes (no cross products, so the spread alone
+    bounds h) with zetas 1..5: mean 3, sample variance 2.5, 2 mean^2 / s^2 = 7.2, and
+    without the bias of an inverse sample variance on four degrees of freedom
+    ((k - 3) / (k - 1) = 1/2) h = 3.6."""
+    deltas = [np.sqrt(z) * np.eye(8)[i] for i, z in enumerate((1.0, 2.0, 3.0, 4.0, 5.0))]
+    epsilon, mean, dof = threshold_from_deltas(deltas, 0.01)
+    assert mean == pytest.approx(3.0)
+    assert dof == pytest.approx(3.6)
+    assert epsilon == pytest.approx(3.0 * stats.f.ppf(0.99, 3.6, 5 * 3.6))
+
+
+def test_five_healthy_days_that_agree_by_chance_keep_the_false_alarm_rate():
+    """Known answer: a slow export gives one piece a day, so five zetas set both the scale
+    and the tail. Changes of h = 2 or 5 equal components (zeta = chi2(h)) among 32
+    parameters: averaged over 1,600 calibrations, a new healthy zeta exceeds epsilon at
+    about alpha (0.5-0.9 alpha here); with h taken as 2 mean^2 / s^2 of the five zetas, where
+    days that happened to agree read as a light tail, it was 1.4-2.0 alpha."""
+    rng = np.random.default_rng(0)
+    alpha, rates = 0.001, []
+    for h in (2, 5):
+        for _ in range(800):
+            deltas = list(np.pad(rng.normal(size=(5, h)), ((0, 0), (0, 32 - h))))
+            epsilon, _, _ = threshold_from_deltas(deltas, alpha, [float(d @ d) for d in deltas])
+            rates.append(stats.chi2.sf(epsilon, h))
+    assert alpha / 4 < np.mean(rates) < 1.2 * alpha
+
+
 def test_threshold_known_answer_for_isotropic_changes():
     rng = np.random.default_rng(1)
     deltas = [rng.normal(size=4) for _ in range(2000)]
