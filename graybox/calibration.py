@@ -195,8 +195,9 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     mean = float(zetas.mean())
     if mean <= 0 or size == 0:
         return 0.0, mean, float(max(size, 1))
-    cross = [(deltas[i] @ deltas[j]) ** 2 for i in range(k) for j in range(k) if i != j]
-    trace_sq = float(np.mean(cross))
+    cross = (np.vstack(deltas) @ np.vstack(deltas).T) ** 2
+    np.fill_diagonal(cross, 0.0)
+    trace_sq = float(cross.sum()) / (k * (k - 1))
     dof_cross = np.inf if trace_sq <= 0 else mean ** 2 / trace_sq
     # the zetas' own spread gives a second estimate (g chi2(h) has variance 2 g^2 h); it
     # guards against non-Gaussian changes, e.g. a network landing in different minima
