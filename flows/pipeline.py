@@ -506,7 +506,7 @@ def execute(config: FleetConfig, plan: BatchPlan, clock: StageClock | None = Non
         else:
             compare(group, fit_signatures(candidate_requests(group), clock=clock), clock)
         for pending in commit.commit(group):
-            _report(pending.result, commit)
+            report_result(pending.result, commit)
     return [job.result for job in plan.jobs]
 
 
@@ -517,12 +517,14 @@ def _read_each(config: FleetConfig, plan: BatchPlan, clock: StageClock | None
     for job in plan.jobs:
         pending = read(config, job, clock)
         if pending is None:
-            _report(job.result, plan.commit)
+            report_result(job.result, plan.commit)
         else:
             yield pending
 
 
-def _report(result: AssetResult, commit: CommitPolicy) -> None:
+def report_result(result: AssetResult, commit: CommitPolicy) -> None:
+    """Advance the run's progress line by one asset whose ``result`` is final, in the words
+    of the flow's ``commit`` policy (:meth:`CommitPolicy.progress_text`)."""
     progress.advance(1, commit.progress_text(result), failed=int(result.failed))
 
 

@@ -49,8 +49,8 @@ from flows.config import FleetConfig, load_config
 from flows.discovery import AssetRef
 from flows.errors import TransientError
 from flows.memory import MemoryBudget
-from flows.pipeline import (PendingAsset, _report, candidate_requests, compare, execute,
-                            memory_groups, read, travelling)
+from flows.pipeline import (PendingAsset, candidate_requests, compare, execute, memory_groups,
+                            read, report_result, travelling)
 from flows.results import FAILED, AssetResult, describe_error, is_transient
 
 logger = logging.getLogger(__name__)
@@ -151,12 +151,12 @@ def execute_pooled(job: BatchJob, pool: ComputePool, clock: StageClock
                         results.append(item.result)
                     else:
                         results.append(item)
-                        _report(item, commit)
+                        report_result(item, commit)
                 index += 1
                 if index >= len(chunks) or not futures[index].done():
                     break
             for pending in commit.commit(group) if group else ():
-                _report(pending.result, commit)
+                report_result(pending.result, commit)
     finally:
         for future in futures[index:]:
             future.cancel()
