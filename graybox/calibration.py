@@ -195,7 +195,8 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     mean = float(zetas.mean())
     if mean <= 0 or size == 0:
         return 0.0, mean, float(max(size, 1))
-    cross = (np.vstack(deltas) @ np.vstack(deltas).T) ** 2
+    stacked = np.vstack(deltas)
+    cross = (stacked @ stacked.T) ** 2
     np.fill_diagonal(cross, 0.0)
     trace_sq = float(cross.sum()) / (k * (k - 1))
     dof_cross = np.inf if trace_sq <= 0 else mean ** 2 / trace_sq
