@@ -58,12 +58,20 @@ def target_rate(detector: str, false_alarm_rate: float) -> float:
 
 
 def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) interval of a binomial rate: ``k`` events in ``n`` trials."""
     if n == 0:
         return (np.nan, np.nan)
     a = (1 - level) / 2
     low = 0.0 if k == 0 else float(stats.beta.ppf(a, k, n - k + 1))
     high = 1.0 if k == n else float(stats.beta.ppf(1 - a, k + 1, n - k))
     return low, high
+
+
+def rate(alarms: int, trials: int) -> dict:
+    """Alarms, trials, the rate and its 95 % Clopper-Pearson interval."""
+    nan = float("nan")
+    return {"alarms": alarms, "asset_nights": trials, "rate": alarms / trials if trials else nan,
+            "interval": clopper_pearson(alarms, trials) if trials else (nan, nan)}
 
 
 def auc(negatives: np.ndarray, positives: np.ndarray) -> float:

@@ -33,7 +33,6 @@ import time
 import tomllib
 
 import pandas as pd
-from scipy import stats
 
 import graybox as gb
 from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops, simulate_progpy_fleet,
@@ -41,6 +40,7 @@ from graybox.models.progpy_simulation import (pump_cycle_load, pump_stops, simul
 from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
+from benchmarks.detection.metrics import rate
 from flows.config.settings import NightlySettings
 
 SPEC = "graybox.models.progpy:CentrifugalPump"
@@ -64,21 +64,6 @@ BEGIN, END = "<!-- progpy-false-alarms:begin -->", "<!-- progpy-false-alarms:end
 def grid_policy(line: str) -> gb.GridPolicy:
     """The GridPolicy of a class's ``grid = {...}`` line of fleet.toml."""
     return gb.GridPolicy(**tomllib.loads(line)["grid"])
-
-
-def clopper_pearson(alarms: int, trials: int, level: float = 0.95) -> tuple[float, float]:
-    """Exact binomial interval of a rate."""
-    tail = (1 - level) / 2
-    low = stats.beta.ppf(tail, alarms, trials - alarms + 1) if alarms else 0.0
-    high = stats.beta.ppf(1 - tail, alarms + 1, trials - alarms) if alarms < trials else 1.0
-    return float(low), float(high)
-
-
-def rate(alarms: int, trials: int) -> dict:
-    """Alarms, trials, the rate and its 95 % Clopper-Pearson interval."""
-    nan = float("nan")
-    return {"alarms": alarms, "asset_nights": trials, "rate": alarms / trials if trials else nan,
-            "interval": clopper_pearson(alarms, trials) if trials else (nan, nan)}
 
 
 def run(assets: int, baseline_windows: int, nights: int, window_hours: float, seed: int,

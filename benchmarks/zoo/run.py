@@ -25,7 +25,7 @@ import graybox as gb
 from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
-from benchmarks.detection.progpy_false_alarms import rate
+from benchmarks.detection.metrics import rate
 from benchmarks.zoo.family import AssetPlan, Family
 from flows.config.settings import NightlySettings
 

@@ -1,0 +1,52 @@
+"""benchmarks.zoo.fleets: a family's counts pooled over zoo runs, judged against issue 18's
+targets (known answers: the Clopper-Pearson bound of 600 healthy asset-nights allows 5 alarms,
+1.93 %; 6 are 1.00 % but bound at 2.16 %)."""
+import json
+
+import pytest
+
+from benchmarks.zoo.fleets import main, markdown, pool
+
+
+def run(seed: int, family: str, alarms: int, small: list, large: list, held_out=False,
+        failed_reads=None) -> dict:
+    """The fields of one family's result in a zoo run's JSON that the pooling reads."""
+    return {"family": family, "title": family.title(), "held_out": held_out, "seed": seed,
+            "false_alarms": {"alarms": alarms, "asset_nights": 300},
+            "detected_small": small, "detected_large": large,
+            "failed_reads": failed_reads or {}, "failed_baselines": {}, "failed_nights": {}}
+
+
+def test_counts_are_summed_per_family_over_the_runs_and_judged():
+    first = [run(1, "room", 2, [3, 10], [10, 10]), run(1, "mast", 3, [0, 10], [9, 10], True)]
+    second = [run(2, "room", 3, [4, 10], [9, 10]), run(2, "mast", 3, [1, 10], [9, 10], True,
+                                                        {"A day 5": "stuck"})]
+    room, mast = pool([first, second])
+    assert (room.family, room.seeds, room.alarms, room.asset_nights) == ("room", (1, 2), 5, 600)
+    assert room.small == (7, 20) and room.large == (19, 20)
+    assert room.false_alarms["interval"][1] == pytest.approx(0.0193, abs=1e-4)
+    assert room.false_alarms_met and room.large_met               # 5/600; 19/20 = 95 %
+    assert mast.alarms == 6 and mast.false_alarms["rate"] == pytest.approx(0.01)
+    assert mast.false_alarms["interval"][1] == pytest.approx(0.0216, abs=1e-4)
+    assert not mast.false_alarms_met and not mast.large_met       # bound 2.16 %; 18/20
+    assert mast.failures == 1
+
+
+def test_a_family_missing_from_a_run_is_pooled_over_the_others():
+    (room,) = pool([[run(1, "room", 0, [1, 2], [2, 2])], []])
+    assert room.seeds == (1,) and room.asset_nights == 300
+    assert room.false_alarms["interval"][1] == pytest.approx(0.0122, abs=1e-4)
+    assert room.false_alarms_met and room.large_met               # 0/300; 2/2
+
+
+def test_the_table_and_the_command_line(tmp_path, capsys):
+    runs = [[run(1, "room", 2, [3, 10], [10, 10]), run(1, "mast", 9, [0, 10], [2, 10], True)]]
+    text = markdown(pool(runs))
+    lines = text.splitlines()
+    assert lines[2].startswith("| Room | tuning | 1 | 2/300 = 0.67 % (0.08-2.39 %) | NOT MET |")
+    assert lines[3].startswith("| Mast | held out | 1 | 9/300 = 3.00 %")
+    assert "- held out: healthy alarms 9/300, small faults 0/10 = 0 %, large 2/10 = 20 %" in text
+    path = tmp_path / "run.json"
+    path.write_text(json.dumps(runs[0]))
+    assert main([str(path)]) == 0
+    assert capsys.readouterr().out.strip() == text
