@@ -19,8 +19,9 @@ Method (held-out healthy pieces, scaled chi-square, predictive F quantile):
    (d_k . d_l)^2 of distinct pieces. A second estimate of h comes from the spread of the
    zetas themselves (variance 2 g^2 h), without the small-sample bias of an inverse sample
    variance (times (k - 3) / (k - 1): five zetas that happen to agree would otherwise read
-   as a light tail, and a new healthy zeta would cross epsilon at about twice alpha); the
-   smaller h (the heavier tail) is used.
+   as a light tail, and a new healthy zeta would cross epsilon at about twice alpha; for
+   three zetas, where no such factor exists, a simulated 0.2); the smaller h (the heavier
+   tail) is used.
 4. With g estimated from only K q pieces, a new healthy zeta divided by their mean is
    F(h, K q h)-distributed, so epsilon = mean(zeta_k) * F.ppf(1 - alpha; h, K q h): the
    uncertainty of a small sample is part of the threshold, not ignored.
@@ -166,6 +167,21 @@ class Calibration:
         return cls.from_dict(record_json.parse_json(text, "calibration"))
 
 
+#: :func:`_spread_factor` for three changes, where E[1 / s^2] is infinite and no factor
+#: removes the bias: chosen by simulation (zetas chi2(h) of h = 1-20 among 4-32 parameters,
+#: 20,000 calibrations each) so that a new healthy zeta crosses epsilon at 0.1-1.4 alpha;
+#: (k - 3) / (k - 1) would be 0, h 1 and epsilon 24-80 times the true quantile: a baseline
+#: of three days of a slow export (one piece a day) that never alarms
+THREE_CHANGES_SPREAD_FACTOR = 0.2
+
+
+def _spread_factor(k: int) -> float:
+    """The factor on ``2 mean^2 / s^2`` of ``k`` zetas that takes out the small-sample bias
+    of an inverse sample variance: (k - 3) / (k - 1), and for k = 3
+    :data:`THREE_CHANGES_SPREAD_FACTOR`."""
+    return (k - 3) / (k - 1) if k > 3 else THREE_CHANGES_SPREAD_FACTOR
+
+
 def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
                           day_zetas: Sequence[float] | None = None
                           ) -> tuple[float, float, float]:
@@ -207,7 +223,7 @@ def threshold_from_deltas(deltas: Sequence[np.ndarray], alpha: float,
     # variance on k - 1 degrees of freedom E[1 / s^2] = (k - 1) / (k - 3) / sigma^2, so
     # 2 mean^2 / s^2 overstates h, on five zetas by half (a light tail where five days
     # happened to agree); (k - 3) / (k - 1) removes that bias
-    dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread * (k - 3) / (k - 1)
+    dof_spread = np.inf if spread <= 0 else 2 * mean ** 2 / spread * _spread_factor(k)
     dof = float(np.clip(min(dof_cross, dof_spread, size), 1.0, size))
     # special.fdtri is scipy.stats.f.ppf's own; scipy.stats takes 0.5 s to import
     epsilon = mean * float(special.fdtri(dof, k * dof, 1.0 - alpha))
