@@ -9,7 +9,7 @@ methods and the public names below, nothing else of the registry. Layout, by con
 ``store/``        where the registry lives and how it talks to MLflow: naming, tracking_store,
                   retry, locks, boundary, backend, model_headers, sql_writes, probe
 ``write/``        recording a fit: submission, run_content, artifacts, model_files, plots,
-                  runs, at_once, recording, watermarks
+                  runs, at_once, group, recording, watermarks
 ``read/``         reading back: loading (a version, verified), history (zetas and alerts)
 ``review``        promote, reject, rollback, list, history, the reference of a run
 ``fleet_nights``  the fleet's nights: worst ratios per asset and night, fleet-level runs

@@ -7,5 +7,6 @@
 ``boundary``        MLflow's errors leave the registry as the registry's
 ``backend``         the MLflow client bound to one store, and the shared look-ups
 ``model_headers``   registered models' tags and aliases, read without their versions
+``sql_writes``      a recorded fit in one transaction of MLflow's SQL stores; one-query look-ups
 ``probe``           whether the store can be read and written (``fleet-health check``)
 """

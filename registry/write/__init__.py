@@ -7,6 +7,7 @@
 ``plots``        residual/ACF, tier fits, zeta trend (matplotlib, Agg)
 ``runs``         logging one fit as a complete run, in few round trips
 ``recording``    recording fits idempotently (runs, versions, alias), one or a batch
+``at_once``      a new candidate's artifacts, then its run, version and alias in one transaction
 ``group``        a group's fits together (one transaction), each asset on its own
 ``watermarks``   per-asset watermark on the registered model, read and committed (or a group's)
 """
