@@ -150,3 +150,43 @@ def test_readme_and_design_point_to_the_reference_and_restate_no_default_table()
         assert not re.search(r"^\| `(alerts|nightly|dask|schedule)\.[a-z_]+` \|", text,
                              re.MULTILINE), f"{name} restates the reference table"
         assert not re.search(r"^candidate_nights = \d", text, re.MULTILINE), name
+
+
+#: pages whose prose may name a key beside its value: the reference itself, and the measured
+#: records, which say which settings each run had
+RECORDS = ("configuration.md", "benchmarks.md", "performance.md")
+
+
+def restated_defaults(text: str) -> list[str]:
+    """Where ``text`` gives a documented key's default beside it: ```key`, default 2``,
+    ```key = 2` by default``, ```key = "auto"` (the default)``."""
+    found = []
+    for key, cell in _rows().items():
+        default = re.fullmatch(r"`([^`]+)`", cell)
+        if default is None:
+            continue
+        name = re.escape(key.rsplit(".", 1)[1])
+        for match in re.finditer(rf"`(?:\[[a-z]+\] )?{name}(?: = ([^`]+))?`([^`\n]{{0,30}})",
+                                 text):
+            value, after = match.group(1), match.group(2)
+            beside = re.search(rf"(?<![\w.]){re.escape(default.group(1))}(?!\w)", after)
+            if "default" in after and (value == default.group(1) or beside):
+                found.append(f"line {text[:match.start()].count(chr(10)) + 1}: {match.group(0)}")
+    return found
+
+
+def test_restated_defaults_are_found():
+    text = ("x (`[nightly] candidate_nights`, default 2). y\n"
+            "A (`candidate_nights = 2` by default) is\n"
+            "`min_samples = \"auto\"` (the default) is\n"
+            "(`[nightly] candidate_nights` > 1; the default is in configuration.md)\n")
+    assert [line.split(":")[0] for line in restated_defaults(text)] == \
+        ["line 1", "line 2", "line 3"]
+
+
+def test_no_page_but_the_reference_restates_a_default():
+    pages = [ROOT / "README.md"] + sorted(p for p in (ROOT / "docs").glob("*.md")
+                                          if p.name not in RECORDS)
+    found = {page.name: hits for page in pages
+             if (hits := restated_defaults(page.read_text(encoding="utf-8")))}
+    assert found == {}
