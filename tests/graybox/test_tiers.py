@@ -1,3 +1,4 @@
+import numpy as np
 import pytest
 
 from graybox import TIERS
@@ -27,6 +28,35 @@ def test_each_tier_kind_reads_the_channel_record_it_is_named_after():
     level_names, level_values = tier_kind("level").parameters(channel)
     assert list(level_values) == [0.25]
     assert not tier_kind("level").present(make_channel("x"))
+
+
+def test_each_tier_kind_takes_its_parameters_from_its_own_record_only():
+    # two channels whose every tier differs; a channel with one tier's record taken from the
+    # other changes that tier's parameters and no other tier's: a kind that reads another
+    # tier's record, or registers under another tier's name, fails here
+    import dataclasses
+
+    from graybox.level_tier import LevelTier
+    from tests.graybox.conftest import make_channel
+
+    one = dataclasses.replace(make_channel("x"), level=LevelTier(0.25, (0.0,), (0.0,), 1.0,
+                                                                 12, 100))
+    other = dataclasses.replace(
+        make_channel("x", a=(0.1, 0.3), w=np.full((2, 3), -0.2), W=[0.7, 0.2],
+                     moments=(0.5, 2.0, 0.1, 0.3)),
+        level=LevelTier(-1.5, (0.0,), (0.0,), 1.0, 12, 100))
+
+    def values(kind, channel):
+        return list(kind.parameters(channel)[1])
+
+    for kind in TIER_KINDS:
+        assert isinstance(kind.record(one), kind.record_type), kind.name
+        assert kind.record(one) is getattr(one, kind.name), kind.name
+        assert values(kind, one) != values(kind, other), kind.name
+        mixed = dataclasses.replace(one, **{kind.name: getattr(other, kind.name)})
+        for each in TIER_KINDS:
+            assert values(each, mixed) == values(each, other if each is kind else one), \
+                (kind.name, each.name)
 
 
 def test_tier_kind_by_name():
