@@ -28,7 +28,7 @@ from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock, timed
 
 from flows.batch_job import BatchJob
-from flows.batching import guard_asset_error, no_telemetry, run_over_fleet
+from flows.batching import guard_asset_error, run_over_fleet
 from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
@@ -203,15 +203,11 @@ def baseline(start: str, end: str, config_path: str = DEFAULT_CONFIG,
                              tracking_uri=config.tracking_uri,
                              extra={"start": utc(start).isoformat(),
                                     "end": utc(end).isoformat(), "promote": promote})
-        # an asset asked for by name without telemetry cannot get its baseline: a failure
-        missing = no_telemetry if not assets else (lambda ref: AssetResult(
-            ref.asset_id, ref.vehicle_class, FAILED,
-            error=describe_error(RuntimeError("no telemetry in the store"))))
         job = BatchJob.for_fleet("baseline", config, tracking_uri,
                                  start=utc(start).isoformat(), end=utc(end).isoformat(),
                                  promote=promote, reason=reason)
         summary = guarded.annotate(run_over_fleet(
             summary, job, config,
             f"baseline fits ({utc(start):%Y-%m-%d} → {utc(end):%Y-%m-%d})", assets,
-            vehicle_class, missing))
+            vehicle_class, missing_fails=bool(assets)))   # asked for by name: a failure
     return flow_result(summary, config)

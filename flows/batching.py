@@ -15,7 +15,7 @@ fleet's order and are the same.
 from __future__ import annotations
 
 import logging
-from typing import Callable, Sequence
+from typing import Sequence
 
 from prefect import Task, task
 from prefect.cache_policies import NO_CACHE
@@ -172,23 +172,28 @@ def _processes(config: FleetConfig, runner, job: BatchJob, assets: int) -> int:
     return config.nightly.process_count()
 
 
-def no_telemetry(ref: AssetRef) -> AssetResult:
-    """The result of an asset listed in fleet.toml without any telemetry in the store."""
+def no_telemetry(ref: AssetRef, fails: bool = False) -> AssetResult:
+    """The result of an asset listed in fleet.toml (or named by the run) without any
+    telemetry in the store: ``no telemetry``, or failed when ``fails`` (a baseline asked for
+    by name cannot be fitted)."""
+    if fails:
+        return AssetResult(ref.asset_id, ref.vehicle_class, FAILED,
+                           error=describe_error(RuntimeError("no telemetry in the store")))
     return AssetResult(ref.asset_id, ref.vehicle_class, NO_TELEMETRY,
                        note="no telemetry in the store")
 
 
 def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, description: str,
                    assets: Sequence[str] | None = None,
-                   vehicle_class: str | None = None,
-                   without_telemetry: Callable[[AssetRef], AssetResult] = no_telemetry
+                   vehicle_class: str | None = None, missing_fails: bool = False
                    ) -> RunSummary:
     """A flow's body: discover the assets, run ``job`` on each batch of ``[nightly]
     batch_size`` of them (fewer where that leaves a cluster's slots idle,
     :func:`flows.task_runner.batch_size_for`) as a task of :func:`batch_task` with the
     runner of ``[nightly] task_runner`` (:mod:`flows.task_runner`: one after another in this
     process, or all at once on Dask), with progress, and complete ``summary``: the assets'
-    results in the fleet's order whatever order the batches finish in, and the stages'
+    results in the fleet's order whatever order the batches finish in (then the assets
+    without telemetry: :func:`no_telemetry`, failed with ``missing_fails``), and the stages'
     seconds."""
     fleet = discover(config, assets, vehicle_class)
     summary.unmatched = list(fleet.unmatched)
@@ -216,7 +221,7 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
                 outputs[index] = batch_results(outcome, parts[index], config, clock,
                                                runner.in_process)
     summary.assets = [result for output in outputs for result in output]
-    summary.assets += [without_telemetry(ref) for ref in fleet.without_telemetry]
+    summary.assets += [no_telemetry(ref, missing_fails) for ref in fleet.without_telemetry]
     summary.extra["stages"] = clock.to_dict()
     summary.finished = now_iso()
     return summary

@@ -100,3 +100,21 @@ def test_discover_refuses_bad_requests(store, tmp_path):
     missing = dataclasses.replace(store, telemetry_root=tmp_path / "nowhere")
     with pytest.raises(ConfigError, match="telemetry.root"):
         discover(missing)
+
+
+@pytest.mark.parametrize("fails, status", [(False, "no telemetry"), (True, "failed")])
+def test_an_asset_without_telemetry_is_reported_or_failed(store, fails, status):
+    # the baseline flow fails an asset it was asked for by name (it cannot get its baseline);
+    # the other runs report it
+    from flows.batch_job import BatchJob
+    from flows.batching import run_over_fleet
+    from flows.results import RunSummary
+
+    summary = run_over_fleet(RunSummary("baseline", "2026-01-05T00:00:00+00:00"),
+                             BatchJob.for_fleet("baseline", store, None), store, "baseline",
+                             ["T-404"], missing_fails=fails)
+    [result] = summary.assets
+    assert (result.asset_id, result.vehicle_class, result.status) == ("T-404", "turbine", status)
+    said = result.error.message if fails else result.note
+    assert said == "no telemetry in the store"
+    assert (result.error is None) is (not fails) and (result.note is None) is fails
