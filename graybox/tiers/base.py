@@ -174,6 +174,22 @@ class Tier:
         """The name of a bundle array: ``<channel>.<tier>.<part>``."""
         return f"{channel}.{self.name}.{part}"
 
+    def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:
+        """The tier's own fit figures in ``channel`` as per-channel metrics, by name (e.g.
+        ``fit.omega.ar_innovation_variance``; a None value is left out where they are
+        recorded): by default none.
+
+        Parameters
+        ----------
+        channel : ChannelSignature
+            A channel that has the tier (:meth:`present`).
+
+        Returns
+        -------
+        dict of str to float or None
+        """
+        return {}
+
     def metric_name(self, kind: str, channel: str) -> str:
         """The name of a per-channel metric of this tier: ``<kind>.<channel>.<tier>`` (e.g.
         ``zeta.omega.linear``)."""

@@ -107,6 +107,11 @@ class LevelTierKind(Tier):
         return level_horizon(1.0 / rate if rate > 0 else 0.0, asset.analysis_interval,
                              lengths, piece, integrates(eigenvalues))
 
+    def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:
+        """The level and the spread of the k-step errors about it."""
+        return {f"level.{channel.channel}.level": channel.level.level,
+                f"level.{channel.channel}.residual_std": channel.level.residual_std}
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         if channel.level is None:
             raise StructureMismatchError(f"channel {channel.channel!r} has no level tier (a "

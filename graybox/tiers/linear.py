@@ -82,6 +82,11 @@ class LinearTierKind(Tier):
             channel.w_segments = [linear.innovations(s) for s in z]
             channel.n_samples = int(sum(len(s) for s in z))
 
+    def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:
+        """The AR innovations' variance."""
+        return {f"fit.{channel.channel}.ar_innovation_variance":
+                channel.linear.innovation_variance}
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         coefficients = channel.linear.coefficients
         return [f"a{i}" for i in range(1, len(coefficients) + 1)], np.asarray(coefficients, float)

@@ -39,6 +39,12 @@ class NoiseTierKind(Tier):
             channel.records[self.name] = describe_noise(final_residual(channel))
             channel.network_errors = None      # described: an array of the series' length
 
+    def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:
+        """The four moments and the Ljung-Box test."""
+        return {f"noise.{channel.channel}.{name}": getattr(channel.noise, name)
+                for name in ("mean", "variance", "skewness", "excess_kurtosis",
+                             "ljung_box_statistic", "ljung_box_pvalue")}
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         names = ["mean", "variance", "skewness", "excess_kurtosis"]
         return names, np.asarray(channel.noise.moments)

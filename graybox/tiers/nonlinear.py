@@ -85,6 +85,16 @@ class NonlinearTierKind(Tier):
         w, W = channel.nonlinear.weight_arrays()
         return {"input_weights": w, "output_weights": W}
 
+    def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:
+        """The network's training error and iterations, and its held-out gain when chosen
+        with one."""
+        c, tier = channel.channel, channel.nonlinear
+        metrics = {f"fit.{c}.nn_train_mse": tier.train_mse,
+                   f"fit.{c}.nn_iterations": tier.iterations}
+        if tier.heldout_gain is not None:
+            metrics[f"fit.{c}.nn_heldout_gain"] = tier.heldout_gain
+        return metrics
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         w, W = channel.nonlinear.weight_arrays()
         names = [f"W1_{j}" for j in range(1, len(W) + 1)]

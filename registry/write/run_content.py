@@ -21,7 +21,7 @@ from typing import Any
 
 from graybox.calibration import Calibration
 from graybox.drift import Drift
-from graybox.signature import Signature
+from graybox.signature import TIER_KINDS, Signature
 from registry.store import naming
 from graybox.alert_diagnosis import diagnosis_document
 from registry.write.submission import ResolvedFit
@@ -109,23 +109,14 @@ def structure_params(signature: Signature) -> dict[str, str]:
 
 def fit_metrics(signature: Signature, calibration: Calibration | None,
                 drift: Drift | None) -> dict[str, float]:
-    """Noise moments, fit errors, the tuned white box's estimates, epsilon (and zeta, ratio,
+    """Each tier's own fit figures (:meth:`graybox.tiers.base.Tier.fit_metrics`: noise
+    moments, fit errors, level), the tuned white box's estimates, epsilon (and zeta, ratio,
     alarm for a drift) as metrics."""
     metrics: dict[str, float] = {"n_samples": signature.n_samples}
     for channel in signature.channels:
-        c = channel.channel
-        metrics[f"fit.{c}.ar_innovation_variance"] = channel.linear.innovation_variance
-        metrics[f"fit.{c}.nn_train_mse"] = channel.nonlinear.train_mse
-        metrics[f"fit.{c}.nn_iterations"] = channel.nonlinear.iterations
-        if channel.nonlinear.heldout_gain is not None:
-            metrics[f"fit.{c}.nn_heldout_gain"] = channel.nonlinear.heldout_gain
-        noise = channel.noise
-        for name in ("mean", "variance", "skewness", "excess_kurtosis", "ljung_box_statistic",
-                     "ljung_box_pvalue"):
-            metrics[f"noise.{c}.{name}"] = getattr(noise, name)
-        if channel.level is not None:
-            metrics[f"level.{c}.level"] = channel.level.level
-            metrics[f"level.{c}.residual_std"] = channel.level.residual_std
+        for kind in TIER_KINDS:
+            if kind.present(channel):
+                metrics.update(kind.fit_metrics(channel))
     if signature.tuning is not None:
         # the white box tuned to the asset: each estimate with its 95 % interval
         tuning = signature.tuning

@@ -63,3 +63,26 @@ def test_tier_kind_by_name():
     assert isinstance(tier_kind("noise"), NoiseTierKind)
     with pytest.raises(ValueError, match="unknown tier"):
         tier_kind("quadratic")
+
+
+def test_each_tier_kind_names_its_own_fit_figures():
+    # what the registry records of each tier's fit (registry.write.run_content.fit_metrics)
+    import dataclasses
+
+    from graybox.level_tier import LevelTier
+    from tests.graybox.conftest import make_channel
+
+    channel = dataclasses.replace(make_channel("x"), level=LevelTier(
+        0.25, (0.0,), (0.0,), 1.5, 12, 100))
+    figures = {kind.name: kind.fit_metrics(channel) for kind in TIER_KINDS}
+    assert figures == {
+        "linear": {"fit.x.ar_innovation_variance": 1.0},
+        "nonlinear": {"fit.x.nn_train_mse": 0.05, "fit.x.nn_iterations": 12,
+                      "fit.x.nn_heldout_gain": 0.001},
+        "noise": {"noise.x.mean": 0.0, "noise.x.variance": 1.0, "noise.x.skewness": 0.0,
+                  "noise.x.excess_kurtosis": 0.0, "noise.x.ljung_box_statistic": 20.0,
+                  "noise.x.ljung_box_pvalue": 0.4},
+        "level": {"level.x.level": 0.25, "level.x.residual_std": 1.5}}
+    unselected = make_channel("x", selection=False)
+    assert "fit.x.nn_heldout_gain" not in tier_kind("nonlinear").fit_metrics(unselected)
+    assert Tier().fit_metrics(channel) == {}
