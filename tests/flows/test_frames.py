@@ -1,9 +1,11 @@
 """One asset-night read top to bottom: the project's frames from the nightly flow to the AR
-fit, as docs/design.md 2.5 lists them (issue 21, item 1: at most about 8)."""
+fit, as docs/design.md 2.5 lists them (issue 21, item 1: at most about 8), and the baseline
+flow's, which calibrates as it fits (two frames more)."""
 from __future__ import annotations
 
 import traceback
 
+from flowtest_config import write_config
 from flowtest_fleet import BASELINE_DAYS, day
 
 #: the project's packages; Prefect's, MLflow's and the standard library's frames are not counted
@@ -23,19 +25,26 @@ def project_frames(stack: traceback.StackSummary) -> list[str]:
     return out
 
 
-def test_one_asset_night_from_the_flow_to_fit_ar_passes_eight_project_frames(workspace,
-                                                                              monkeypatch):
+def traced_fit_ar(monkeypatch) -> list[traceback.StackSummary]:
+    """The stacks of every call of the linear tier's ``fit_ar`` from now on (its callers)."""
     import graybox.tiers.linear as linear
-    from flows.nightly import nightly
 
     stacks = []
     fit_ar = linear.fit_ar
 
     def traced(*args, **kwargs):
-        stacks.append(traceback.extract_stack()[:-1])     # the callers of fit_ar
+        stacks.append(traceback.extract_stack()[:-1])
         return fit_ar(*args, **kwargs)
 
     monkeypatch.setattr(linear, "fit_ar", traced)
+    return stacks
+
+
+def test_one_asset_night_from_the_flow_to_fit_ar_passes_eight_project_frames(workspace,
+                                                                              monkeypatch):
+    from flows.nightly import nightly
+
+    stacks = traced_fit_ar(monkeypatch)
     state = nightly(config_path=str(workspace.config),
                     as_of=day(BASELINE_DAYS + 1).isoformat(), assets=["T-001"],
                     return_state=True)
@@ -45,6 +54,31 @@ def test_one_asset_night_from_the_flow_to_fit_ar_passes_eight_project_frames(wor
         "flows/batching.py:run_over_fleet",
         "flows/batching.py:run_batch",
         "flows/pipeline.py:execute",
+        "graybox/signature_fit.py:fit_signatures",
+        "graybox/signature_fit.py:_prepare",
+        "graybox/tiers/linear.py:fit",
+        "graybox/linear_tier.py:fit_ar",
+    ]
+
+
+def test_a_baseline_from_the_flow_to_fit_ar_passes_ten_project_frames(tmp_path, fleet, harness,
+                                                                      monkeypatch):
+    from flows.baseline import baseline
+
+    stacks = traced_fit_ar(monkeypatch)
+    config = write_config(tmp_path / "fleet.toml", fleet.root, tmp_path / "mlflow.db")
+    state = baseline(start=day(0).isoformat(), end=day(BASELINE_DAYS).isoformat(),
+                     config_path=str(config), assets=["T-001"], return_state=True)
+    assert state.is_completed(), state.message
+    # the baseline's own fit first; its leave-one-out refits and pieces follow, as deep
+    assert {tuple(project_frames(stack)) for stack in stacks} == {tuple(project_frames(stacks[0]))}
+    assert project_frames(stacks[0]) + ["graybox/linear_tier.py:fit_ar"] == [
+        "flows/baseline.py:baseline",
+        "flows/batching.py:run_over_fleet",
+        "flows/batching.py:run_batch",
+        "flows/pipeline.py:execute",
+        "flows/pipeline.py:fit_baselines",
+        "graybox/calibration.py:fit_baselines",
         "graybox/signature_fit.py:fit_signatures",
         "graybox/signature_fit.py:_prepare",
         "graybox/tiers/linear.py:fit",
