@@ -27,7 +27,8 @@ The nightly path, per asset-night (``--nightly``)::
     python -m benchmarks.registry_bench --nightly --assets 10 --nights 3 --history 365 --warmup 1
 
 gives ``--assets`` assets a promoted baseline, then times, for every asset and night, the
-calls :func:`flows.nightly.process_batch` makes: ``watermark``, ``baseline`` (load and
+calls a nightly batch makes (:func:`flows.nightly.plan_batch`, then
+:func:`flows.pipeline.execute`): ``watermark``, ``baseline`` (load and
 verify), ``record`` (the candidate with its drift, no plots), ``commit_watermark``; it prints
 mean, median and 90th percentile in ms per asset-night, and their total, with the mean and
 median CPU time of the calling thread (the median leaves out a rare long pause, e.g. a

@@ -34,7 +34,7 @@ from flows.discovery import AssetRef, range_windows, utc
 from flows.errors import UsageError
 from flows.hooks import notify_hook
 from flows.pipeline import (MIN_WINDOWS, AssetJob, BatchPlan, CommitPolicy, PendingAsset,
-                            WindowJob, execute)
+                            WindowJob)
 from flows.run_tables import flow_result
 from flows.run_guard import exclusive_run
 from flows.results import (FAILED, OK, AssetResult, RunSummary, WindowResult,
@@ -133,22 +133,6 @@ def plan_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, en
     windows = baseline_windows(config, start, end)
     return BatchPlan([plan_asset(config, ref, windows) for ref in refs],
                      RecordAndPromote(config, registry, clock, promote, reason))
-
-
-def process_baseline_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
-                           promote: bool = False, reason: str | None = None,
-                           registry=None, clock: StageClock | None = None
-                           ) -> list[AssetResult]:
-    """Fit, record and optionally promote baselines for one batch of assets.
-
-    Raises
-    ------
-    TransientError
-        When the registry failed transiently (the batch can be retried: recorded fits are
-        found again, not duplicated).
-    """
-    return execute(config, plan_baseline_batch(config, refs, start, end, promote, reason,
-                                               registry, clock), clock)
 
 
 @dataclass

@@ -102,7 +102,7 @@ from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windo
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
-                            configured_models, execute, record_group)
+                            configured_models, record_group)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP_TO_DATE,
                            AssetResult, RunSummary, describe_error, is_transient, now_iso)
@@ -257,24 +257,6 @@ def plan_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=No
     as_of = utc(as_of)
     return BatchPlan([plan_asset(config, registry, ref, as_of, clock) for ref in refs],
                      RecordThenAdvance(config, registry, clock))
-
-
-def process_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
-                  clock: StageClock | None = None) -> list[AssetResult]:
-    """Process one batch of assets up to ``as_of`` (see the module docstring).
-
-    Returns
-    -------
-    list of AssetResult
-        One per asset, in the order given.
-
-    Raises
-    ------
-    TransientError
-        When the registry or file system failed transiently (retry the batch: everything
-        committed so far is kept and not repeated).
-    """
-    return execute(config, plan_batch(config, refs, as_of, registry, clock), clock)
 
 
 @dataclass

@@ -33,7 +33,7 @@ from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, range_windows, utc
 from flows.hooks import notify_hook
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
-                            configured_models, execute, record_group)
+                            configured_models, record_group)
 from flows.run_tables import flow_result
 from flows.results import (FAILED, OK, UNUSABLE_BASELINE, AssetResult, RunSummary,
                            describe_error, now_iso)
@@ -96,21 +96,6 @@ def plan_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, 
     nights = _nights(config, candidate_nights)
     return BatchPlan([plan_asset(config, registry, ref, windows, version, clock, nights)
                       for ref in refs], RecordOnly(config, registry, clock))
-
-
-def process_reanalysis_batch(config: FleetConfig, refs: Sequence[AssetRef], start, end,
-                             version=None, candidate_nights: int | None = None,
-                             registry=None, clock: StageClock | None = None
-                             ) -> list[AssetResult]:
-    """Reanalyse one batch of assets (see :func:`plan_reanalysis_batch`).
-
-    Returns
-    -------
-    list of AssetResult
-        One per asset, in the order given.
-    """
-    return execute(config, plan_reanalysis_batch(config, refs, start, end, version,
-                                                 candidate_nights, registry, clock), clock)
 
 
 @dataclass

@@ -16,7 +16,7 @@ import sys
 import threading
 
 import flows.pipeline
-from flows.baseline import process_baseline_batch
+from flows.baseline import plan_baseline_batch
 from flows.config import load_config
 from flows.discovery import AssetRef
 from flows.memory import resident_bytes
@@ -82,7 +82,8 @@ settings = {{{{ needed_network = "trained" }}}}
     refs = [AssetRef(asset, "turbine") for asset in assets]
     sampler = PeakSampler()
     sampler.start()
-    results = process_baseline_batch(config, refs, "2026-01-01", "2026-01-04")
+    results = flows.pipeline.execute(
+        config, plan_baseline_batch(config, refs, "2026-01-01", "2026-01-04"))
     sampler.done.set()
     sampler.join()
     print(json.dumps({"start": start_anonymous, "peak": sampler.peak,
