@@ -34,6 +34,9 @@ def test_postgres_uris_are_normalized_for_psycopg(tmp_path):
     with pytest.raises(ValueError, match="must name a database"):
         resolve_store("postgresql://fleet@db.example:5433")
     assert advisory_key("fleet-health/asset/T-01") == advisory_key("fleet-health/asset/T-01")
+    # every host and every version must take the same lock for a name: a known answer (a
+    # process-salted hash, or another digest, would fail here)
+    assert advisory_key("fleet-health/asset/T-01") == -5065187905286029355
     assert advisory_key("fleet-health/asset/T-01") != advisory_key("fleet-health/asset/T-02")
 
 
