@@ -166,8 +166,14 @@ class Signature:
     def channel_names(self) -> tuple[str, ...]:
         return tuple(c.channel for c in self.channels)
 
-    def summary(self) -> str:
+    def summary(self, kinds: Sequence[Tier] = TIER_KINDS) -> str:
         """A readable plain-text table of the signature, as statsmodels' ``summary()``.
+
+        Parameters
+        ----------
+        kinds : sequence of Tier, default TIER_KINDS
+            The tiers shown, each as its kind writes it (a tier added through ``kinds=``
+            is shown when given here).
 
         Returns
         -------
@@ -182,7 +188,7 @@ class Signature:
         --------
         >>> print(baseline.signature_.summary())                          # doctest: +SKIP
         """
-        return signature_summary(self)
+        return signature_summary(self, kinds)
 
     def frozen_structure(self) -> dict:
         """Everything a candidate must share with this signature to be compared with it."""

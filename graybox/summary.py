@@ -17,6 +17,7 @@ from scipy import special
 if TYPE_CHECKING:
     from graybox.drift import Drift
     from graybox.signature import ChannelSignature, Signature
+    from graybox.tiers.base import Tier
 
 #: characters of a summary's rules (``=`` and ``-`` lines)
 WIDTH = 78
@@ -157,7 +158,7 @@ def _header(signature: Signature) -> list[str]:
     return lines
 
 
-def _channel(channel: ChannelSignature) -> list[str]:
+def _channel(channel: ChannelSignature, kinds: Sequence[Tier]) -> list[str]:
     s = channel.structure
     lines = ["=" * WIDTH, f"Channel {channel.channel}   ({channel.n_samples} samples)",
              "-" * WIDTH, "Structure"]
@@ -176,61 +177,36 @@ def _channel(channel: ChannelSignature) -> list[str]:
                    ("ADF statistic", format_number(selection.adf_statistic)),
                    ("Period found", selection.candidate_period or "none")]
     lines += field_lines(fields, "  ")
-
-    linear = channel.linear
-    lines += [f"Linear tier: AR({linear.order}), Yule-Walker"]
-    lines += field_lines([("Innovation variance", format_number(linear.innovation_variance)),
-                          ("Stationary", "yes" if linear.is_stationary else "no")], "  ")
-    if linear.order:
-        names = [f"a{i}" for i in range(1, linear.order + 1)]
-        rows = coefficient_rows(names, linear.coefficients, linear.standard_errors)
-        lines += table_lines(COEFFICIENT_HEADERS, rows, indent="  ")
-
-    network = channel.nonlinear
-    lines += [f"Nonlinear tier: tanh network, {network.hidden_units} hidden units x "
-              f"{network.embedding_dim} delays"]
-    lines += field_lines([("Training MSE", format_number(network.train_mse)),
-                          ("Held-out gain", format_number(network.heldout_gain)),
-                          ("Iterations", network.iterations)], "  ")
-
-    noise = channel.noise
-    white = "white at 1 %" if noise.is_white else "NOT white at 1 %"
-    lines += ["Noise tier"]
-    lines += field_lines([("Mean", format_number(noise.mean)),
-                          ("Variance", format_number(noise.variance)),
-                          ("Skewness", format_number(noise.skewness)),
-                          ("Excess kurtosis", format_number(noise.excess_kurtosis)),
-                          (f"Ljung-Box Q({noise.ljung_box_lags})",
-                           f"{format_number(noise.ljung_box_statistic)}   "
-                           f"p {format_pvalue(noise.ljung_box_pvalue)}   {white}")], "  ")
-
-    level = channel.level
-    if level is not None:
-        lines += ["Level tier"]
-        lines += field_lines([("Level", format_number(level.level)),
-                              ("Residual std", format_number(level.residual_std)),
-                              ("Horizon", f"{level.horizon} samples"),
-                              ("Slopes", ", ".join(map(format_number, level.slopes)) or "-"),
-                              ("Samples", level.n_obs)], "  ")
+    for kind in kinds:
+        if kind.present(channel):
+            lines += kind.summary_lines(channel)
     return lines
 
 
-def signature_summary(signature: Signature) -> str:
+def signature_summary(signature: Signature, kinds: Sequence[Tier] | None = None) -> str:
     """The text of :meth:`graybox.signature.Signature.summary`.
 
     Parameters
     ----------
     signature : Signature
+    kinds : sequence of Tier, optional
+        The tiers shown where a channel has them, each as its kind writes it
+        (:meth:`~graybox.tiers.base.Tier.summary_lines`); default
+        :data:`graybox.tiers.TIER_KINDS`.
 
     Returns
     -------
     str
         A header (asset, window, model, intervals, samples, tuning), then per channel its
-        structure and its linear, nonlinear, noise and level tiers.
+        structure and its tiers (linear, nonlinear, noise and level).
     """
+    if kinds is None:
+        from graybox.tiers import TIER_KINDS    # the tiers write their sections with this module
+
+        kinds = TIER_KINDS
     lines = _header(signature)
     for channel in signature.channels:
-        lines += _channel(channel)
+        lines += _channel(channel, kinds)
     return "\n".join(lines + ["=" * WIDTH])
 
 

@@ -190,6 +190,25 @@ class Tier:
         """
         return {}
 
+    def summary_lines(self, channel: ChannelSignature) -> list[str]:
+        """The tier's section of :meth:`graybox.signature.Signature.summary` for ``channel``
+        (which has the tier): by default its name, then its parameters.
+
+        Parameters
+        ----------
+        channel : ChannelSignature
+
+        Returns
+        -------
+        list of str
+            Lines of at most :data:`graybox.summary.WIDTH` characters.
+        """
+        from graybox.summary import field_lines, format_number
+
+        names, values = self.parameters(channel)
+        return [f"Tier {self.name}"] + field_lines(
+            [(name, format_number(float(value))) for name, value in zip(names, values)], "  ")
+
     def metric_name(self, kind: str, channel: str) -> str:
         """The name of a per-channel metric of this tier: ``<kind>.<channel>.<tier>`` (e.g.
         ``zeta.omega.linear``)."""

@@ -112,6 +112,18 @@ class LevelTierKind(Tier):
         return {f"level.{channel.channel}.level": channel.level.level,
                 f"level.{channel.channel}.residual_std": channel.level.residual_std}
 
+    def summary_lines(self, channel: ChannelSignature) -> list[str]:
+        """The level, the spread about it, the horizon, the slopes and the samples."""
+        from graybox.summary import field_lines, format_number
+
+        level = channel.level
+        return ["Level tier"] + field_lines(
+            [("Level", format_number(level.level)),
+             ("Residual std", format_number(level.residual_std)),
+             ("Horizon", f"{level.horizon} samples"),
+             ("Slopes", ", ".join(map(format_number, level.slopes)) or "-"),
+             ("Samples", level.n_obs)], "  ")
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         if channel.level is None:
             raise StructureMismatchError(f"channel {channel.channel!r} has no level tier (a "

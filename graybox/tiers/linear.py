@@ -87,6 +87,22 @@ class LinearTierKind(Tier):
         return {f"fit.{channel.channel}.ar_innovation_variance":
                 channel.linear.innovation_variance}
 
+    def summary_lines(self, channel: ChannelSignature) -> list[str]:
+        """The AR order, innovation variance, stationarity and coefficients with their
+        standard errors."""
+        from graybox.summary import (COEFFICIENT_HEADERS, coefficient_rows, field_lines,
+                                     format_number, table_lines)
+
+        linear = channel.linear
+        lines = [f"Linear tier: AR({linear.order}), Yule-Walker"]
+        lines += field_lines([("Innovation variance", format_number(linear.innovation_variance)),
+                              ("Stationary", "yes" if linear.is_stationary else "no")], "  ")
+        if linear.order:
+            names = [f"a{i}" for i in range(1, linear.order + 1)]
+            rows = coefficient_rows(names, linear.coefficients, linear.standard_errors)
+            lines += table_lines(COEFFICIENT_HEADERS, rows, indent="  ")
+        return lines
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         coefficients = channel.linear.coefficients
         return [f"a{i}" for i in range(1, len(coefficients) + 1)], np.asarray(coefficients, float)

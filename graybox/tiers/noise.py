@@ -45,6 +45,21 @@ class NoiseTierKind(Tier):
                 for name in ("mean", "variance", "skewness", "excess_kurtosis",
                              "ljung_box_statistic", "ljung_box_pvalue")}
 
+    def summary_lines(self, channel: ChannelSignature) -> list[str]:
+        """The four moments and the Ljung-Box test."""
+        from graybox.summary import field_lines, format_number, format_pvalue
+
+        noise = channel.noise
+        white = "white at 1 %" if noise.is_white else "NOT white at 1 %"
+        return ["Noise tier"] + field_lines(
+            [("Mean", format_number(noise.mean)),
+             ("Variance", format_number(noise.variance)),
+             ("Skewness", format_number(noise.skewness)),
+             ("Excess kurtosis", format_number(noise.excess_kurtosis)),
+             (f"Ljung-Box Q({noise.ljung_box_lags})",
+              f"{format_number(noise.ljung_box_statistic)}   "
+              f"p {format_pvalue(noise.ljung_box_pvalue)}   {white}")], "  ")
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         names = ["mean", "variance", "skewness", "excess_kurtosis"]
         return names, np.asarray(channel.noise.moments)

@@ -95,6 +95,17 @@ class NonlinearTierKind(Tier):
             metrics[f"fit.{c}.nn_heldout_gain"] = tier.heldout_gain
         return metrics
 
+    def summary_lines(self, channel: ChannelSignature) -> list[str]:
+        """The network's size, training error, held-out gain and iterations."""
+        from graybox.summary import field_lines, format_number
+
+        network = channel.nonlinear
+        return [f"Nonlinear tier: tanh network, {network.hidden_units} hidden units x "
+                f"{network.embedding_dim} delays"] + field_lines(
+            [("Training MSE", format_number(network.train_mse)),
+             ("Held-out gain", format_number(network.heldout_gain)),
+             ("Iterations", network.iterations)], "  ")
+
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         w, W = channel.nonlinear.weight_arrays()
         names = [f"W1_{j}" for j in range(1, len(W) + 1)]

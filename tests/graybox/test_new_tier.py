@@ -88,6 +88,17 @@ def test_the_new_tier_survives_the_signature_json_round_trip(fits):
         assert values[-1] == kind.record(signature.channel("omega")).value
 
 
+def test_the_new_tier_is_in_the_summary_it_is_given_to(fits):
+    plain, baseline, _ = fits
+    value = KINDS[-1].record(baseline.channel("omega")).value
+    shown = baseline.summary(kinds=KINDS)
+    assert shown.startswith(baseline.summary().removesuffix("=" * 78))
+    *_, heading, line, end = shown.splitlines()
+    assert (heading, line.split(), end) == ("Tier mean_abs", ["value:", f"{value:.4f}"], "=" * 78)
+    assert "Tier mean_abs" not in baseline.summary() and \
+        plain.summary(kinds=KINDS) == plain.summary()
+
+
 def test_the_new_tier_has_its_drift(fits):
     _, baseline, candidate = fits
     kind = KINDS[-1]
