@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from graybox.alert_diagnosis import cause_text
 from graybox.severity import SeverityScale
+from graybox.tiers import TIER_KINDS, Tier
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
@@ -111,10 +112,10 @@ class Alert:
         return (self.asset_id, self.window_start, self.window_end, self.channel, self.tier)
 
     def hint(self, count: int = 3) -> str:
-        """The moved parameters, e.g. ``a1 0.91→1.12, W1_3 ...`` (and, for a window driven beyond
-        the baseline's input conditions, which input left them); for the level tier
-        ``level moved from 129.02 to 129.49 (+0.47)`` (the channel's k-step prediction error
-        at the baseline's operating point, in the channel's units)."""
+        """The tier's hint (:meth:`graybox.tiers.base.Tier.hint`): the moved parameters, e.g.
+        ``a1 0.91→1.12, W1_3 ...`` (and, for a window driven beyond the baseline's input
+        conditions, which input left them); for the level tier ``level moved from 129.02 to
+        129.49 (+0.47)``; for a stale or sensor alert, what was found."""
         if self.kind == STALE:
             return f"no telemetry since {self.window_end} ({self.zeta:.1f} days)"
         if self.kind == SENSOR:
@@ -123,14 +124,8 @@ class Alert:
                         f"(stuck_after {self.epsilon:.0f} s)")
             return (f"sensor {self.channel} out of range: {self.zeta:.6g} from its centre, "
                     f"{self.epsilon:.6g} allowed")
-        if self.tier == "level" and self.top_changes:
-            change = self.top_changes[0]
-            a, b = change["baseline"], change["candidate"]
-            return f"level moved from {a:.6g} to {b:.6g} ({b - a:+.3g})"
-        moved = ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
-                          for c in self.top_changes[:count])
-        return moved + (f"; outside the baseline's conditions: {self.conditions}"
-                        if self.conditions else "")
+        kind = next((k for k in TIER_KINDS if k.name == self.tier), None) or Tier()
+        return kind.hint(self.top_changes, self.conditions, count)
 
     def likely_cause(self) -> str:
         """The diagnosis' first entry in a line (see

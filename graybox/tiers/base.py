@@ -9,7 +9,7 @@ or, as a built-in tier, in :data:`graybox.tiers.TIER_KINDS`.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -208,6 +208,30 @@ class Tier:
         names, values = self.parameters(channel)
         return [f"Tier {self.name}"] + field_lines(
             [(name, format_number(float(value))) for name, value in zip(names, values)], "  ")
+
+    def hint(self, changes: Sequence[Mapping[str, Any]], conditions: str | None = None,
+             count: int = 3) -> str:
+        """An alert's root-cause hint for this tier (:meth:`graybox.alert.Alert.hint`): by
+        default the ``count`` parameters that moved most, ``a1 0.91→1.12, ...``, and, for a
+        window driven beyond the baseline's input conditions, which input left them.
+
+        Parameters
+        ----------
+        changes : sequence of mapping
+            The alert's ``top_changes`` (``name``, ``baseline``, ``candidate``), largest
+            first.
+        conditions : str, optional
+            The alert's ``conditions``.
+        count : int, default 3
+
+        Returns
+        -------
+        str
+        """
+        moved = ", ".join(f"{c['name']} {c['baseline']:.3g}→{c['candidate']:.3g}"
+                          for c in changes[:count])
+        return moved + (f"; outside the baseline's conditions: {conditions}"
+                        if conditions else "")
 
     def metric_name(self, kind: str, channel: str) -> str:
         """The name of a per-channel metric of this tier: ``<kind>.<channel>.<tier>`` (e.g.

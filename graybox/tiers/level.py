@@ -2,7 +2,7 @@
 (:mod:`graybox.level_tier`), fitted from the white box's states, not the residual."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -123,6 +123,16 @@ class LevelTierKind(Tier):
              ("Horizon", f"{level.horizon} samples"),
              ("Slopes", ", ".join(map(format_number, level.slopes)) or "-"),
              ("Samples", level.n_obs)], "  ")
+
+    def hint(self, changes: Sequence[Mapping[str, Any]], conditions: str | None = None,
+             count: int = 3) -> str:
+        """How far the level moved, ``level moved from 129.02 to 129.49 (+0.47)`` (the
+        channel's k-step prediction error at the baseline's operating point, in the
+        channel's units)."""
+        if not changes:
+            return super().hint(changes, conditions, count)
+        a, b = changes[0]["baseline"], changes[0]["candidate"]
+        return f"level moved from {a:.6g} to {b:.6g} ({b - a:+.3g})"
 
     def parameters(self, channel: ChannelSignature) -> tuple[list[str], np.ndarray]:
         if channel.level is None:

@@ -86,3 +86,26 @@ def test_each_tier_kind_names_its_own_fit_figures():
     unselected = make_channel("x", selection=False)
     assert "fit.x.nn_heldout_gain" not in tier_kind("nonlinear").fit_metrics(unselected)
     assert Tier().fit_metrics(channel) == {}
+
+
+def test_each_tier_kind_writes_its_alerts_hint():
+    # Alert.hint asks the alert's tier; a tier added through kinds= gets the generic hint
+    from graybox.alert import Alert
+
+    moved = ({"name": "a1", "baseline": 0.91, "candidate": 1.12},
+             {"name": "W1_3", "baseline": -0.3, "candidate": 0.2})
+    assert tier_kind("linear").hint(moved, count=1) == "a1 0.91→1.12"
+    assert Tier().hint(moved, "load 12.5") == \
+        "a1 0.91→1.12, W1_3 -0.3→0.2; outside the baseline's conditions: load 12.5"
+    level = ({"name": "level", "baseline": 129.02, "candidate": 129.49},)
+    assert tier_kind("level").hint(level, "load 12.5") == \
+        "level moved from 129.02 to 129.49 (+0.47)"
+    assert tier_kind("level").hint((), "load 12.5") == \
+        "; outside the baseline's conditions: load 12.5"
+
+    def alert(tier, changes):
+        return Alert("T-1", "turbine", "2026-01-01", "2026-01-02", "omega", tier, 3.0, 1.0, 3.0,
+                     "major", changes)
+
+    assert alert("level", level).hint() == "level moved from 129.02 to 129.49 (+0.47)"
+    assert alert("mean_abs", moved).hint() == "a1 0.91→1.12, W1_3 -0.3→0.2"
