@@ -123,6 +123,7 @@ from threadpoolctl import threadpool_limits
 
 from graybox.diagnosis_evidence import (EVIDENCE_HYPOTHESES, ChannelResidual,
                                        DiagnosisEvidence, HypothesisFit)
+from graybox.diagnosis_runs import Runner, Trial, side_by_side
 from graybox.effective_samples import effective_sample_size
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ModelSpecError
 from graybox.innovation_spread import InnovationSpread, period_innovations, pooled_spreads
@@ -464,7 +465,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     offsets = {s: int(np.searchsorted(positions, s)) for s in starts}
 
     def remaining(trial: WhiteBoxModel, trial_segments, start: int, value: float,
-                  shared: _ScreenRun) -> tuple[list[np.ndarray], np.ndarray]:
+                  shared: _ScreenRun, runner: Runner) -> tuple[list[np.ndarray], np.ndarray]:
         """The residual with ``trial`` (at free value ``value``) run on the periods from
         ``start`` on (given as ``trial_segments``), the healthy errors before them.
 
@@ -472,12 +473,14 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         hidden states are estimated per period), so a run from an earlier start holds the
         errors of a later one: ``shared`` keeps the hypothesis' first run while it is
         screened (its screening step from its first start), and the same value from a
-        later start is read from it instead of run again."""
+        later start is read from it instead of run again. ``runner``: where the
+        hypothesis' runs go (alone, or batched with the other hypotheses' while they are
+        fitted side by side: :mod:`graybox.diagnosis_runs`)."""
         clock.check()
         if shared.errors is not None and shared.value == value and shared.start <= start:
             errors = {c: (e[p >= start - shared.start],) for c, (e, p) in shared.errors.items()}
         else:
-            errors = prediction_errors(trial, trial_segments, setup)
+            errors = runner.run(Trial(trial, trial_segments, start))
             if shared.screening and shared.errors is None:
                 shared.start, shared.value = start, value
                 shared.errors = {c: (e, p) for c, (e, _, p) in errors.items()}
@@ -512,38 +515,59 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     # every hypothesis screened from every start (one white-box run for all of them: a later
     # start reads its periods' errors from the first start's run), at the start that explains
     # most; the best REFINED fitted in full
-    objectives, fits = {}, []
-    for kind, target in hypotheses:
+    # (the hypotheses are screened side by side, then the refined ones refined side by side,
+    # their white-box runs batched: :mod:`graybox.diagnosis_runs`; each sees the values it
+    # would see alone)
+    fits: list = [None] * len(hypotheses)
+    together = bool(model.hidden_states)
+    runners = {index: Runner(setup) for index, (kind, _) in enumerate(hypotheses)
+               if kind != "noise"}
+
+    def screen(kind: str, target: str, runner: Runner) -> tuple[_Objective, _Fit]:
+        screened, shared = [], _ScreenRun()
+        for start in starts:
+            objective = _objective(kind, target, model, segments, start, offsets[start],
+                                   functools.partial(remaining, start=start, shared=shared,
+                                                     runner=runner),
+                                   finite, rows)
+            screened.append((objective, _screen(objective, healthy_weighted)))
+        shared.screening, shared.errors = False, None   # the refinement runs its own
+        clock.fitted += 1
+        return max(screened, key=lambda pair: _gain(pair[1], healthy, sigma, weights))
+
+    tasks = [(runners[index], functools.partial(screen, *hypotheses[index], runners[index]))
+             for index in runners]
+    objectives = {}
+    for index, (objective, fit) in zip(runners, side_by_side(tasks, setup, together)):
+        objectives[index], fits[index] = objective, fit
+    for index, (kind, target) in enumerate(hypotheses):
         if kind == "noise":
             # on the innovations from each start on; without them, the k-step errors' spread
             options = [_noise_fit(target, model, sigma, healthy, spreads[start][target], start)
                        for start in starts if target in spreads.get(start, {})] or [
                 _noise_fit(target, model, sigma, healthy, None, starts[0])]
-            fits.append(max(options, key=lambda fit: _gain(fit, healthy, sigma, weights)))
-        else:
-            screened, shared = [], _ScreenRun()
-            for start in starts:
-                objective = _objective(kind, target, model, segments, start, offsets[start],
-                                       functools.partial(remaining, start=start, shared=shared),
-                                       finite, rows)
-                screened.append((objective, _screen(objective, healthy_weighted)))
-            shared.screening, shared.errors = False, None   # the refinement runs its own
-            objective, fit = max(screened,
-                                 key=lambda pair: _gain(pair[1], healthy, sigma, weights))
-            objectives[len(fits)] = objective
-            fits.append(fit)
-        clock.fitted += 1
+            fits[index] = max(options, key=lambda fit: _gain(fit, healthy, sigma, weights))
+            clock.fitted += 1
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
-    refined = set()
+    chosen = []
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
         if first_gains[index] < REFINE_GAIN:
             break           # explains nothing at the baseline's slope: a healthy-like window
+        chosen.append(index)
+
+    def refine(index: int) -> _Fit | None:
         try:
-            fits[index] = _refine(objectives[index], fits[index])
+            return _refine(objectives[index], fits[index])
         except _OutOfTime:
-            break           # the screened values stand: the ranking is complete
-        refined.add(index)
-        first_gains[index] = _gain(fits[index], healthy, sigma, weights)
+            return None     # the screened value stands: the ranking is complete
+
+    refined = set()
+    tasks = [(runners[index], functools.partial(refine, index)) for index in chosen]
+    for index, fit in zip(chosen, side_by_side(tasks, setup, together)):
+        if fit is not None:
+            fits[index] = fit
+            refined.add(index)
+            first_gains[index] = _gain(fit, healthy, sigma, weights)
     # the second weights: the autocorrelation of what the best explanation leaves
     best = fits[int(np.argmax(first_gains))] if fits else None
     effective = n_eff(best.residuals if best is not None else healthy)

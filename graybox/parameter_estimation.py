@@ -151,7 +151,8 @@ class ErrorSetup:
 
 
 def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray, np.ndarray]],
-                      setup: ErrorSetup, drift: Mapping[str, Sequence[str]] | None = None
+                      setup: ErrorSetup, drift: Mapping[str, Sequence[str]] | None = None,
+                      starts: Sequence[np.ndarray] | None = None
                       ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per output channel, the k-step prediction errors of ``model`` over ``segments``.
 
@@ -166,6 +167,9 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         Per channel, the hidden states whose change is a feature (a baseline level tier's
         ``drifting``); default found in these segments
         (:func:`graybox.level_tier.drifting_states`).
+    starts : sequence of ndarray, optional
+        Per segment, its initial hidden state already fitted
+        (:func:`graybox.state_estimation.initial_hidden_together`); default fitted here.
 
     Returns
     -------
@@ -174,8 +178,10 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         the segment of each error.
     """
     if model.hidden_states:
-        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
-                  .decimated(setup.factor) for y, u in segments]
+        starts = [None] * len(segments) if starts is None else starts
+        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration,
+                                  start=start).decimated(setup.factor)
+                  for (y, u), start in zip(segments, starts)]
     else:   # the states are the measurements: decimated first, the same at a tenth the copying
         states = [estimate_states(model, y[::setup.factor], u[::setup.factor],
                                   setup.sample_interval, setup.integration) for y, u in segments]

@@ -29,7 +29,7 @@ The fitted initial hidden state is recorded with the signature.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -235,8 +235,12 @@ class _StartFit:
     """
 
     def __init__(self, model, layout: _Layout, pieces: Sequence[tuple[np.ndarray, np.ndarray]],
-                 dt: float, integration: Integration):
+                 dt: float, integration: Integration,
+                 variants: Callable[[np.ndarray], object] | None = None):
         self.model, self.layout, self.dt, self.integration = model, layout, dt, integration
+        # each segment's own variant of the model: ``variants(segments)`` is the model of
+        # rows whose segments are those (:func:`graybox.row_parameters.row_variants`)
+        self.variants = variants
         self.n = np.array([min(len(y), start_fit_samples(dt)) for y, _ in pieces])
         self.offset = np.concatenate([[0], np.cumsum(self.n)[:-1]])
         self.y = np.concatenate([y[:n] for (y, _), n in zip(pieces, self.n)])
@@ -250,6 +254,10 @@ class _StartFit:
             step_scales.append(np.maximum(np.std(change, axis=0), 1e-9) if len(change)
                                else np.ones(len(layout.measured_outputs)))
         self.out_scale, self.step_scale = np.array(out_scales), np.array(step_scales)
+
+    def _model(self, piece: np.ndarray):
+        """The model of rows of segments ``piece``."""
+        return self.model if self.variants is None else self.variants(piece)
 
     def own_rows(self, piece: int) -> np.ndarray:
         """Where segment ``piece``'s own errors sit in a row of :meth:`errors` (the rest is
@@ -266,8 +274,8 @@ class _StartFit:
         ``piece[r]``."""
         layout, length = self.layout, int(self.n.max())
         first, last = self.offset[piece], self.offset[piece] + self.n[piece] - 1
-        hidden = _run(self.model, layout, self.y, self.u, self.dt, self.integration, batch,
-                      first, length - 1, last)
+        hidden = _run(self._model(piece), layout, self.y, self.u, self.dt, self.integration,
+                      batch, first, length - 1, last)
         at = np.minimum(first[:, None] + np.arange(length), last[:, None])     # (R, length)
         valid = np.arange(length)[None] < self.n[piece][:, None]
         full = np.zeros(hidden.shape[:2] + (layout.n_states,))
@@ -276,14 +284,14 @@ class _StartFit:
         u = self.u[at]
         parts = []
         if layout.computed_outputs.size:
-            predicted = self.model.output(full.reshape(-1, layout.n_states),
-                                          u.reshape(-1, u.shape[-1]))
+            predicted = self._model(np.repeat(piece, length)).output(
+                full.reshape(-1, layout.n_states), u.reshape(-1, u.shape[-1]))
             predicted = predicted.reshape(len(batch), length, -1)[..., layout.computed_outputs]
             error = ((self.y[at][..., layout.computed_outputs] - predicted)
                      / self.out_scale[piece][:, None])
             parts.append(np.where(valid[..., None], error, 0.0).reshape(len(batch), -1))
         if layout.measured.size and length > 1:
-            onestep = advance(self.model.derivatives,
+            onestep = advance(self._model(np.repeat(piece, length - 1)).derivatives,
                               full[:, :-1].reshape(-1, layout.n_states),
                               u[:, :-1].reshape(-1, u.shape[-1]),
                               u[:, 1:].reshape(-1, u.shape[-1]), self.dt, self.integration)
@@ -329,7 +337,9 @@ def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray
 
 
 def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray]], dt: float,
-                            integration: Integration) -> np.ndarray:
+                            integration: Integration,
+                            variants: Callable[[np.ndarray], object] | None = None
+                            ) -> np.ndarray:
     """The initial hidden states of several segments (outputs ``y`` and inputs ``u`` each, as
     :func:`estimate_states` takes them), :data:`SEGMENTS_TOGETHER` at a time: (B, n_hidden).
 
@@ -341,14 +351,23 @@ def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray
     its trust region is shared, and a start the data do not determine (a state of charge
     above the OCV table's last breakpoint) wandered to another, equally good, minimum.
     Each segment has at least 2 samples.
+
+    ``variants``: each segment fitted with its own variant of ``model`` (differing in number
+    parameters only: a diagnosis' trial models), ``variants(index)`` the model whose rows
+    are those of segments ``index`` (:func:`graybox.row_parameters.row_variants`, indexed
+    by segment). A Rosenbrock integrator's inputs' difference step is the batch's largest
+    input: segments of different inputs fitted together are not each fitted as alone (the
+    same inputs, a segment's variants, are).
     """
     layout = _Layout(model)
     n_hidden = len(layout.hidden)
     scale = np.maximum(1.0, np.abs(layout.guess))
     starts = []
     for group in range(0, len(pieces), SEGMENTS_TOGETHER):
+        local = (None if variants is None else
+                 lambda index, group=group: variants(np.asarray(index) + group))
         problem = _StartFit(model, layout, pieces[group:group + SEGMENTS_TOGETHER], dt,
-                            integration)
+                            integration, local)
         own = [problem.own_rows(b) for b in range(len(problem.n))]
 
         def batch(indices, points, problem=problem, own=own):

@@ -398,6 +398,7 @@ def test_a_hypothesis_is_screened_from_every_night_on_one_run(levels, monkeypatc
     # hypothesis (and one for the baseline), each over both nights, and the same screened
     # values as a run of the second night alone gives
     import graybox.diagnosis as diagnosis_module
+    import graybox.diagnosis_runs as runs_module
 
     healthy = drive_frame(Drive(), 20)
     faulty = drive_frame(Drive(), 21, bias=(0.0, 0.5))
@@ -406,11 +407,13 @@ def test_a_hypothesis_is_screened_from_every_night_on_one_run(levels, monkeypatc
     runs = []
     counted = diagnosis_module.prediction_errors
 
-    def counting(model, segments, setup, *drift):
+    def counting(model, segments, setup, *drift, **starts):
         runs.append(len(segments))
-        return counted(model, segments, setup, *drift)
+        return counted(model, segments, setup, *drift, **starts)
 
+    # the hypotheses' runs go through graybox.diagnosis_runs, the baseline's does not
     monkeypatch.setattr(diagnosis_module, "prediction_errors", counting)
+    monkeypatch.setattr(runs_module, "prediction_errors", counting)
     monkeypatch.setattr(diagnosis_module, "_refine", lambda objective, screened: screened)
     screened = diagnose_window(Drive(), levels, [healthy, faulty])
     fitted = [h for h in candidate_hypotheses(Drive()) if h[0] != "noise"]

@@ -1,0 +1,144 @@
+"""A diagnosis' hypotheses fitted side by side, their white-box runs batched
+(:mod:`graybox.diagnosis_runs`): the same diagnosis, number for number, as the hypotheses
+fitted one by one, and the models it batches are the ones that compute per-row parameters as
+their scalar ones (:func:`graybox.row_parameters.row_variants`).
+
+Tolerance: exact. Each hypothesis' fit runs unchanged and is given, for every value, what its
+own run gives (each period's initial hidden state fitted by its own ``least_squares`` on its
+own rows of the batch, elementwise the same arithmetic; the rest of the run its own)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import graybox.diagnosis_runs as runs_module
+from graybox.diagnosis import diagnose_window
+from graybox.integration import Integration, advance
+from graybox.level_tier import fit_level, level_data
+from graybox.models.base import WhiteBoxModel
+from graybox.parameter_estimation import with_parameters
+from graybox.row_parameters import row_variants
+
+DT = 10.0
+RK4 = Integration()
+
+
+class Pack(WhiteBoxModel):
+    """A charge ``q`` counted from the current (hidden), an RC voltage ``v`` (hidden,
+    relaxing) and a measured temperature; the terminal voltage reads both."""
+
+    states = ("q", "v", "temp")
+    outputs = ("voltage", "temp")
+    inputs = ("current",)
+    default_parameters = {"capacity": 2000.0, "slope": 2.0, "r": 0.5, "tau": 200.0, "r0": 0.1,
+                          "heating": 0.002}
+    initial_state = {"q": 0.5}
+
+    def derivatives(self, x, u):
+        p = self.parameters
+        current = u[..., 0]
+        return np.stack([-current / p["capacity"],
+                         p["r"] * current / p["tau"] - x[..., 1] / p["tau"],
+                         p["heating"] * current ** 2 - 0.005 * x[..., 2]], axis=-1)
+
+    def output(self, x, u):
+        p = self.parameters
+        voltage = 10.0 + p["slope"] * x[..., 0] - x[..., 1] - p["r0"] * u[..., 0]
+        return np.stack([voltage, x[..., 2]], axis=-1)
+
+
+class ScalarOnly(Pack):
+    """The pack written with ``math.exp`` of a parameter: no per-row parameters."""
+
+    def output(self, x, u):
+        out = super().output(x, u)
+        out[..., 0] *= math.exp(self.parameters["r0"] - 0.1)
+        return out
+
+
+class ReadOnce(Pack):
+    """The pack that reads its resistance once, in its constructor."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.resistance = self.parameters["r0"]
+
+    def output(self, x, u):
+        p = self.parameters
+        voltage = 10.0 + p["slope"] * x[..., 0] - x[..., 1] - self.resistance * u[..., 0]
+        return np.stack([voltage, x[..., 2]], axis=-1)
+
+
+def pack_frame(model, seed, n=1500, bias=0.0):
+    """The pack's run under a stepped current, its outputs with sensor noise."""
+    rng = np.random.default_rng(seed)
+    current = np.repeat(rng.uniform(-20.0, 20.0, n // 30 + 1), 30)[:n, None]
+    x = np.empty((n, 3))
+    x[0] = (0.6, 0.0, 0.5)
+    for t in range(1, n):
+        x[t] = advance(model.derivatives, x[t - 1:t], current[t - 1:t], current[t:t + 1], DT,
+                       Integration("rk4", 4))[0]
+    y = model.output(x, current) + rng.normal(0.0, (0.01, 0.02), (n, 2))
+    y[:, 0] += bias
+    index = pd.date_range("2026-01-01", periods=n, freq="10s", tz="UTC")
+    return pd.DataFrame({"voltage": y[:, 0], "temp": y[:, 1], "current": current[:, 0]},
+                        index=index)
+
+
+@pytest.fixture(scope="module")
+def levels():
+    # (no drifting hidden state's change among the features: the charge's drift is not
+    # what this test is about)
+    data = level_data(Pack(), [pack_frame(Pack(), 0)], DT, 12, integration=RK4,
+                      drift={c: () for c in Pack.outputs})
+    return {c: fit_level(errors, features, 12, None, segments, drifting=())
+            for c, (errors, features, segments) in data.items()}
+
+
+def test_hypotheses_fitted_side_by_side_are_the_ones_fitted_alone(levels, monkeypatch):
+    window = [pack_frame(with_parameters(Pack(), {"r0": 0.13}), 1)]
+    batches = []
+    batched = runs_module.initial_hidden_together
+
+    def counting(model, pieces, *args, **kwargs):
+        batches.append(len(pieces))
+        return batched(model, pieces, *args, **kwargs)
+
+    monkeypatch.setattr(runs_module, "initial_hidden_together", counting)
+    together = diagnose_window(Pack(), levels, window)
+    # every parameter, bias and gain hypothesis screened on one batch; the refined ones
+    # batched too
+    assert batches[0] == 6 + 2 * 2 and len(batches) > 1
+    assert (together.best.kind, together.best.target) == ("parameter", "r0")
+    monkeypatch.setattr(runs_module, "row_variants", lambda *args: None)
+    batches.clear()
+    alone = diagnose_window(Pack(), levels, window)
+    assert batches == []
+    assert together.hypotheses == alone.hypotheses
+    assert (together.effective_samples, together.n_obs) == (alone.effective_samples,
+                                                            alone.n_obs)
+
+
+def test_variants_are_batched_only_where_the_class_computes_per_row_parameters():
+    rng = np.random.default_rng(0)
+    x = np.column_stack([rng.uniform(0.2, 0.9, 20), rng.normal(0.0, 1.0, 20),
+                         rng.uniform(20.0, 30.0, 20)])
+    u = rng.normal(0.0, 10.0, (20, 1))
+    changes = [{}, {"r0": 0.12}, {"capacity": 2100.0}, {"tau": 180.0}]
+    variants = [with_parameters(Pack(), c) for c in changes]
+    rows = row_variants(variants, x, u)
+    assert rows is not None
+    index = np.array([2, 0, 1, 3, 1])
+    model = rows(index)
+    expected = np.concatenate([variants[i].output(x[k:k + 1], u[k:k + 1])
+                               for k, i in enumerate(index)])
+    np.testing.assert_array_equal(model.output(x[:5], u[:5]), expected)
+    for kind in (ScalarOnly, ReadOnce):
+        assert row_variants([with_parameters(kind(), c) for c in changes], x, u) is None
+    # a variant the probe cannot tell from the first (a heating the probe's zero current
+    # does not reach) is not batched: a model that ignored it would pass unseen
+    quiet = [with_parameters(Pack(), c) for c in ({}, {"heating": 0.003})]
+    assert row_variants(quiet, x, np.zeros_like(u)) is None
