@@ -105,6 +105,14 @@ the errors from the start on. Each operating period's k-step errors depend on th
 alone, so a hypothesis is screened from every start on one white-box run (from its first
 start); only a refinement runs the nights from its own start on.
 
+**Side by side.** The hypotheses are screened side by side, and the refined ones then
+refined side by side (:mod:`graybox.diagnosis_runs`: each hypothesis' own fit in its own
+thread, unchanged, the white-box runs they ask for at one time evaluated as one batch). For a
+white box with hidden states the batch fits each period's initial hidden state for every
+trial together, each exactly as alone: the diagnosis is the same, number for number, as one
+fitted hypothesis by hypothesis, and costs less (the EV battery's alarmed night: 15.9 against
+6.9 CPU s). Without hidden states each run is the trial's own, one after another.
+
 **Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
 channel and what the best three hypotheses leave of it
 (:class:`graybox.diagnosis_evidence.DiagnosisEvidence`, for a plot; not part of its JSON).
@@ -112,6 +120,7 @@ channel and what the best three hypotheses leave of it
 from __future__ import annotations
 
 import functools
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable, ClassVar, Mapping, Sequence
@@ -435,10 +444,16 @@ class _Deadline:
     def __init__(self, budget: float | None):
         self.end = None if budget is None else time.monotonic() + budget
         self.fitted = 0
+        self._lock = threading.Lock()     # hypotheses are fitted side by side, in threads
 
     def check(self) -> None:
         if self.end is not None and time.monotonic() > self.end:
             raise _OutOfTime
+
+    def count(self) -> None:
+        """One more hypothesis fitted."""
+        with self._lock:
+            self.fitted += 1
 
 
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
@@ -532,7 +547,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                                    finite, rows)
             screened.append((objective, _screen(objective, healthy_weighted)))
         shared.screening, shared.errors = False, None   # the refinement runs its own
-        clock.fitted += 1
+        clock.count()
         return max(screened, key=lambda pair: _gain(pair[1], healthy, sigma, weights))
 
     tasks = [(runners[index], functools.partial(screen, *hypotheses[index], runners[index]))
@@ -547,7 +562,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                        for start in starts if target in spreads.get(start, {})] or [
                 _noise_fit(target, model, sigma, healthy, None, starts[0])]
             fits[index] = max(options, key=lambda fit: _gain(fit, healthy, sigma, weights))
-            clock.fitted += 1
+            clock.count()
     first_gains = [_gain(fit, healthy, sigma, weights) for fit in fits]
     chosen = []
     for index in sorted(objectives, key=lambda i: -first_gains[i])[:REFINED]:
