@@ -144,7 +144,7 @@ from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
                                           positive_parameters, prediction_errors,
                                           with_parameters)
 from graybox.signature import Signature
-from graybox.state_estimation import window_arrays
+from graybox.state_estimation import estimate_states, window_arrays
 from graybox.telemetry.window import window_periods
 from graybox.timestamps import utc
 
@@ -391,14 +391,19 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
     setup = ErrorSetup(baseline.sample_interval, max(1, round(analysis / baseline.sample_interval)),
                        horizon, start_stride(analysis, horizon), baseline.integration_used)
     frames, interval = operating_segments(windows)
+    # the periods' states under the baseline's white box, estimated once for the innovations
+    # and the k-step errors (with hidden states: each period's start fitted, then run)
+    states = ([estimate_states(model, *window_arrays(model, frame), interval,
+                               baseline.integration_used) for frame in frames]
+              if model.hidden_states and interval == baseline.sample_interval else None)
     # the innovations from each window on: a noise change may begin with any of them (each
     # period's residual computed once)
-    innovations = period_innovations(baseline, model, frames, interval)
+    innovations = period_innovations(baseline, model, frames, interval, states)
     spreads = {start: pooled_spreads(baseline, innovations, start)
                for start in _window_starts(windows)}
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
                            min_score=min_score, time_budget=time_budget,
-                           spreads=spreads.get(0), spreads_from=spreads)
+                           spreads=spreads.get(0), spreads_from=spreads, states=states)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
@@ -406,8 +411,8 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
                     hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
                     min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
                     spreads: Mapping[str, InnovationSpread] | None = None,
-                    spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None
-                    ) -> Diagnosis:
+                    spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None,
+                    states: Sequence | None = None) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
     RK4, the horizon the level tiers'), without a signature.
@@ -418,7 +423,10 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     spread. ``spreads_from``: the same over the operating periods from a window's first on,
     by that period's index among them (``spreads`` is the one of index 0): a noise change
     beginning with a later window is read there; a window without one is not a start of
-    the noise hypothesis."""
+    the noise hypothesis. ``states``: each operating period's full states under ``model``
+    at the telemetry rate with ``setup``'s integration, when already estimated
+    (:func:`graybox.state_estimation.estimate_states`): the baseline's k-step errors read
+    them instead of estimating them again."""
     clock = _Deadline(time_budget)
     hypotheses = tuple(hypotheses or candidate_hypotheses(model))
     # many small vector products: BLAS threads spin-waiting cost more than they give (as in
@@ -427,7 +435,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
         try:
             by_start = {**(spreads_from or {}), **({0: spreads} if spreads else {})}
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,
-                                    min_score, clock, by_start)
+                                    min_score, clock, by_start, states)
         except _OutOfTime:
             raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
                                f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
@@ -458,7 +466,8 @@ class _Deadline:
 
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
                      clock: _Deadline,
-                     spreads: Mapping[int, Mapping[str, InnovationSpread]]) -> Diagnosis:
+                     spreads: Mapping[int, Mapping[str, InnovationSpread]],
+                     states: Sequence | None = None) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
@@ -470,7 +479,7 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     # the baseline's explanation at the window's operating condition, read once at the
     # baseline white box's features: a hypothesis changes the prediction, not the condition
     data = prediction_errors(model, segments, setup,
-                             {c: levels[c].drifting or () for c in channels})
+                             {c: levels[c].drifting or () for c in channels}, states=states)
     explanation = [levels[c].level + (data[c][1] - np.asarray(levels[c].center))
                    @ np.asarray(levels[c].slopes) for c in channels]
     positions = data[channels[0]][2]

@@ -72,15 +72,20 @@ def innovation_spreads(baseline: Signature, model: WhiteBoxModel, frames: Sequen
 
 
 def period_innovations(baseline: Signature, model: WhiteBoxModel, frames: Sequence[pd.DataFrame],
-                       sample_interval: float) -> dict[str, list[np.ndarray | None]]:
+                       sample_interval: float, states: Sequence | None = None
+                       ) -> dict[str, list[np.ndarray | None]]:
     """Each output channel's one-step innovations per operating period of ``frames`` (None for
     a period too short to difference and filter): what :func:`pooled_spreads` pools, so that
     spreads over several runs of the periods (from each window on) integrate each period once.
-    Parameters as :func:`innovation_spreads`."""
+    Parameters as :func:`innovation_spreads`; ``states``: each period's full states under
+    ``model`` and the baseline's integration when already estimated
+    (:func:`graybox.state_estimation.estimate_states`)."""
     factor = max(1, round(baseline.analysis_step / sample_interval))
     window = baseline.settings.derivative_window(sample_interval)
+    states = [None] * len(frames) if states is None else states
     residuals = [residual_frame(model, frame, baseline.residual_method, sample_interval, window,
-                                baseline.integration_used) for frame in frames]
+                                baseline.integration_used, estimated)
+                 for frame, estimated in zip(frames, states)]
     out = {}
     for name in model.outputs:
         channel = baseline.channel(name)

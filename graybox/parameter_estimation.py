@@ -152,7 +152,8 @@ class ErrorSetup:
 
 def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray, np.ndarray]],
                       setup: ErrorSetup, drift: Mapping[str, Sequence[str]] | None = None,
-                      starts: Sequence[np.ndarray] | None = None
+                      starts: Sequence[np.ndarray] | None = None,
+                      states: Sequence | None = None
                       ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per output channel, the k-step prediction errors of ``model`` over ``segments``.
 
@@ -170,6 +171,10 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
     starts : sequence of ndarray, optional
         Per segment, its initial hidden state already fitted
         (:func:`graybox.state_estimation.initial_hidden_together`); default fitted here.
+    states : sequence of WindowStates, optional
+        Per segment, its full states already estimated at the telemetry rate
+        (:func:`graybox.state_estimation.estimate_states` of this model, segment and
+        integration); default estimated here.
 
     Returns
     -------
@@ -177,7 +182,9 @@ def prediction_errors(model: WhiteBoxModel, segments: Sequence[tuple[np.ndarray,
         As :func:`graybox.level_tier.level_data`: errors (N,), operating features (N, p) and
         the segment of each error.
     """
-    if model.hidden_states:
+    if model.hidden_states and states is not None:
+        states = [window.decimated(setup.factor) for window in states]
+    elif model.hidden_states:
         starts = [None] * len(segments) if starts is None else starts
         states = [estimate_states(model, y, u, setup.sample_interval, setup.integration,
                                   start=start).decimated(setup.factor)

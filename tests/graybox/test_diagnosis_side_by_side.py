@@ -142,3 +142,24 @@ def test_variants_are_batched_only_where_the_class_computes_per_row_parameters()
     # does not reach) is not batched: a model that ignored it would pass unseen
     quiet = [with_parameters(Pack(), c) for c in ({}, {"heating": 0.003})]
     assert row_variants(quiet, x, np.zeros_like(u)) is None
+
+
+def test_errors_from_states_or_starts_estimated_before_are_the_errors_estimated_here():
+    # the diagnosis estimates the baseline's states once (for the innovations and the
+    # k-step errors) and a batch fits the trials' starts: either, handed in, gives the errors
+    # prediction_errors computes from scratch
+    from graybox.parameter_estimation import ErrorSetup, prediction_errors
+    from graybox.state_estimation import estimate_states, window_arrays
+
+    frame = pack_frame(Pack(), 2)
+    segments = [window_arrays(Pack(), frame)]
+    setup = ErrorSetup(DT, 1, 12, 3, RK4)
+    alone = prediction_errors(Pack(), segments, setup)
+    states = [estimate_states(Pack(), *segments[0], DT, RK4)]
+    start = np.array([states[0].initial_hidden[s] for s in Pack().hidden_states])
+    for given in (dict(states=states), dict(starts=[start])):
+        again = prediction_errors(Pack(), segments, setup, **given)
+        for channel, (errors, features, positions) in alone.items():
+            np.testing.assert_array_equal(again[channel][0], errors)
+            np.testing.assert_array_equal(again[channel][1], features)
+            np.testing.assert_array_equal(again[channel][2], positions)
