@@ -17,8 +17,9 @@ own parameters per row: :func:`graybox.row_parameters.row_variants`), each start
 it is fitted alone: the same inputs (a trial never changes them) and the same arithmetic per
 row. The rest of each run (the hidden states through the period, the k-step errors) is the
 trial's own, as alone. A white box that does not compute per-row parameters as its scalar
-ones, a period of one trial only, or a batched fit that fails, falls back to runs one by
-one. Without hidden states the runs are the trials' own, one by one.
+ones, trials whose start fits begin at different guesses (an initial state read from a
+parameter), a period of one trial only, or a batched fit that fails, falls back to runs one
+by one. Without hidden states the runs are the trials' own, one by one.
 
 Each trial's result is its errors or the exception its run raised (a
 :class:`~graybox.exceptions.GrayBoxError` or ``FloatingPointError``: an invalid trial), so
@@ -77,6 +78,8 @@ def trial_errors(trials: Sequence[Trial], setup: ErrorSetup) -> list:
                 continue
             models = [trials[i].model for i, _ in members]
             pieces = [trials[i].segments[j] for i, j in members]
+            if len({_start_guess(model) for model in models}) > 1:
+                continue          # the start fits begin at different guesses: each its own
             rows = row_variants(models, *_probe_states(models[0], *pieces[0]))
             if rows is None:
                 continue
@@ -96,6 +99,13 @@ def trial_errors(trials: Sequence[Trial], setup: ErrorSetup) -> list:
         except (GrayBoxError, FloatingPointError) as error:
             out.append(error)
     return out
+
+
+def _start_guess(model: WhiteBoxModel) -> tuple:
+    """Where a hidden-state start fit of ``model`` begins (its states, outputs and the
+    initial guess of each hidden state): trials batched together must share it."""
+    return (tuple(model.states), tuple(model.outputs),
+            tuple(float(model.initial_state.get(s, 0.0)) for s in model.hidden_states))
 
 
 def _probe_states(model: WhiteBoxModel, y: np.ndarray, u: np.ndarray

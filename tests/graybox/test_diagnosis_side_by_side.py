@@ -163,3 +163,45 @@ def test_errors_from_states_or_starts_estimated_before_are_the_errors_estimated_
             np.testing.assert_array_equal(again[channel][0], errors)
             np.testing.assert_array_equal(again[channel][1], features)
             np.testing.assert_array_equal(again[channel][2], positions)
+
+
+class GuessFromParameter(Pack):
+    """The pack whose charge's initial guess is a parameter that its dynamics read too."""
+
+    default_parameters = {**Pack.default_parameters, "full": 1.0}
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.initial_state = {"q": 0.5 * self.parameters["full"]}
+
+    def derivatives(self, x, u):
+        rates = super().derivatives(x, u)
+        rates[..., 0] = rates[..., 0] / self.parameters["full"]
+        return rates
+
+
+def test_trials_whose_start_fits_begin_elsewhere_are_fitted_one_by_one(monkeypatch):
+    from graybox.diagnosis_runs import Trial, trial_errors
+    from graybox.parameter_estimation import ErrorSetup, prediction_errors
+    from graybox.state_estimation import window_arrays
+
+    batches = []
+    batched = runs_module.initial_hidden_together
+    monkeypatch.setattr(runs_module, "initial_hidden_together",
+                        lambda model, pieces, *a, **k: batches.append(len(pieces))
+                        or batched(model, pieces, *a, **k))
+    segments = [window_arrays(Pack(), pack_frame(Pack(), 3))]
+    setup = ErrorSetup(DT, 1, 12, 3, RK4)
+    models = [with_parameters(GuessFromParameter(), {"full": f}) for f in (1.0, 1.2)]
+    results = trial_errors([Trial(m, segments) for m in models], setup)
+    assert batches == []
+    for model, result in zip(models, results):
+        alone = prediction_errors(model, segments, setup)
+        np.testing.assert_array_equal(result["voltage"][0], alone["voltage"][0])
+    # the same guess: batched, and the same errors
+    models = [with_parameters(Pack(), {"r0": r}) for r in (0.1, 0.12)]
+    results = trial_errors([Trial(m, segments) for m in models], setup)
+    assert batches == [2]
+    for model, result in zip(models, results):
+        alone = prediction_errors(model, segments, setup)
+        np.testing.assert_array_equal(result["voltage"][0], alone["voltage"][0])
