@@ -217,7 +217,7 @@ def test_diagnose_on_a_fitted_hidden_state_baseline_ranks_the_resistance_first()
     The interval is not asserted: on this pack, with 0.01 V of sensor noise and no process
     noise, it held the truth on 2 of 4 seeds (estimates 0.12995-0.13010, half-widths
     0.00004-0.00007), and a healthy window's OCV slope came back 2.00015 with an interval
-    excluding 2: the hidden start's own uncertainty is not in the interval (docs/benchmarks.md,
+    excluding 2: too narrow, for a reason not yet established (docs/benchmarks.md,
     "Diagnosis", the hidden-state remark)."""
     from graybox.diagnosis import diagnose
     from graybox.estimator import GrayBox
