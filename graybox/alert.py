@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from graybox.alert_diagnosis import cause_text
 from graybox.severity import SeverityScale
-from graybox.tiers import TIER_KINDS, Tier
+from graybox.tiers import Tier, tier_kind
 
 if TYPE_CHECKING:  # pragma: no cover
     from graybox.drift import Drift
@@ -124,7 +124,10 @@ class Alert:
                         f"(stuck_after {self.epsilon:.0f} s)")
             return (f"sensor {self.channel} out of range: {self.zeta:.6g} from its centre, "
                     f"{self.epsilon:.6g} allowed")
-        kind = next((k for k in TIER_KINDS if k.name == self.tier), None) or Tier()
+        try:
+            kind = tier_kind(self.tier)
+        except ValueError:     # a tier added through ``kinds=``: the generic hint
+            kind = Tier()
         return kind.hint(self.top_changes, self.conditions, count)
 
     def likely_cause(self) -> str:

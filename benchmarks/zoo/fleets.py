@@ -19,6 +19,7 @@ import json
 from dataclasses import dataclass
 
 from benchmarks.detection.metrics import rate
+from benchmarks.zoo.report import false_alarm_cell, share
 
 #: issue 18's targets: false alarms per healthy asset-night, the bound's limit, large faults
 RATE_TARGET, BOUND_TARGET, LARGE_TARGET = 0.01, 0.02, 0.95
@@ -81,23 +82,16 @@ def pool(runs: list[list[dict]]) -> list[PooledFamily]:
     return out
 
 
-def _share(found: int, assets: int) -> str:
-    return f"{found}/{assets} = {100 * found / assets:.0f} %" if assets else "-"
-
-
 def markdown(families: list[PooledFamily]) -> str:
     """A table, one row per family, tuning families first, and the totals per role."""
     rows = []
     ordered = sorted(families, key=lambda f: f.held_out)
     for f in ordered:
-        figure = f.false_alarms
-        low, high = figure["interval"]
         rows.append(
             f"| {f.title} | {'held out' if f.held_out else 'tuning'} | "
-            f"{', '.join(map(str, f.seeds))} | {f.alarms}/{f.asset_nights} = "
-            f"{100 * figure['rate']:.2f} % ({100 * low:.2f}-{100 * high:.2f} %) | "
-            f"{'met' if f.false_alarms_met else 'NOT MET'} | {_share(*f.small)} | "
-            f"{_share(*f.large)} | {'met' if f.large_met else 'NOT MET'} | {f.failures} |")
+            f"{', '.join(map(str, f.seeds))} | {false_alarm_cell(f.false_alarms)} | "
+            f"{'met' if f.false_alarms_met else 'NOT MET'} | {share(*f.small)} | "
+            f"{share(*f.large)} | {'met' if f.large_met else 'NOT MET'} | {f.failures} |")
     totals = []
     for role, held_out in (("tuning", False), ("held out", True)):
         group = [f for f in families if f.held_out == held_out]
@@ -107,7 +101,7 @@ def markdown(families: list[PooledFamily]) -> str:
             small = (sum(f.small[0] for f in group), sum(f.small[1] for f in group))
             large = (sum(f.large[0] for f in group), sum(f.large[1] for f in group))
             totals.append(f"- {role}: healthy alarms {alarms}/{nights}, small faults "
-                          f"{_share(*small)}, large {_share(*large)}; false-alarm target met in "
+                          f"{share(*small)}, large {share(*large)}; false-alarm target met in "
                           f"{sum(f.false_alarms_met for f in group)} of {len(group)} families, "
                           f"large-fault target in {sum(f.large_met for f in group)}")
     return "\n".join([

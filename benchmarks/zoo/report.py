@@ -7,12 +7,14 @@ import re
 BEGIN, END = "<!-- zoo:begin -->", "<!-- zoo:end -->"
 
 
-def _pct(part: int, whole: int) -> str:
+def share(part: int, whole: int) -> str:
+    """``part/whole = N %`` (``-`` for none)."""
     return f"{part}/{whole} = {100 * part / whole:.0f} %" if whole else "-"
 
 
-def _false_alarms(result: dict) -> str:
-    figure = result["false_alarms"]
+def false_alarm_cell(figure: dict) -> str:
+    """A false-alarm figure (:func:`benchmarks.detection.metrics.rate`) as ``a/n = r %
+    (low-high %)`` (``-`` for no asset-nights)."""
     low, high = figure["interval"]
     if not figure["asset_nights"]:
         return "-"
@@ -32,13 +34,13 @@ def markdown(results: list[dict], command: str, notes: str = "") -> str:
         rows.append(
             f"| {r['title']} | {'held out' if r['held_out'] else 'tuning'} | "
             f"{r['baselines_fitted']}/{r['healthy_assets']} | "
-            f"{_pct(*r['detected_small'])} | {_pct(*r['detected_large'])} | {_false_alarms(r)} | "
+            f"{share(*r['detected_small'])} | {share(*r['detected_large'])} | {false_alarm_cell(r['false_alarms'])} | "
             f"{_tiers(r['healthy_tiers'])} | {r['s_per_night']:.2f} | "
             f"{r['s_per_baseline_day']:.2f} | {100 * r['needed_share']:.0f} % | {failures} |")
     faults = []
     for r in results:
         for (kind, size), d in r["detection"].items():
-            faults.append(f"| {r['family']} | {kind} | {size} | {_pct(d['detected'], d['assets'])} | "
+            faults.append(f"| {r['family']} | {kind} | {size} | {share(d['detected'], d['assets'])} | "
                           f"{d['alarmed_before_onset']} | {_tiers(d['tiers'])} |")
     failures = []
     for r in results:
