@@ -22,11 +22,10 @@ from typing import Callable
 import pandas as pd
 
 import graybox as gb
-from benchmarks.detection.grid import trailing_nights
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import diagnosis_fields
 from benchmarks.zoo.family import Family
-from benchmarks.zoo.run import HORIZON, START, plan_fleet, vehicles_of
+from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet, vehicles_of
 from flows.config.settings import NightlySettings
 from graybox.telemetry.writing import write_telemetry
 
@@ -97,14 +96,9 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
 
     vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
-    for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
-        base = vehicle_of[plan.asset_id]
-        if base not in baselines:
-            continue
-        for night in range(count):
-            day = baseline_days + night
-            days = [d for d in trailing_nights(day, span, baseline_days)
-                    if (plan.asset_id, d) in windows]
+    for plan, base, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
+                                               baseline_days, span):
+        for night, days in candidates:
             jobs.append((plan, night,
                          gb.FitRequest(coarse, [windows[plan.asset_id, d] for d in days],
                                        baseline=baselines[base][0], asset_id=plan.asset_id)))

@@ -32,9 +32,8 @@ import numpy as np
 import graybox as gb
 from graybox.diagnosis import diagnose
 
-from benchmarks.detection.grid import trailing_nights
 from benchmarks.zoo.families import discover
-from benchmarks.zoo.run import HORIZON, START, plan_fleet, vehicles_of, write_and_read
+from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet, write_and_read
 
 #: seconds a night's diagnosis may take (the product's default is 10; a 1-Hz plant with
 #: hidden states needs more on a loaded machine)
@@ -60,16 +59,11 @@ def probe_family(family, healthy_assets: int, nights: int, seed: int,
                                for i, v in enumerate(ready)])
     baselines = {v.asset_id: r for v, r in zip(ready, fitted)
                  if not isinstance(r, gb.GrayBoxError)}
-    vehicle_of = vehicles_of(vehicles, faulty)
     rows = []
-    for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
-        vehicle = vehicle_of[plan.asset_id]
-        if vehicle not in baselines:
-            continue
+    for plan, vehicle, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
+                                                  baseline_days, candidate_nights):
         signature, calibration = baselines[vehicle]
-        for night in range(count):
-            days = [d for d in trailing_nights(baseline_days + night, candidate_nights,
-                                               baseline_days) if (plan.asset_id, d) in windows]
+        for night, days in candidates:
             if (plan.asset_id, baseline_days + night) not in windows:
                 continue
             span = [windows[plan.asset_id, d] for d in days]

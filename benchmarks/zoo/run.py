@@ -62,6 +62,32 @@ def vehicles_of(vehicles: list[AssetPlan], faulty: list[AssetPlan]) -> dict[str,
     return out
 
 
+def asset_nights(vehicles: list[AssetPlan], faulty: list[AssetPlan], nights: int,
+                 baselines: Mapping[str, object], windows: Mapping[tuple[str, int], object],
+                 baseline_days: int, span: int):
+    """The asset-nights a zoo run scores: every healthy vehicle's ``nights`` nights and every
+    faulty asset's first :data:`HORIZON`, of the assets whose vehicle has a baseline.
+
+    Yields
+    ------
+    plan : AssetPlan
+    vehicle : str
+        The asset's vehicle, whose baseline it is compared with (:func:`vehicles_of`).
+    candidates : list of (int, list of int)
+        Per night (0 is the first after the baseline) the days of its candidate that have a
+        window: the night and the ``span - 1`` before it, never before the baseline's end
+        (the night's own may be missing).
+    """
+    vehicle_of = vehicles_of(vehicles, faulty)
+    for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
+        vehicle = vehicle_of[plan.asset_id]
+        if vehicle in baselines:
+            yield plan, vehicle, [
+                (night, [d for d in trailing_nights(baseline_days + night, span, baseline_days)
+                         if (plan.asset_id, d) in windows])
+                for night in range(count)]
+
+
 def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                nights: int = 10, faulty_per_cell: int = 3, seed: int = 1,
                false_alarm_rate: float = 0.01, candidate_nights: int | None = None,
@@ -140,13 +166,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
 
     vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
-    for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
-        base = vehicle_of[plan.asset_id]
-        if base not in baselines:
-            continue
-        for night in range(count):
-            days = [d for d in trailing_nights(baseline_days + night, span, baseline_days)
-                    if (plan.asset_id, d) in windows]
+    for plan, base, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
+                                               baseline_days, span):
+        for night, days in candidates:
             if (plan.asset_id, baseline_days + night) not in windows:
                 continue
             jobs.append((plan, night, gb.FitRequest(model, [windows[plan.asset_id, d] for d in days],
