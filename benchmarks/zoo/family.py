@@ -10,7 +10,7 @@ telemetry does not depend on which other days are simulated with it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Mapping, Sequence
+from typing import ClassVar, Mapping, NamedTuple, Sequence
 
 import numpy as np
 import pandas as pd
@@ -97,6 +97,27 @@ class DayBatch:
         return np.stack([rng.uniform(low, high, shape) for rng in self.rngs])
 
 
+class DayClock(NamedTuple):
+    """The grid a family simulates a day on (:meth:`Family.clock`), its warm-up first.
+
+    Attributes
+    ----------
+    samples : int
+        The day's samples (without the warm-up).
+    t : ndarray (total,)
+        Seconds after midnight of every sample (the warm-up's are negative).
+    hour : ndarray (total,)
+        Hour of day of every sample.
+    total : int
+        Samples of the warm-up and the day.
+    """
+
+    samples: int
+    t: np.ndarray
+    hour: np.ndarray
+    total: int
+
+
 class Family:
     """One plant family. Subclasses set the class attributes and implement
     :meth:`true_parameters` and :meth:`simulate_days`; the module exposes ``FAMILY``.
@@ -147,6 +168,13 @@ class Family:
     @property
     def samples_per_day(self) -> int:
         return int(round(SECONDS_PER_DAY / self.sample_interval))
+
+    def clock(self, warmup: int, substeps: int = 1) -> DayClock:
+        """The grid a day is simulated on: ``warmup`` telemetry samples before the day and the
+        day's, each divided into ``substeps`` (1: the telemetry's own grid)."""
+        t, hour = day_clock(self.samples_per_day * substeps, warmup * substeps,
+                            self.sample_interval / substeps)
+        return DayClock(self.samples_per_day * substeps, t, hour, len(t))
 
     def fault(self, name: str) -> FaultKind:
         for kind in self.faults:

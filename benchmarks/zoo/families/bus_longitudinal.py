@@ -50,8 +50,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -195,9 +195,7 @@ class BusLongitudinal(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         weekend = (batch.day % 7) >= 5
         ridership = np.where(weekend, batch.uniform(0.35, 0.7), batch.uniform(0.7, 1.3))
         plans = [_service(rng, total + 1, WARMUP, r) for rng, r in zip(batch.rngs, ridership)]

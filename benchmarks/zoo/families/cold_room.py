@@ -47,8 +47,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 60.0
@@ -140,12 +140,8 @@ class ColdRoom(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
-        steps = total * SUBSTEPS
-        ts = (np.arange(steps) - WARMUP * SUBSTEPS) * H
-        hs = (ts / 3600.0) % 24.0
+        n, t, hour, total = self.clock(WARMUP)
+        _, ts, hs, steps = self.clock(WARMUP, SUBSTEPS)
         events = [_doors(rng, steps, WARMUP * SUBSTEPS) for rng in batch.rngs]
         door = np.stack([e[0] for e in events])
         goods, goods_temp = np.stack([e[1] for e in events]), np.stack([e[2] for e in events])

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -79,9 +79,7 @@ class ConveyorDrive(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         setpoints = batch.uniform(90.0, 150.0, (6,))                    # rad/s, per 4-h shift
         reference = setpoints[:, (hour // 4).astype(int)]
         load = np.clip(batch.uniform(0.6, 1.2)[:, None]

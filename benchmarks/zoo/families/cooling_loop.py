@@ -53,8 +53,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 10.0
@@ -185,12 +185,8 @@ class CoolingLoop(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
-        seconds = total * SUBSTEPS
-        ts = (np.arange(seconds) - WARMUP * SUBSTEPS).astype(float)     # day-seconds, 1 s
-        hs = (ts / 3600.0) % 24.0
+        n, t, hour, total = self.clock(WARMUP)
+        _, ts, hs, seconds = self.clock(WARMUP, SUBSTEPS)             # day-seconds, 1 s
         profiles = [_profile(rng, seconds, WARMUP * SUBSTEPS) for rng in batch.rngs]
         v = np.stack([a for a, _ in profiles])
         on = np.stack([b for _, b in profiles])

@@ -41,8 +41,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 from graybox.models.table import Table
 
@@ -264,9 +264,7 @@ class EvBattery(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         ambient = ((p["climate"] + batch.uniform(-4.0, 4.0))[:, None]      # the day's weather
                    + batch.uniform(3.0, 7.0)[:, None] * np.sin(2 * np.pi * (hour - 9) / 24)[None, :]
                    + smooth_noise(batch, total, 3600 / DT, 0.4))

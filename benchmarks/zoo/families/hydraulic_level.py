@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -71,9 +71,7 @@ class HydraulicLevel(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         # demand: a daily pattern (morning and evening peaks) scaled per day, held in steps
         pattern = 0.45 + 0.2 * np.exp(-((hour - 7.5) / 1.5) ** 2) + 0.25 * np.exp(-((hour - 19) / 2) ** 2)
         level = batch.uniform(0.8, 1.2)[:, None] * pattern[None, :]

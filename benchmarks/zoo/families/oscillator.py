@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -66,9 +66,7 @@ class Oscillator(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         mean = batch.uniform(0.0, 0.05)[:, None] * (1 + 0.5 * np.sin(2 * np.pi * (hour - 9) / 24))[None, :]
         gust = batch.uniform(0.02, 0.05)[:, None] * (0.6 + 0.4 * np.sin(2 * np.pi * (hour - 10) / 24))[None, :]
         force = mean + gust * smooth_noise(batch, total, 4.0)          # kN, 1-s samples

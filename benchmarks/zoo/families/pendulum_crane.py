@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   smooth_noise, spread)
+from benchmarks.zoo.family import DayBatch, Family, FaultKind, smooth_noise, spread
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -71,9 +70,7 @@ class PendulumCrane(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         accel = np.zeros((len(batch), total))
         for i, rng in enumerate(batch.rngs):
             k = int(rng.uniform(5, 90))                   # seconds until the first move

@@ -48,8 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 900.0
@@ -127,12 +127,8 @@ class PumpStation(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
-        steps = total * SUBSTEPS
-        ts = (np.arange(steps) - WARMUP * SUBSTEPS) * H
-        hs = (ts / 3600.0) % 24.0
+        n, t, hour, total = self.clock(WARMUP)
+        _, ts, hs, steps = self.clock(WARMUP, SUBSTEPS)
         mean = p["demand"] * batch.uniform(0.8, 1.15)
         night = p["night"] * batch.uniform(0.9, 1.1)
         demand = (mean[:, None] * _demand_shape(hs, night)

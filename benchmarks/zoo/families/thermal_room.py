@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 60.0
@@ -79,10 +79,8 @@ class ThermalRoom(Family):
 
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
-        n = self.samples_per_day
-        warm = WARMUP_DAYS * n
-        t, hour = day_clock(n, warm, DT)
-        total = len(t)
+        warm = WARMUP_DAYS * self.samples_per_day
+        n, t, hour, total = self.clock(warm)
         # weather: the day's mean and swing, hours-long fluctuations
         mean = batch.uniform(-5.0, 10.0)[:, None]
         swing = batch.uniform(2.0, 6.0)[:, None]

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from benchmarks.zoo.family import (DayBatch, Family, FaultKind, day_clock,
-                                   quantise, smooth_noise, spread)
+from benchmarks.zoo.family import (DayBatch, Family, FaultKind, quantise,
+                                   smooth_noise, spread)
 from graybox.models.base import WhiteBoxModel
 
 DT = 1.0
@@ -160,9 +160,7 @@ class TractionDrive(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n = self.samples_per_day
-        t, hour = day_clock(n, WARMUP, DT)
-        total = len(t)
+        n, t, hour, total = self.clock(WARMUP)
         reference = np.stack([_reference(rng, total) for rng in batch.rngs]) / RATIO
         parked = (reference[:, :-1] == 0) & (reference[:, 1:] == 0)
         everyone_parked = parked.all(axis=0)
