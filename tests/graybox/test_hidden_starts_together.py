@@ -78,6 +78,12 @@ def _separately(model, pieces):
     return np.array([_initial_hidden(model, layout, y, u, 1.0, RK4) for y, u in pieces])
 
 
+def _together_and_alone(model, pieces):
+    """The hidden starts of ``pieces`` fitted together and each alone (:func:`_separately`)."""
+    alone = _separately(model, pieces)
+    return initial_hidden_together(model, pieces, 1.0, RK4), alone
+
+
 def test_a_linear_hidden_state_is_fitted_together_as_alone_and_near_the_truth():
     model, rng = LinearHidden(), np.random.default_rng(3)
     truths = [-4.0, 0.0, 2.5, 7.0, 1.0]
@@ -87,9 +93,7 @@ def test_a_linear_hidden_state_is_fitted_together_as_alone_and_near_the_truth():
     for h0, n in zip(truths, lengths):
         drive = np.repeat(rng.uniform(-3, 3, n // 60 + 1), 60)[:n, None]
         runs.append(([h0, 20.0], drive, _noise(model, drive, [0.05, 0.02], rng)))
-    pieces = _segments(model, runs)
-    alone = _separately(model, pieces)
-    together = initial_hidden_together(model, pieces, 1.0, RK4)
+    together, alone = _together_and_alone(model, _segments(model, runs))
     assert together.shape == (5, 1)
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
     # and both are the truth to the noise's precision (0.05 over >= 40 samples)
@@ -108,9 +112,7 @@ def test_the_battery_packs_starts_fitted_together_are_the_separate_fits():
         current = level * np.repeat(rng.uniform(0, 2, n // 30 + 1), 30)[:n]
         u = np.column_stack([current, np.full(n, 15.0)])
         runs.append(([soc, v1, v2, 25.0], u, _noise(truth, u, [0.05, 0.05], rng)))
-    pieces = _segments(truth, runs)
-    alone = _separately(model, pieces)
-    together = initial_hidden_together(model, pieces, 1.0, RK4)
+    together, alone = _together_and_alone(model, _segments(truth, runs))
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
 
 
@@ -138,9 +140,7 @@ def test_an_undetermined_start_stays_where_the_separate_fit_leaves_it():
         current = level * np.repeat(rng.uniform(0, 2, 31), 30)[:900]
         u = np.column_stack([current, np.full(900, 18.0)])
         runs.append(([soc, 0.0, 0.0, 22.0], u, _noise(model, u, [0.05, 0.05], rng)))
-    pieces = _segments(model, runs)
-    alone = _separately(model, pieces)
-    together = initial_hidden_together(model, pieces, 1.0, RK4)
+    together, alone = _together_and_alone(model, _segments(model, runs))
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
 
 
