@@ -29,6 +29,8 @@ from types import SimpleNamespace  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
+pytest.register_assert_rewrite("flowtest_fleet")  # its shared assertions report as a test's
+
 from flowtest_config import write_config  # noqa: E402
 from flowtest_store import count_records  # noqa: E402
 from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day  # noqa: E402

@@ -16,3 +16,13 @@ FAULTY = {"T-002": ("noise", 3.0, 3.0), "T-004": ("nonlinear", 4.0, 0.5)}
 def day(i: int) -> pd.Timestamp:
     """Midnight (UTC) starting day ``i`` of the fleet (0-based)."""
     return START + pd.Timedelta(days=i)
+
+
+def assert_the_others_ran_every_night(by_asset: dict, registry, failed: str) -> None:
+    """Every asset but ``failed`` is "ok" in a run's summary (``by_asset``: asset id -> its
+    summary entry), with a window for every night after the baseline and its watermark at
+    the last night's end."""
+    for asset in set(ASSETS) - {failed}:
+        assert by_asset[asset]["status"] == "ok", by_asset[asset]
+        assert len(by_asset[asset]["windows"]) == DAYS - BASELINE_DAYS
+        assert registry.watermark(asset) == day(DAYS)
