@@ -32,12 +32,16 @@ def test_the_logger_keeps_every_kth_sample_moves_and_drops_rows():
     assert frame.index.name == plain.index.name
 
 
+def _report_row(capsys, argv: list[str]) -> list[str]:
+    """The cells of the report's row of ``argv[0]`` that ``main(argv)`` prints (it succeeds)."""
+    assert main(argv) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith(f"| {argv[0]}"))
+    return [c.strip() for c in line.split("|")[1:-1]]
+
+
 def test_a_room_logged_every_5_minutes_is_baselined_and_scored(capsys):
-    assert main(["thermal_room:every=5", "--healthy-assets", "2", "--baseline-days", "3",
-                 "--nights", "2", "--faulty-per-cell", "0"]) == 0
-    line = next(x for x in capsys.readouterr().out.splitlines()
-                if x.startswith("| thermal_room:every=5"))
-    cells = [c.strip() for c in line.split("|")[1:-1]]
+    cells = _report_row(capsys, ["thermal_room:every=5", "--healthy-assets", "2",
+                                 "--baseline-days", "3", "--nights", "2", "--faulty-per-cell", "0"])
     assert cells[1] == "[300.0]"          # the analysis interval: the logger's
     assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
     assert cells[3].split(",")[0].endswith("/4")   # 2 vehicles x 2 nights scored
@@ -47,11 +51,8 @@ def test_a_room_logged_every_15_minutes_is_baselined_with_the_defaults(capsys):
     # a day at 15 minutes holds 96 samples, fewer than the 200 a window asks for: the
     # baselines resolve min_samples = "auto" to 48 (tests/graybox/test_settings.py) instead
     # of failing every fit, and a large fault is still found
-    assert main(["thermal_room:every=15", "--healthy-assets", "4", "--baseline-days", "3",
-                 "--nights", "3", "--faulty-per-cell", "1"]) == 0
-    line = next(x for x in capsys.readouterr().out.splitlines()
-                if x.startswith("| thermal_room:every=15"))
-    cells = [c.strip() for c in line.split("|")[1:-1]]
+    cells = _report_row(capsys, ["thermal_room:every=15", "--healthy-assets", "4",
+                                 "--baseline-days", "3", "--nights", "3", "--faulty-per-cell", "1"])
     assert cells[1] == "[900.0]"
     assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
     assert cells[3].endswith("/12")       # 4 vehicles x 3 nights scored
