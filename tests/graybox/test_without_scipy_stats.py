@@ -1,12 +1,10 @@
 """graybox computes its quantiles and moments without importing scipy.stats (0.5 s of a
 process's start-up), and gets exactly scipy.stats' numbers: compared to the bit here."""
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 from scipy import stats
 
+from fresh_imports import loaded_after
 from graybox.calibration import threshold_from_deltas
 from graybox.noise_tier import describe_noise, shape_moments
 from graybox.parameter_estimate import ParameterEstimate
@@ -72,10 +70,7 @@ def test_normal_quantiles_are_scipys():
 
 def test_graybox_does_not_import_scipy_stats():
     # the diagnosis (graybox.diagnosis, loaded on first use) still does
-    code = ("import sys, graybox, graybox.alert, graybox.calibration, graybox.drift, "
-            "graybox.residual, graybox.signature_fit; "
-            "print(sorted(m for m in sys.modules if m.startswith('scipy.stats')))")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True)
-    assert done.stdout.strip() == "[]"
+    loaded = loaded_after("graybox, graybox.alert, graybox.calibration, graybox.drift, "
+                          "graybox.residual, graybox.signature_fit", ("scipy.stats",))
+    assert loaded == "[]"
     assert "diagnose" in dir(__import__("graybox"))
