@@ -32,7 +32,7 @@ import numpy as np
 import graybox as gb
 from graybox.diagnosis import diagnose
 
-from benchmarks.zoo.families import discover
+from benchmarks.zoo.families import family_option
 from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet, write_and_read
 
 #: seconds a night's diagnosis may take (the product's default is 10; a 1-Hz plant with
@@ -128,11 +128,10 @@ def summary(rows: list[dict]) -> dict:
 
 
 def main(argv=None) -> int:
-    families = discover()
     parser = argparse.ArgumentParser(prog="python -m benchmarks.zoo.estimate_probe",
                                      description=__doc__.split("\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--family", required=True, choices=sorted(families))
+    families = family_option(parser)
     parser.add_argument("--healthy-assets", type=int, default=8)
     parser.add_argument("--nights", type=int, default=10)
     parser.add_argument("--seed", type=int, default=1)

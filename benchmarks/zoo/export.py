@@ -22,7 +22,7 @@ import sys
 
 import pandas as pd
 
-from benchmarks.zoo.families import discover
+from benchmarks.zoo.families import family_option
 from benchmarks.zoo.family import Family
 from benchmarks.zoo.run import START, plan_fleet
 from flows.config.template import render_config
@@ -88,11 +88,10 @@ def _fault(text: str) -> tuple[str, str]:
 
 
 def main(argv=None) -> int:
-    families = discover()
     parser = argparse.ArgumentParser(prog="python -m benchmarks.zoo.export",
                                      description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--family", required=True, choices=sorted(families))
+    families = family_option(parser)
     parser.add_argument("--out", required=True, type=pathlib.Path,
                         help="directory for telemetry/, fleet.toml and the store")
     parser.add_argument("--assets", type=int, default=2, help="healthy vehicles (default 2)")

@@ -1,6 +1,7 @@
 """The zoo's plant families: every module of this package that defines ``FAMILY``."""
 from __future__ import annotations
 
+import argparse
 import importlib
 import pkgutil
 
@@ -16,3 +17,16 @@ def discover() -> dict[str, Family]:
         if isinstance(family, Family):
             found[family.name] = family
     return found
+
+
+def family_option(parser: argparse.ArgumentParser) -> dict[str, Family]:
+    """Add a required ``--family`` (one of :func:`discover`'s) to a zoo tool's ``parser``.
+
+    Returns
+    -------
+    dict of str -> Family
+        Every family, by name (what ``--family`` chooses from).
+    """
+    families = discover()
+    parser.add_argument("--family", required=True, choices=sorted(families))
+    return families
