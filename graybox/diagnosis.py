@@ -122,7 +122,7 @@ from __future__ import annotations
 import functools
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
@@ -349,7 +349,8 @@ class _Fit:
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
              hypotheses: Sequence[tuple[str, str]] | None = None, level: float = 0.95,
-             min_score: float = 0.0, time_budget: float | None = TIME_BUDGET) -> Diagnosis:
+             min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
+             thinning: int = 1) -> Diagnosis:
     """Fit, score and rank the fault hypotheses of a window against its healthy baseline.
 
     Parameters
@@ -372,6 +373,10 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
         The best hypothesis must score above it to explain the window.
     time_budget : float or None, default :data:`TIME_BUDGET`
         Seconds the diagnosis may take; None: no limit.
+    thinning : int, default 1
+        Predict from every ``thinning``-th of the level tier's starting points only (see
+        :func:`diagnose_window`): each white-box run costs about that many times less, at
+        the price of the information the skipped starts carried.
 
     Returns
     -------
@@ -409,7 +414,8 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
                for start in _window_starts(windows)}
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
                            min_score=min_score, time_budget=time_budget,
-                           spreads=spreads.get(0), spreads_from=spreads, states=states)
+                           spreads=spreads.get(0), spreads_from=spreads, states=states,
+                           thinning=thinning)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
@@ -418,7 +424,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
                     min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
                     spreads: Mapping[str, InnovationSpread] | None = None,
                     spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None,
-                    states: Sequence | None = None) -> Diagnosis:
+                    states: Sequence | None = None, thinning: int = 1) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
     RK4, the horizon the level tiers'), without a signature.
@@ -432,7 +438,19 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     the noise hypothesis. ``states``: each operating period's full states under ``model``
     at the telemetry rate with ``setup``'s integration, when already estimated
     (:func:`graybox.state_estimation.estimate_states`): the baseline's k-step errors read
-    them instead of estimating them again."""
+    them instead of estimating them again.
+
+    ``thinning``: the k-step errors are predicted from every ``thinning``-th of ``setup``'s
+    starting points only (its ``stride`` times ``thinning``), a regular subsample: every run
+    of every hypothesis costs about ``thinning`` times less. The likelihood's effective
+    samples are those of the thinned errors (so a channel whose errors were correlated over
+    more than ``thinning`` starts loses little, one whose errors were nearly independent
+    loses the skipped starts' information: its intervals widen, honestly), and the
+    baseline's share of an interval counts the errors at the level tier's own spacing
+    (``thinning`` times the thinned count: the baseline level was estimated at that
+    spacing)."""
+    if int(thinning) != thinning or thinning < 1:
+        raise ValueError(f"thinning must be a whole number of at least 1, got {thinning!r}")
     clock = _Deadline(time_budget)
     hypotheses = tuple(hypotheses or candidate_hypotheses(model))
     # many small vector products: BLAS threads spin-waiting cost more than they give (as in
@@ -441,7 +459,7 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
         try:
             by_start = {**(spreads_from or {}), **({0: spreads} if spreads else {})}
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,
-                                    min_score, clock, by_start, states)
+                                    min_score, clock, by_start, states, int(thinning))
         except _OutOfTime:
             raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
                                f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
@@ -473,11 +491,13 @@ class _Deadline:
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
                      clock: _Deadline,
                      spreads: Mapping[int, Mapping[str, InnovationSpread]],
-                     states: Sequence | None = None) -> Diagnosis:
+                     states: Sequence | None = None, thinning: int = 1) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
                                    integration=Integration())
+    if thinning > 1:
+        setup = replace(setup, stride=setup.stride * thinning)
     segments = [window_arrays(model, frame) for frame in frames]
     channels = model.outputs
     sigma = np.array([max(levels[c].residual_std, 1e-12) for c in channels])
@@ -530,8 +550,10 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         raise InsufficientDataError("too few finite k-step errors to diagnose the window")
     healthy = [r[f] for r, f in zip(healthy, finite)]
     pieces = [positions[f] for f in finite]
-    # the finite errors from each start on, per channel
-    later = {s: np.array([int(f[offsets[s]:].sum()) for f in finite]) for s in starts}
+    # the finite errors from each start on, per channel, at the level tier's spacing (the
+    # baseline's level is compared with as many errors as the window had unthinned)
+    later = {s: thinning * np.array([int(f[offsets[s]:].sum()) for f in finite])
+             for s in starts}
 
     def n_eff(residuals: list[np.ndarray]) -> np.ndarray:
         return np.array([effective_sample_size([(r - r.mean())[p == s] for s in np.unique(p)])

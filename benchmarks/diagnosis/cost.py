@@ -1,11 +1,13 @@
-"""``python -m benchmarks.diagnosis.cost [--families F,F] [--repeat N] [--nights K]``
+"""``python -m benchmarks.diagnosis.cost [--families F,F] [--repeat N] [--nights K]
+[--thinning M]``
 
 What one alarmed night's diagnosis costs per plant-zoo family: one healthy vehicle, a 3-day
 baseline of the family's coarse white box (untuned), then ``graybox.diagnose`` on the fourth
 day without a time budget (with ``--nights 2``: on the fourth and fifth, the span of a
-candidate of two nights, as the nightly flow diagnoses it), timed (wall clock, and the
-process' CPU time, which a machine shared with other work moves less); the median of
-``--repeat`` runs. Prints one line per family: states, hypotheses, samples per night,
+candidate of two nights, as the nightly flow diagnoses it; with ``--thinning M``: from every
+M-th of the level tier's starting points, ``diagnose(..., thinning=M)``), timed (wall clock,
+and the process' CPU time, which a machine shared with other work moves less); the median
+of ``--repeat`` runs. Prints one line per family: states, hypotheses, samples per night,
 seconds.
 """
 from __future__ import annotations
@@ -23,7 +25,7 @@ from graybox.diagnosis import candidate_hypotheses, diagnose
 DEFAULT_FAMILIES = ("hydraulic_level", "pendulum_crane", "traction_drive")
 
 
-def measure(name: str, repeat: int = 1, nights: int = 1) -> dict:
+def measure(name: str, repeat: int = 1, nights: int = 1, thinning: int = 1) -> dict:
     """The diagnosis cost of family ``name`` on ``nights`` nights (see the module docstring)."""
     family = discover()[name]
     model = gb.load_model(family.spec, dict(family.parameters), dict(family.columns))
@@ -33,7 +35,8 @@ def measure(name: str, repeat: int = 1, nights: int = 1) -> dict:
     seconds, cpu = [], []
     for _ in range(repeat):
         began, began_cpu = time.perf_counter(), time.process_time()
-        diagnosis = diagnose(baseline, windows[3:], model, time_budget=None)
+        diagnosis = diagnose(baseline, windows[3:], model, time_budget=None,
+                             thinning=thinning)
         seconds.append(time.perf_counter() - began)
         cpu.append(time.process_time() - began_cpu)
     return {"family": name, "states": len(model.states), "hidden": len(model.hidden_states),
@@ -50,9 +53,11 @@ def main(argv=None) -> None:
     parser.add_argument("--repeat", type=int, default=1, help="runs per family (median)")
     parser.add_argument("--nights", type=int, default=1,
                         help="nights diagnosed together (2: a candidate of two nights)")
+    parser.add_argument("--thinning", type=int, default=1,
+                        help="predict from every M-th starting point only (default 1: all)")
     args = parser.parse_args(argv)
     for name in args.families.split(","):
-        row = measure(name, args.repeat, args.nights)
+        row = measure(name, args.repeat, args.nights, args.thinning)
         print(f"{row['family']}: {row['states']} states ({row['hidden']} hidden), "
               f"{row['hypotheses']} hypotheses, {row['samples']} samples a night, "
               f"{row['nights']} diagnosed: {row['seconds']:.2f} s an alarmed night, "
