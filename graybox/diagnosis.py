@@ -113,6 +113,15 @@ trial together, each exactly as alone: the diagnosis is the same, number for num
 fitted hypothesis by hypothesis, and costs less (the EV battery's alarmed night: 15.9 against
 6.9 CPU s). Without hidden states each run is the trial's own, one after another.
 
+**Thinning** (``thinning=M``, default 1: off). The errors may be predicted from every M-th
+of the level tier's starting points only: every run costs about M times less, the
+likelihood reads the thinned errors' effective samples, and an interval's baseline term
+counts the window's errors at the level tier's spacing. It is a trade, not a free saving:
+each k-step error carries its predicted sample's measurement noise, independent from start
+to start, so a channel whose errors are not correlated over M starts loses that share of
+its evidence (the zoo's traction drive at M = 2: half the CPU, its temperature's effective
+samples down 18 %, the best scores down 14 %; docs/performance.md).
+
 **Evidence.** The diagnosis also hands its caller, in memory, the window's ``r(t)`` per
 channel and what the best three hypotheses leave of it
 (:class:`graybox.diagnosis_evidence.DiagnosisEvidence`, for a plot; not part of its JSON).
