@@ -22,7 +22,9 @@ server to start (the default 20 s is missed on a loaded machine). Raw results go
 ``--keep`` also keeps, in ``<workdir>/n<N>/after-baseline/``, the store as the baseline left
 it; ``--reuse`` then starts each N from there (the telemetry and baselines of that earlier
 run, its baseline figures reported) and measures only the nights: a 1,000-asset baseline
-takes half an hour, and the night is best measured on a quiet machine.
+takes half an hour, and the night is best measured on a quiet machine. ``--prefect-api-url
+URL`` runs the nights against a Prefect server already running (production's way, the
+``serve`` deployment's server), so that their start-up does not include a temporary server's.
 """
 from __future__ import annotations
 
@@ -78,6 +80,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="start each N from the baseline a --keep run left in the same "
                              "--workdir (its figures reported again); measure the nights only")
     parser.add_argument("--out", help="write the Markdown report here (docs/performance.md)")
+    parser.add_argument("--prefect-api-url", metavar="URL",
+                        help="run the nights against this running Prefect server (production's "
+                             "way: `prefect server start`, the serve deployment's server), e.g. "
+                             "http://127.0.0.1:4200/api; default: each command starts its "
+                             "temporary server")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: N = 2, 3 baseline days at 10-s samples")
     parser.add_argument("--rerender", metavar="JSON[,JSON...]",
@@ -147,11 +154,14 @@ def restore_baseline(workdir: pathlib.Path) -> tuple[float, dict]:
     return figures["generate_seconds"], figures["baseline"]
 
 
-def child_environment(workdir: pathlib.Path) -> dict:
+def child_environment(workdir: pathlib.Path, prefect_api_url: str | None = None) -> dict:
     """The environment of every child: its own Prefect home, time for the server to start,
-    this checkout first on the import path."""
+    this checkout first on the import path; the Prefect server at ``prefect_api_url`` if
+    given, else none (each command starts its temporary one)."""
     env = dict(os.environ)
     env.pop("PREFECT_API_URL", None)
+    if prefect_api_url:
+        env["PREFECT_API_URL"] = prefect_api_url
     env.pop("FLEET_HEALTH_CONFIG", None)
     env.pop("FLEET_HEALTH_TRACKING_URI", None)
     env["PREFECT_HOME"] = str(workdir / ".prefect")
@@ -195,6 +205,8 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
     base_end = START + datetime.timedelta(days=args.baseline_days)
     as_of = START + datetime.timedelta(days=days)
     kept = workdir / AFTER_BASELINE
+    # the nights only: the baseline fit is measured as a user's first command would run
+    night_env = child_environment(workdir, args.prefect_api_url)
     if args.reuse:
         say(f"N = {n}: the store as the baseline left it, from {kept} ...")
         generated, baseline = restore_baseline(workdir)
@@ -212,11 +224,13 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
         say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; {warmup} night(s) before the "
             "measured one ...")
         fleet_health(workdir, "warmup", "run", "--as-of",
-                     (base_end + datetime.timedelta(days=warmup)).isoformat())
+                     (base_end + datetime.timedelta(days=warmup)).isoformat(), env=night_env)
     say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; nightly run ...")
-    nightly = fleet_health(workdir, "nightly", "run", "--as-of", as_of.isoformat())
+    nightly = fleet_health(workdir, "nightly", "run", "--as-of", as_of.isoformat(),
+                           env=night_env)
     say(f"N = {n}: nightly {nightly['wall']:.1f} s wall; again, nothing to do ...")
-    startup = fleet_health(workdir, "startup", "run", "--as-of", as_of.isoformat())
+    startup = fleet_health(workdir, "startup", "run", "--as-of", as_of.isoformat(),
+                           env=night_env)
     structure = (candidate_structure(workdir / "mlflow.db", as_of.isoformat())
                  or Structure.assumed())
     return {"n": n, "baseline_days": args.baseline_days,

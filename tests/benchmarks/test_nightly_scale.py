@@ -11,7 +11,8 @@ import sys
 import pytest
 
 from benchmarks.measured_process import run_measured
-from benchmarks.nightly_scale import keep_baseline, parse_args, restore_baseline
+from benchmarks.nightly_scale import (child_environment, keep_baseline, parse_args,
+                                      restore_baseline)
 from benchmarks.scale_floor import Structure, flops_per_asset_night, matmul_rate
 from benchmarks.scale_report import derive, render_markdown, render_text, target_checks
 
@@ -69,6 +70,18 @@ def test_quick_is_two_assets_at_ten_seconds():
     assert (args.sizes, args.baseline_days, args.sample_interval) == ([2], 3, 10.0)
     with pytest.raises(SystemExit):
         parse_args(["--baseline-days", "2"])
+
+
+def test_the_nights_use_a_running_prefect_server_only_when_given(tmp_path, monkeypatch):
+    # a server the caller's shell happens to point at is never used by accident
+    monkeypatch.setenv("PREFECT_API_URL", "http://elsewhere:4200/api")
+    assert parse_args([]).prefect_api_url is None
+    assert "PREFECT_API_URL" not in child_environment(tmp_path)
+    url = "http://127.0.0.1:4299/api"
+    assert parse_args(["--prefect-api-url", url]).prefect_api_url == url
+    env = child_environment(tmp_path, url)
+    assert env["PREFECT_API_URL"] == url
+    assert env["PREFECT_HOME"] == str(tmp_path / ".prefect")
 
 
 def test_the_store_after_the_baseline_is_kept_and_restored(tmp_path):
