@@ -44,17 +44,14 @@ import os
 import pathlib
 import re
 import shutil
-import signal
-import socket
 import sqlite3
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 
 from benchmarks.measured_process import stop_on_signals
+from benchmarks.prefect_server import PrefectServer, tree_cpu
 from benchmarks.nightly_scale import START, child_environment, commit, fleet_health, generate, say
 from flows.config.settings import NightlySettings
 
@@ -133,33 +130,6 @@ def set_line(config: pathlib.Path, key: str, value: str) -> None:
 
 # -- servers -----------------------------------------------------------------------------------
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-def process_cpu(pid: int) -> float:
-    """CPU seconds of a process and its reaped children (0 when it is gone)."""
-    try:
-        with open(f"/proc/{pid}/stat") as stat:
-            fields = stat.read().rsplit(")", 1)[1].split()
-    except OSError:
-        return 0.0
-    # after "pid (comm)": fields 11-14 of the rest are utime, stime, cutime, cstime
-    return sum(int(x) for x in fields[11:15]) / os.sysconf("SC_CLK_TCK")
-
-
-def tree_cpu(pid: int) -> float:
-    """CPU seconds of a process, its reaped children and its live descendants."""
-    children = pathlib.Path(f"/proc/{pid}/task/{pid}/children")
-    try:
-        kids = [int(k) for k in children.read_text().split()]
-    except OSError:
-        kids = []
-    return process_cpu(pid) + sum(tree_cpu(k) for k in kids)
-
-
 class Postgres:
     """A PostgreSQL server with its data in ``<root>/postgres`` (kept for ``--reuse``), run as
     ``tests/postgres_server.py`` runs its throw-away ones (as the ``postgres`` user when this
@@ -213,46 +183,6 @@ class Postgres:
             server._run(str(server.bin_dir / "pg_ctl"), "-D", str(server.data), "-m", "fast",
                         "-w", "stop")
             server.started = False
-
-
-class PrefectServer:
-    """``prefect server start`` on a PostgreSQL database, for every run of the benchmark."""
-
-    def __init__(self, root: pathlib.Path, database_url: str):
-        self.port = free_port()
-        self.api_url = f"http://127.0.0.1:{self.port}/api"
-        self.env = dict(os.environ, PREFECT_HOME=str(root / ".prefect-server"),
-                        PREFECT_API_DATABASE_CONNECTION_URL=database_url,
-                        PREFECT_SERVER_ANALYTICS_ENABLED="false", PREFECT_UI_ENABLED="false")
-        self.env.pop("PREFECT_API_URL", None)
-        self.log = root / "prefect-server.log"
-        self.process: subprocess.Popen | None = None
-
-    def start(self) -> "PrefectServer":
-        prefect = pathlib.Path(sys.executable).parent / "prefect"
-        self.process = subprocess.Popen(
-            [str(prefect), "server", "start", "--host", "127.0.0.1", "--port", str(self.port)],
-            env=self.env, stdout=self.log.open("w"), stderr=subprocess.STDOUT)
-        deadline = time.monotonic() + 300
-        while time.monotonic() < deadline:
-            try:
-                with urllib.request.urlopen(f"{self.api_url}/health", timeout=2) as answer:
-                    if answer.status == 200:
-                        return self
-            except OSError:
-                pass
-            if self.process.poll() is not None:
-                break
-            time.sleep(0.5)
-        raise RuntimeError(f"the Prefect server did not start; see {self.log}")
-
-    def stop(self) -> None:
-        if self.process is not None and self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
 
 
 # -- the runs ----------------------------------------------------------------------------------

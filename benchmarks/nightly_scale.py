@@ -22,9 +22,10 @@ server to start (the default 20 s is missed on a loaded machine). Raw results go
 ``--keep`` also keeps, in ``<workdir>/n<N>/after-baseline/``, the store as the baseline left
 it; ``--reuse`` then starts each N from there (the telemetry and baselines of that earlier
 run, its baseline figures reported) and measures only the nights: a 1,000-asset baseline
-takes half an hour, and the night is best measured on a quiet machine. ``--prefect-api-url
-URL`` runs the nights against a Prefect server already running (production's way, the
-``serve`` deployment's server), so that their start-up does not include a temporary server's.
+takes half an hour, and the night is best measured on a quiet machine. ``--prefect-server``
+runs the nights on one Prefect server started for them (production's way, the ``serve``
+deployment's server), so that their start-up does not include a temporary server's; the
+server's CPU during each is recorded as ``prefect_cpu``.
 """
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ import tempfile
 import time
 
 from benchmarks.measured_process import run_measured
+from benchmarks.prefect_server import PrefectServer, tree_cpu
 from benchmarks.scale_floor import (Structure, candidate_structure, flops_per_asset_night,
                                     matmul_rate)
 from benchmarks.scale_report import render_markdown, render_text
@@ -80,11 +82,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="start each N from the baseline a --keep run left in the same "
                              "--workdir (its figures reported again); measure the nights only")
     parser.add_argument("--out", help="write the Markdown report here (docs/performance.md)")
-    parser.add_argument("--prefect-api-url", metavar="URL",
-                        help="run the nights against this running Prefect server (production's "
-                             "way: `prefect server start`, the serve deployment's server), e.g. "
-                             "http://127.0.0.1:4200/api; default: each command starts its "
-                             "temporary server")
+    parser.add_argument("--prefect-server", action="store_true",
+                        help="run the nights on one Prefect server (on SQLite) started here, "
+                             "as production runs them (the serve deployment's server), instead "
+                             "of a temporary server each; its CPU is recorded beside theirs")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: N = 2, 3 baseline days at 10-s samples")
     parser.add_argument("--rerender", metavar="JSON[,JSON...]",
@@ -205,8 +206,6 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
     base_end = START + datetime.timedelta(days=args.baseline_days)
     as_of = START + datetime.timedelta(days=days)
     kept = workdir / AFTER_BASELINE
-    # the nights only: the baseline fit is measured as a user's first command would run
-    night_env = child_environment(workdir, args.prefect_api_url)
     if args.reuse:
         say(f"N = {n}: the store as the baseline left it, from {kept} ...")
         generated, baseline = restore_baseline(workdir)
@@ -220,17 +219,16 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
                                 "--promote", "--reason", "nightly_scale benchmark")
         if args.keep:
             keep_baseline(workdir, generated, baseline)
-    if warmup:
-        say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; {warmup} night(s) before the "
-            "measured one ...")
-        fleet_health(workdir, "warmup", "run", "--as-of",
-                     (base_end + datetime.timedelta(days=warmup)).isoformat(), env=night_env)
-    say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; nightly run ...")
-    nightly = fleet_health(workdir, "nightly", "run", "--as-of", as_of.isoformat(),
-                           env=night_env)
-    say(f"N = {n}: nightly {nightly['wall']:.1f} s wall; again, nothing to do ...")
-    startup = fleet_health(workdir, "startup", "run", "--as-of", as_of.isoformat(),
-                           env=night_env)
+    # the nights only: the baseline fit is measured as a user's first command runs it
+    server = None
+    if args.prefect_server:
+        say(f"N = {n}: a Prefect server for the nights ...")
+        server = PrefectServer(workdir, f"sqlite+aiosqlite:///{workdir / 'prefect-server.db'}")
+    try:
+        nightly, startup = _nights(workdir, n, warmup, base_end, as_of, baseline, server)
+    finally:
+        if server is not None:
+            server.stop()
     structure = (candidate_structure(workdir / "mlflow.db", as_of.isoformat())
                  or Structure.assumed())
     return {"n": n, "baseline_days": args.baseline_days,
@@ -239,6 +237,30 @@ def run_size(workdir: pathlib.Path, n: int, args: argparse.Namespace) -> dict:
             "baseline": baseline, "nightly": nightly, "startup": startup,
             "structure": dataclasses.asdict(structure),
             "flops": flops_per_asset_night(structure, args.sample_interval)}
+
+
+def _nights(workdir: pathlib.Path, n: int, warmup: int, base_end, as_of, baseline: dict,
+            server: PrefectServer | None) -> tuple[dict, dict]:
+    """The nights before the measured one, the measured night and the run with nothing to
+    do, on ``server`` when given (its CPU during each measured run as ``prefect_cpu``)."""
+    env = child_environment(workdir, server.start().api_url if server else None)
+
+    def measured(name: str) -> dict:
+        before = tree_cpu(server.process.pid) if server else 0.0
+        data = fleet_health(workdir, name, "run", "--as-of", as_of.isoformat(), env=env)
+        if server:
+            data["prefect_cpu"] = tree_cpu(server.process.pid) - before
+        return data
+
+    if warmup:
+        say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; {warmup} night(s) before the "
+            "measured one ...")
+        fleet_health(workdir, "warmup", "run", "--as-of",
+                     (base_end + datetime.timedelta(days=warmup)).isoformat(), env=env)
+    say(f"N = {n}: baseline {baseline['wall']:.1f} s wall; nightly run ...")
+    nightly = measured("nightly")
+    say(f"N = {n}: nightly {nightly['wall']:.1f} s wall; again, nothing to do ...")
+    return nightly, measured("startup")
 
 
 # -- the whole benchmark ---------------------------------------------------------------------

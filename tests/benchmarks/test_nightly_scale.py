@@ -75,10 +75,10 @@ def test_quick_is_two_assets_at_ten_seconds():
 def test_the_nights_use_a_running_prefect_server_only_when_given(tmp_path, monkeypatch):
     # a server the caller's shell happens to point at is never used by accident
     monkeypatch.setenv("PREFECT_API_URL", "http://elsewhere:4200/api")
-    assert parse_args([]).prefect_api_url is None
+    assert parse_args([]).prefect_server is False
+    assert parse_args(["--prefect-server"]).prefect_server is True
     assert "PREFECT_API_URL" not in child_environment(tmp_path)
     url = "http://127.0.0.1:4299/api"
-    assert parse_args(["--prefect-api-url", url]).prefect_api_url == url
     env = child_environment(tmp_path, url)
     assert env["PREFECT_API_URL"] == url
     assert env["PREFECT_HOME"] == str(tmp_path / ".prefect")
