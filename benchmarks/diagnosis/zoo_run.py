@@ -25,7 +25,7 @@ import graybox as gb
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import diagnosis_fields
 from benchmarks.zoo.family import Family
-from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet, vehicles_of
+from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet
 from flows.config.settings import NightlySettings
 from graybox.telemetry.writing import write_telemetry
 
@@ -94,12 +94,11 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
     say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines (tuned on "
         f"{expectation.tuned}) in {clock['baseline_seconds']:.0f} s")
 
-    vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
     for plan, base, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
                                                baseline_days, span):
         for night, days in candidates:
-            jobs.append((plan, night,
+            jobs.append((plan, night, base,
                          gb.FitRequest(coarse, [windows[plan.asset_id, d] for d in days],
                                        baseline=baselines[base][0], asset_id=plan.asset_id)))
     began = time.perf_counter()
@@ -109,8 +108,7 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
 
     began = time.perf_counter()
     rows = []
-    for (plan, night, request), candidate in zip(jobs, candidates):
-        base = vehicle_of[plan.asset_id]
+    for (plan, night, base, request), candidate in zip(jobs, candidates):
         signature, calibration = baselines[base]
         fault = plan.fault.name if plan.fault else "healthy"
         expected = expectation.hypothesis(fault) if plan.fault else None

@@ -164,27 +164,26 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines in "
         f"{clock['baselines']:.0f} s" + (f"; failed: {failed_baselines}" if failed_baselines else ""))
 
-    vehicle_of = vehicles_of(vehicles, faulty)
     jobs = []
     for plan, base, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
                                                baseline_days, span):
         for night, days in candidates:
             if (plan.asset_id, baseline_days + night) not in windows:
                 continue
-            jobs.append((plan, night, gb.FitRequest(model, [windows[plan.asset_id, d] for d in days],
-                                                    baseline=baselines[base][0],
-                                                    asset_id=plan.asset_id)))
+            jobs.append((plan, night, base,
+                         gb.FitRequest(model, [windows[plan.asset_id, d] for d in days],
+                                       baseline=baselines[base][0], asset_id=plan.asset_id)))
     began, cpu = time.perf_counter(), time.process_time()
-    scored = gb.fit_signatures([request for _, _, request in jobs])
+    scored = gb.fit_signatures([request for *_, request in jobs])
     clock["nights"] = time.perf_counter() - began
     clock["nights_cpu"] = time.process_time() - cpu
 
     rows, failed_nights = [], {}
-    for (plan, night, _), candidate in zip(jobs, scored):
+    for (plan, night, base, _), candidate in zip(jobs, scored):
         if isinstance(candidate, gb.GrayBoxError):
             failed_nights[f"{plan.asset_id} night {night}"] = str(candidate)
             continue
-        signature, calibration = baselines[vehicle_of[plan.asset_id]]
+        signature, calibration = baselines[base]
         drift = gb.compute_drift(candidate, signature, calibration)
         exceeded = [e for e in drift.entries if e.exceeded]
         night_start = START + pd.Timedelta(days=baseline_days + night)
