@@ -136,7 +136,7 @@ from typing import Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy import special
+from scipy import linalg, special
 from threadpoolctl import threadpool_limits
 
 from graybox.diagnosis_evidence import (EVIDENCE_HYPOTHESES, ChannelResidual,
@@ -153,6 +153,7 @@ from graybox.parameter_estimation import (DIFF_STEP, INVALID_ERROR, ErrorSetup,
                                           positive_parameters, prediction_errors,
                                           with_parameters)
 from graybox.signature import Signature
+from graybox.start_uncertainty import start_covariance, start_slopes
 from graybox.state_estimation import estimate_states, window_arrays
 from graybox.telemetry.window import window_periods
 from graybox.timestamps import utc
@@ -354,6 +355,9 @@ class _Fit:
     start: int = 0                # the first operating period the change is fitted on
     log: bool = False             # the free value is a log: of the parameter, of 1 + g
     bound: str | None = None      # "upper"/"lower": the value is its search range's end
+    #: per channel, sum of (dr/dvalue) (dr/dstart) / sigma^2 over each period's hidden
+    #: starts (:mod:`graybox.start_uncertainty`); None without hidden states
+    start_cross: np.ndarray | None = None
 
 
 def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None = None, *,
@@ -569,9 +573,13 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
                          for r, p in zip(residuals, pieces)])
 
     weights = n_eff(healthy) / counts
+    slopes = covariance = None
+    if model.hidden_states:
+        slopes, covariance = _start_uncertainty(model, segments, setup, channels, levels,
+                                                data, states, finite)
     rows = _Rows(np.concatenate([np.full(n, np.sqrt(w) / s)
                                  for n, w, s in zip(counts, weights, sigma)]),
-                 np.cumsum([0, *counts]), sigma)
+                 np.cumsum([0, *counts]), sigma, slopes, covariance)
     healthy_weighted = np.concatenate(healthy) * rows.weights
     # every hypothesis screened from every start (one white-box run for all of them: a later
     # start reads its periods' errors from the first start's run), at the start that explains
@@ -652,7 +660,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
         own_penalty = (penalty if fit.evidence_samples is None
                        else float(np.log(max(fit.evidence_samples, 1.0))) + choice)
         compared = weights / (1.0 + later[fit.start] / base_counts)
-        interval, bound = _interval(fit, compared, effective, z, level), fit.bound
+        interval, bound = _interval(fit, compared, effective, z, level,
+                                    rows.start_covariance), fit.bound
         if fit.log:
             interval, bound = _open_end(objectives[index], fit, interval, compared, z,
                                         index in refined)
@@ -707,6 +716,26 @@ def _open_end(objective: _Objective, fit: _Fit, interval: tuple[float, float], w
     if side == "lower":
         return (objective.value(low), interval[1]), side
     return interval, None
+
+
+def _start_uncertainty(model, segments, setup: ErrorSetup, channels, levels, data, states,
+                       finite) -> tuple[np.ndarray, np.ndarray]:
+    """The k-step errors' slopes in each period's hidden start, rows as the window's finite
+    errors (N, periods x hidden), and the starts' block-diagonal covariance, both at the
+    baseline's white box (:mod:`graybox.start_uncertainty`)."""
+    if states is None:
+        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
+                  for y, u in segments]
+    starts = [np.array([window.initial_hidden[h] for h in model.hidden_states])
+              for window in states]
+    drift = {c: levels[c].drifting or () for c in channels}
+    by_channel = start_slopes(model, segments, setup, drift, states, data)
+    slopes = np.concatenate([by_channel[c][f] for c, f in zip(channels, finite)])
+    covariance = linalg.block_diag(*[
+        start_covariance(model, y, u, setup.sample_interval, setup.integration, start,
+                         {c: levels[c].residual_std for c in channels})
+        for (y, u), start in zip(segments, starts)])
+    return slopes, covariance
 
 
 def _window_starts(windows) -> list[int]:
@@ -809,6 +838,10 @@ class _Rows:
     weights: np.ndarray
     edges: np.ndarray
     sigma: np.ndarray
+    #: with hidden states: the errors' slopes in each period's start (N, periods x hidden)
+    #: and the starts' covariance (:mod:`graybox.start_uncertainty`)
+    start_slopes: np.ndarray | None = None
+    start_covariance: np.ndarray | None = None
 
 
 @dataclass
@@ -899,11 +932,14 @@ class _Objective:
         # per channel, sum of (dr/dx)^2 / sigma^2: the Gauss-Newton information without weights
         sensitivity = np.array([np.sum((slope[a:b] / s) ** 2)
                                 for (a, b), s in zip(spans, self.rows.sigma)])
+        cross = (None if self.rows.start_slopes is None else
+                 np.array([(slope[a:b] / s ** 2) @ self.rows.start_slopes[a:b]
+                           for (a, b), s in zip(spans, self.rows.sigma)]))
         low, high = self.bounds
         bound = "upper" if x >= high else "lower" if x <= low else None
         return _Fit(self.kind, self.target, self.baseline, self.scale, float(x),
                     [raw[a:b] for a, b in spans], sensitivity, start=self.start, log=self.log,
-                    bound=bound)
+                    bound=bound, start_cross=cross)
 
 
 def _objective(kind, target, model, segments, start, offset, remaining, finite,
@@ -1078,7 +1114,8 @@ def _value(fit: _Fit) -> float:
     return _physical(fit.kind, fit.log, fit.baseline, fit.scale, fit.value)
 
 
-def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[float, float]:
+def _interval(fit: _Fit, weights, effective, z: float, level: float,
+              start_covariance: np.ndarray | None = None) -> tuple[float, float]:
     if fit.kind == "noise":
         # the spread's square times N_eff / s^2 is chi-square with N_eff degrees of freedom
         dof = max(float(effective[fit.channel] if fit.evidence_samples is None
@@ -1089,7 +1126,13 @@ def _interval(fit: _Fit, weights, effective, z: float, level: float) -> tuple[fl
         return (float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, 1 - tail)))),
                 float(np.sqrt(q * dof / (2 * special.gammaincinv(dof / 2, tail)))))
     information = float(np.sum(weights * fit.sensitivity))
-    sd = 1.0 / np.sqrt(information) if information > 0 else np.inf     # of the free value
+    variance = 1.0 / information if information > 0 else np.inf       # of the free value
+    if fit.start_cross is not None and start_covariance is not None and information > 0:
+        # the hidden starts' estimation noise, shared by each period's errors
+        # (graybox.start_uncertainty)
+        cross = weights @ fit.start_cross
+        variance += float(cross @ start_covariance @ cross) / information ** 2
+    sd = float(np.sqrt(variance))
     if fit.log:
         # normal in the log, mapped back: positive and asymmetric about the estimate
         return (_physical(fit.kind, True, fit.baseline, fit.scale, fit.value - z * sd),

@@ -73,6 +73,10 @@ class WindowStates:
     chunk_starts : ndarray (n_chunks, n_hidden), optional
         The chained hidden states at the multiple-shooting chunks' first samples: the run
         again from them is the same estimate (:class:`graybox.segment_cache.SegmentCache`).
+    chunk_sensitivity : ndarray (n_chunks, n_hidden, n_hidden), optional
+        Each chunk's end state's derivative in its start (the chaining's last): a move of
+        the initial hidden state carried to every chunk's start by their product
+        (:func:`moved_chunk_starts`). Only where the chaining ran here.
     """
 
     y: np.ndarray
@@ -80,11 +84,12 @@ class WindowStates:
     states: np.ndarray
     initial_hidden: dict
     chunk_starts: np.ndarray | None = None
+    chunk_sensitivity: np.ndarray | None = None
 
     def decimated(self, factor: int) -> "WindowStates":
         """Every ``factor``-th sample."""
         return WindowStates(self.y[::factor], self.u[::factor], self.states[::factor],
-                            self.initial_hidden, self.chunk_starts)
+                            self.initial_hidden, self.chunk_starts, self.chunk_sensitivity)
 
 
 def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -128,10 +133,12 @@ def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
         return WindowStates(y, u, states, {})
     if len(y) < 2:
         raise InsufficientDataError("estimating hidden states needs at least 2 samples")
+    sensitivity = None
     if chunk_starts is None:
         if start is None:
             start = _initial_hidden(model, layout, y, u, dt, integration)
-        hidden, chunk_starts = _run_hidden(model, layout, y, u, dt, integration, start)
+        hidden, chunk_starts, sensitivity = _run_hidden(model, layout, y, u, dt, integration,
+                                                        start)
     else:
         start = chunk_starts[0]
         hidden = _run_chunks(model, layout, y, u, dt, integration, chunk_starts)
@@ -141,7 +148,20 @@ def estimate_states(model, y: np.ndarray, u: np.ndarray, dt: float,
                                f"{list(model.hidden_states)} are not finite over the window: "
                                f"the model diverges from the start fitted to the data")
     return WindowStates(y, u, states, dict(zip(model.hidden_states, map(float, start))),
-                        chunk_starts)
+                        chunk_starts, sensitivity)
+
+
+def moved_chunk_starts(window: WindowStates, move: np.ndarray) -> np.ndarray:
+    """The chunk starts of ``window``'s hidden run with its initial hidden state moved by
+    ``move`` (small), to first order: the move carried from chunk to chunk by each chunk's
+    sensitivity (the chaining of :func:`estimate_states` at its converged starts, whose
+    ends are the next chunks' starts). Run from them (``estimate_states(...,
+    chunk_starts=...)``), a chunk pass instead of a chaining's several."""
+    moves = np.empty_like(window.chunk_starts)
+    moves[0] = move
+    for c in range(1, len(moves)):
+        moves[c] = window.chunk_sensitivity[c - 1] @ moves[c - 1]
+    return window.chunk_starts + moves
 
 
 def predict_one_step(model, states: np.ndarray, u: np.ndarray, dt: float,
@@ -318,6 +338,38 @@ class _StartFit:
         return base, jacobian
 
 
+def start_fit_problem(model, y: np.ndarray, u: np.ndarray, dt: float,
+                      integration: Integration, start: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The least-squares problem of a segment's initial hidden state, as
+    :func:`estimate_states` solves it, at ``start``.
+
+    Returns
+    -------
+    errors : ndarray (m,)
+        The fit's scaled errors.
+    jacobian : ndarray (m, n_hidden)
+        Their forward differences in the start (the solver's own step).
+    series : ndarray (m,) of int
+        Each error's series: ``i < n_c`` the computed output ``computed[i]``, ``n_c + j``
+        the measured state ``j``'s one-step change.
+    scales : ndarray (n_c + n_measured,)
+        The spread each series' errors are divided by.
+    """
+    layout = _Layout(model)
+    problem = _StartFit(model, layout, [(y, u)], dt, integration)
+    scale = np.maximum(1.0, np.abs(layout.guess))
+    errors, jacobian = problem.errors_and_jacobians(np.asarray(start, dtype=float)[None],
+                                                    1e-6 * scale)
+    n, computed = int(problem.n[0]), len(layout.computed_outputs)
+    series = [np.tile(np.arange(computed), n)]
+    if layout.measured.size and n > 1:
+        series.append(computed + np.tile(np.arange(len(layout.measured)), n - 1))
+    own = problem.own_rows(0)
+    scales = np.concatenate([problem.out_scale[0], problem.step_scale[0]])
+    return errors[0, own], jacobian[0, own], np.concatenate(series), scales
+
+
 def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray:
     problem = _StartFit(model, layout, [(y, u)], dt, integration)
     scale = np.maximum(1.0, np.abs(layout.guess))
@@ -417,9 +469,9 @@ def _run_chunks(model, layout: _Layout, y, u, dt, integration,
 
 
 def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """The hidden states at every sample, started from ``start`` (multiple shooting), and
-    the chunks' chained starts.
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The hidden states at every sample, started from ``start`` (multiple shooting), the
+    chunks' chained starts and their ends' sensitivities to them (the last computed).
 
     A pass runs every chunk from its guessed start and, beside it, from the start moved by
     ``delta`` along each hidden state (the sensitivity of its end); the chained starts are the
@@ -459,7 +511,7 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
         if not mismatch > CHAIN_TOLERANCE:   # chained, or diverged (NaN): stop either way
             break
         guesses = chained
-    return _joined(base, firsts, length, total), used
+    return _joined(base, firsts, length, total), used, sensitivity
 
 
 def _chain(start: np.ndarray, guesses: np.ndarray, ends: np.ndarray,

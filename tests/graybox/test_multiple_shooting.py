@@ -14,7 +14,8 @@ import numpy as np
 from graybox.integration import Integration, advance
 from graybox.models.base import WhiteBoxModel
 from graybox import state_estimation
-from graybox.state_estimation import _chunks, _joined, _Layout, _run, _run_hidden
+from graybox.state_estimation import (_chunks, _joined, _Layout, _run, _run_hidden,
+                                      estimate_states, moved_chunk_starts)
 
 RK4 = Integration("rk4", 2)
 
@@ -102,7 +103,7 @@ def test_an_affine_hidden_run_is_the_sequential_run_and_confirms_with_the_chunks
     start = x[0, layout.hidden]
     rows = _Rows(model)
     model.derivatives = rows
-    hidden, starts = _run_hidden(model, layout, y, u, 1.0, RK4, start)
+    hidden, starts, _ = _run_hidden(model, layout, y, u, 1.0, RK4, start)
     counted = list(rows.rows)
     firsts, _ = _chunks(len(y))
     # the sequential run: one chunk over the whole window
@@ -138,3 +139,21 @@ def test_a_nonlinear_hidden_run_takes_full_passes_until_it_chains():
     full = rows.rows.count(3 * len(firsts))
     assert full >= 2
     assert rows.rows.count(len(firsts)) in (full - 1, full)
+
+
+def test_a_moved_start_carried_by_the_chunks_sensitivities_is_the_run_from_it():
+    """An affine hidden run from a moved start, its chunk starts found from the estimate's
+    kept sensitivities (no chaining), is the sequential run from that start; a nonlinear one
+    to first order in the move."""
+    for model, tolerance in ((AffineHidden(), 1e-9), (NonlinearHidden(), 1e-6)):
+        layout = _Layout(model)
+        y, u, x = _data(model, n=600, seed=5)
+        start = x[0, layout.hidden]
+        window = estimate_states(model, y, u, 1.0, RK4, start=start)
+        firsts, _ = _chunks(len(y))
+        move = np.array([1e-3, -2e-3])
+        sequential = _run(model, layout, y, u, 1.0, RK4, (start + move)[None], np.array([0]),
+                          len(y) - 1)[0]
+        moved = moved_chunk_starts(window, move)
+        np.testing.assert_allclose(moved, sequential[firsts], rtol=0, atol=tolerance)
+        assert np.max(np.abs(moved - window.chunk_starts)) > 1e-4
