@@ -281,9 +281,43 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
             worst = (method, substeps, int(np.argmax(ratio)), float(np.max(ratio)))
             substeps *= 2
     method, substeps, state, ratio = worst
+    advice = (_stiff_advice(model, x0, u0, dt) if method == "rosenbrock" else
+              "a stiff model declares integrator = \"rosenbrock\"")
     raise IntegrationError(
         f"{type(model).__name__}: state {model.states[state]!r} cannot be integrated over the "
         f"{dt:g}-s sample: with {method} and {substeps} sub-steps the error estimate is "
         f"{ratio:.3g} times the bound ({ERROR_FRACTION:g} of its sample-to-sample change). "
         f"Check the model's signs and units (a state that grows without bound has no accurate "
-        f"prediction); a stiff model declares integrator = \"rosenbrock\"")
+        f"prediction); {advice}")
+
+
+def _stiff_advice(model, x: np.ndarray, u: np.ndarray, dt: float) -> str:
+    """What a model that even the implicit method cannot integrate over ``dt`` shows at the
+    data's states: its fastest mode against the sample (a lightly damped one rings within
+    it: every sub-step must follow the ringing), and a Jacobian that is not smooth (a
+    square root or an ``abs`` at zero: an infinite slope, which no sub-step size resolves)."""
+    with np.errstate(all="ignore"):
+        slopes = jacobian(model.derivatives, x, u)
+    finite = np.all(np.isfinite(slopes), axis=(1, 2))
+    parts = [f"the implicit method (\"rosenbrock\", chosen) with {MAX_SUBSTEPS // 2} sub-steps "
+             f"a sample does not reach the bound"]
+    if finite.any():
+        eigenvalues = np.linalg.eigvals(slopes[finite])
+        fastest = np.abs(eigenvalues).max(axis=1)
+        row = int(np.argsort(fastest)[len(fastest) // 2])          # the median state's
+        mode = eigenvalues[row][np.argmax(np.abs(eigenvalues[row]))]
+        hertz = abs(mode.imag) / (2 * np.pi)
+        if hertz * dt > 0.25:    # a quarter of a period or more within a sample
+            damping = -mode.real / abs(mode)
+            parts.append(f"its fastest mode rings at {hertz:.3g} Hz (damping ratio "
+                         f"{damping:.2g}), {hertz * dt:.2g} periods within a sample")
+        size = np.abs(slopes[finite])
+        usual = np.median(size, axis=0)                      # each slope's, over the states
+        jumps = np.where(usual > 0, size.max(axis=0) / np.where(usual > 0, usual, 1.0), 0.0)
+        if not finite.all() or jumps.max() > 1e3:
+            parts.append("its Jacobian is not smooth: at some of the data's states its slopes "
+                         "are infinite or a thousand times their usual size (a square root or "
+                         "an abs at zero, a switch)")
+    return ("; ".join(parts) + ". Write the fast part quasi-static at the sample rate (a "
+            "velocity from the force balance, a pressure at its steady value) or give the "
+            "non-smooth terms a smooth core (an orifice laminar near zero pressure drop)")

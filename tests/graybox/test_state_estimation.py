@@ -2,12 +2,15 @@
 table and feed-through, a stiff state, a diverging model."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.signal import cont2discrete, dlsim
 
 from graybox.integration import Integration, IntegrationError, advance, choose_integration
+from graybox.models.base import WhiteBoxModel
 from graybox.residual import residual_frame
 from graybox.state_estimation import check_prediction, estimate_states, window_arrays
 
@@ -162,3 +165,45 @@ def test_a_stiff_baseline_is_decomposed_with_its_own_integrator():
     parts = decompose(signature, model, days[0])
     assert [p.channel for p in parts] == ["i", "w"]
     assert all(np.isfinite(p.residual).all() for p in parts)
+
+
+class RingingServo(WhiteBoxModel):
+    """A valve-controlled cylinder as a user first writes it: position, velocity and chamber
+    pressure (bar), the oil column a 12-Hz spring on the load barely damped, the orifice's
+    flow the square root of the pressure drop (an infinite slope at zero drop)."""
+
+    states = ("x", "v", "p")
+    inputs = ("spool", "ps")
+    integrator = "rosenbrock"
+    default_parameters = {"area": 5e-3, "mass": 1700.0, "friction": 3600.0, "k_valve": 3e-7,
+                          "stiffness": 3.9e11, "load": 30000.0}
+
+    def derivatives(self, x, u):
+        p = self.parameters
+        v, pressure = x[..., 1], x[..., 2] * 1e5
+        drop = u[..., 1] * 1e5 - pressure
+        q = p["k_valve"] * u[..., 0] * np.sign(drop) * np.sqrt(np.abs(drop))
+        force = p["area"] * pressure - p["friction"] * v - p["load"]
+        return np.stack([v, force / p["mass"],
+                         p["stiffness"] * (q - p["area"] * v) / 1e5], axis=-1)
+
+
+def test_a_model_the_implicit_method_cannot_follow_is_told_why_not_to_declare_it():
+    """At 10 Hz the servo's oil column rings 1.2 times within a sample and its orifice has an
+    infinite slope where the chamber reaches the supply pressure: no sub-steps reach the
+    bound. The error says the implicit method was already chosen, names the ringing mode and
+    the non-smooth slope, and what to write instead (not "declare rosenbrock")."""
+    rng = np.random.default_rng(0)
+    n = 400
+    x = np.stack([np.cumsum(rng.normal(0, 0.002, n)) + 0.3, rng.normal(0, 0.02, n),
+                  60 + rng.normal(0, 30, n)], axis=1)
+    x[::7, 2] = 150.0                                     # the chamber at the supply pressure
+    u = np.stack([rng.uniform(-0.3, 0.3, n), np.full(n, 150.0)], axis=1)
+    change = np.sqrt(np.mean(np.diff(x, axis=0) ** 2, axis=0))
+    with pytest.raises(IntegrationError) as info:
+        choose_integration(RingingServo(), x, u, 0.1, change)
+    message = str(info.value)
+    assert "RingingServo: state 'v'" in message and '"rosenbrock", chosen' in message
+    assert re.search(r"rings at 12\.\d Hz \(damping ratio 0\.0\d+\), 1\.2 periods", message)
+    assert "not smooth" in message and "quasi-static" in message
+    assert "declares integrator" not in message
