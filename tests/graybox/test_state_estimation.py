@@ -207,3 +207,33 @@ def test_a_model_the_implicit_method_cannot_follow_is_told_why_not_to_declare_it
     assert re.search(r"rings at 12\.\d Hz \(damping ratio 0\.0\d+\), 1\.2 periods", message)
     assert "not smooth" in message and "quasi-static" in message
     assert "declares integrator" not in message
+
+
+def test_a_white_box_no_integrator_follows_fails_on_its_first_segment(monkeypatch):
+    """The baseline fit judges the integrator on the first segment's states before it
+    estimates the others: the ringing servo's baseline of three windows stops after one."""
+    import graybox.segment_cache
+    import graybox.signature_fit
+    from graybox.signature_fit import FitRequest, fit_signatures
+
+    rng = np.random.default_rng(0)
+    windows = []
+    for day in range(3):
+        n = 3000
+        x = np.stack([np.cumsum(rng.normal(0, 0.002, n)) + 0.3, rng.normal(0, 0.02, n),
+                      60 + rng.normal(0, 30, n)], axis=1)
+        x[::7, 2] = 150.0
+        index = pd.date_range(pd.Timestamp("2026-01-01", tz="UTC") + pd.Timedelta(days=day),
+                              periods=n, freq="100ms")
+        windows.append(pd.DataFrame({"x": x[:, 0], "v": x[:, 1], "p": x[:, 2],
+                                     "spool": rng.uniform(-0.3, 0.3, n), "ps": 150.0},
+                                    index=index))
+    estimated = []
+    for module in (graybox.signature_fit, graybox.segment_cache):
+        original = module.estimate_states
+        monkeypatch.setattr(module, "estimate_states",
+                            lambda *args, _original=original, **kwargs:
+                            estimated.append(len(args[1])) or _original(*args, **kwargs))
+    [result] = fit_signatures([FitRequest(RingingServo(), windows)])
+    assert isinstance(result, IntegrationError) and "cannot be integrated" in str(result)
+    assert estimated == [3000]
