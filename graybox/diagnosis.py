@@ -515,6 +515,10 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     channels = model.outputs
     sigma = np.array([max(levels[c].residual_std, 1e-12) for c in channels])
 
+    if model.hidden_states and states is None:
+        # estimated once, for the errors and their slopes in the starts (_start_uncertainty)
+        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
+                  for y, u in segments]
     # the baseline's explanation at the window's operating condition, read once at the
     # baseline white box's features: a hypothesis changes the prediction, not the condition
     data = prediction_errors(model, segments, setup,
@@ -723,18 +727,15 @@ def _start_uncertainty(model, segments, setup: ErrorSetup, channels, levels, dat
     """The k-step errors' slopes in each period's hidden start, rows as the window's finite
     errors (N, periods x hidden), and the starts' block-diagonal covariance, both at the
     baseline's white box (:mod:`graybox.start_uncertainty`)."""
-    if states is None:
-        states = [estimate_states(model, y, u, setup.sample_interval, setup.integration)
-                  for y, u in segments]
-    starts = [np.array([window.initial_hidden[h] for h in model.hidden_states])
-              for window in states]
     drift = {c: levels[c].drifting or () for c in channels}
     by_channel = start_slopes(model, segments, setup, drift, states, data)
     slopes = np.concatenate([by_channel[c][f] for c, f in zip(channels, finite)])
+    spread = {c: levels[c].residual_std for c in channels}
     covariance = linalg.block_diag(*[
-        start_covariance(model, y, u, setup.sample_interval, setup.integration, start,
-                         {c: levels[c].residual_std for c in channels})
-        for (y, u), start in zip(segments, starts)])
+        start_covariance(model, y, u, setup.sample_interval, setup.integration,
+                         np.array([window.initial_hidden[h] for h in model.hidden_states]),
+                         spread)
+        for (y, u), window in zip(segments, states)])
     return slopes, covariance
 
 

@@ -230,21 +230,24 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
         integration = request.baseline.integration_used
         return integration, [estimate(model, y, u, interval, integration)
                              for y, u in arrays]
-    first = _first_integration(model)
+    # stiff hidden dynamics: where RK4 diverges (an "auto" model), the L-stable method
+    first, stiff = _first_integration(model), Integration("rosenbrock_w")
     try:
-        states = [estimate(model, *arrays[0], interval, first)]
-        # a white box that no integrator follows fails on its first segment, not after the
-        # whole baseline's estimates (a 10-Hz servo's: 400 s and 5 GB an asset)
-        _check_integrable(model, states[0], interval)
-        states += [estimate(model, y, u, interval, first) for y, u in arrays[1:]]
-    except IntegrationError as error:
-        if model.integrator != "auto" or "cannot be integrated" in str(error):
+        head = estimate(model, *arrays[0], interval, first)
+    except IntegrationError:
+        if model.integrator != "auto":
             raise
-        # stiff hidden dynamics: RK4 diverged where the L-stable method will not
-        first = Integration("rosenbrock_w")
-        states = [estimate(model, *arrays[0], interval, first)]
-        _check_integrable(model, states[0], interval)
-        states += [estimate(model, y, u, interval, first) for y, u in arrays[1:]]
+        first, head = stiff, estimate(model, *arrays[0], interval, stiff)
+    # a white box that no integrator follows fails on its first segment, not after the
+    # whole baseline's estimates (a 10-Hz servo's: 400 s and 5 GB an asset)
+    _check_integrable(model, head, interval)
+    try:
+        states = [head] + [estimate(model, y, u, interval, first) for y, u in arrays[1:]]
+    except IntegrationError:
+        if model.integrator != "auto" or first == stiff:
+            raise
+        first = stiff
+        states = [estimate(model, y, u, interval, first) for y, u in arrays]
     x = np.concatenate([s.states for s in states])
     u = np.concatenate([s.u for s in states])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
