@@ -24,7 +24,7 @@ from graybox.output_layer_fit import fit_output_layers
 #: bytes per series-sample for J = 8, m = 6, with and without trained input weights)
 CHUNK_SAMPLES = 2 ** 19
 
-__all__ = ["NonlinearTier", "lagged", "fit_networks", "FitSettings", "NetworkFit",
+__all__ = ["NonlinearTier", "lagged", "lagged_segments", "fit_networks", "FitSettings", "NetworkFit",
            "initial_weights"]
 
 
@@ -94,6 +94,26 @@ def lagged(x: np.ndarray, dim: int, tau: int) -> tuple[np.ndarray, np.ndarray]:
     columns = [x[span - k * tau: span - k * tau + n] for k in range(1, dim + 1)]
     return np.column_stack(columns), x[span:]
 
+
+
+def lagged_segments(segments: Sequence[np.ndarray], dim: int, tau: int,
+                    scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`lagged` of every segment divided by ``scale``, the segments' rows one after
+    another: the same arrays as concatenating each segment's ``lagged(s / scale, dim, tau)``,
+    written once into their place instead of per segment and then copied together."""
+    span = dim * tau
+    lengths = [max(0, len(s) - span) for s in segments]
+    X, y = np.empty((sum(lengths), dim)), np.empty(sum(lengths))
+    row = 0
+    for segment, n in zip(segments, lengths):
+        if n == 0:
+            continue
+        x = np.asarray(segment / scale, dtype=float)
+        for k in range(1, dim + 1):
+            X[row: row + n, k - 1] = x[span - k * tau: span - k * tau + n]
+        y[row: row + n] = x[span:]
+        row += n
+    return X, y
 
 def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                  initial: Sequence[tuple[np.ndarray, np.ndarray] | None] | None = None,

@@ -51,8 +51,10 @@ def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
         X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         dim = X.shape[1]
         w = np.asarray(start[: hidden * dim], dtype=float).reshape(hidden, dim)
+        H = X @ w.T
+        np.tanh(H, out=H)       # in place: a second array of T x J would be a fresh mapping
         W, prediction, iterations = _levenberg_marquardt(
-            np.tanh(X @ w.T), y, np.asarray(start[hidden * dim:], dtype=float), settings)
+            H, y, np.asarray(start[hidden * dim:], dtype=float), settings)
         out.append(NetworkFit(w.copy(), W, float(np.mean((y - prediction) ** 2)), iterations,
                               prediction if keep_predictions else None))
     return out
@@ -74,6 +76,9 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
     # the curvature only shapes the step (the gradient and loss, which decide the minimum,
     # stay in float64): single precision halves its T x J^2 cost, the largest of a step
     H_single = H.astype(np.float32)
+    # J's T x J values are written in place every iteration: allocated afresh, an array that
+    # large is a new mapping whose pages the kernel faults in and zeroes each time
+    J = np.empty_like(H_single)
     loss, prediction = _loss(H, y, W, decay)
     damping = 1e-3
     iterations = 0
@@ -83,7 +88,7 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
         gradient = -2.0 * (H.T @ (slope * residual)) / n + 2.0 * decay * W
         if np.abs(gradient).max() <= settings.tolerance:
             break
-        J = H_single * slope.astype(np.float32)[:, None]      # d prediction / d W
+        np.multiply(H_single, slope.astype(np.float32)[:, None], out=J)   # d prediction / d W
         curvature = 2.0 * (J.T @ J).astype(float) / n + 2.0 * decay * identity
         improved = False
         while damping < 1e12:

@@ -12,7 +12,8 @@ from graybox.channel_structure import ChannelStructure
 from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError, StructureMismatchError
 from graybox.network_settings import FitSettings, NetworkFit
-from graybox.nonlinear_tier import NonlinearTier, fit_networks, initial_weights, lagged
+from graybox.nonlinear_tier import (NonlinearTier, fit_networks, initial_weights,
+                                   lagged_segments)
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
 from graybox.tiers.fit_state import AssetFit, ChannelFit, per_window
@@ -160,8 +161,7 @@ def reference_set(baseline: ChannelSignature) -> np.ndarray | None:
 
 
 def _design(segments: list[np.ndarray], structure: ChannelStructure):
-    parts = [lagged(s / structure.nn_scale, structure.embedding_dim, structure.tau) for s in segments]
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    return lagged_segments(segments, structure.embedding_dim, structure.tau, structure.nn_scale)
 
 
 def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,

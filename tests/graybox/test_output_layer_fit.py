@@ -84,3 +84,20 @@ def test_the_prediction_kept_is_the_networks_on_each_segment_to_rounding():
     # unless asked, nothing of the series' length is kept
     assert fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W])], hidden,
                              FitSettings())[0].prediction is None
+
+
+def test_the_segments_design_is_each_segments_lagged_design_concatenated():
+    # the nonlinear tier's design is written in place (lagged_segments): the same arrays as
+    # each segment's lagged design of its scaled values, concatenated, to the bit
+    from graybox.nonlinear_tier import lagged_segments
+
+    rng = np.random.default_rng(11)
+    segments = [rng.normal(0, 3.0, n) for n in (2000, 3, 517, 0, 1200)]   # some without rows
+    for dim, tau in ((3, 2), (5, 1), (1, 7)):
+        parts = [lagged(s / 0.37, dim, tau) for s in segments]
+        X, y = lagged_segments(segments, dim, tau, 0.37)
+        np.testing.assert_array_equal(X, np.concatenate([p[0] for p in parts]))
+        np.testing.assert_array_equal(y, np.concatenate([p[1] for p in parts]))
+        assert X.shape == (len(y), dim) and X.flags.c_contiguous
+    X, y = lagged_segments(segments[1:2], 3, 2)                           # no rows at all
+    assert X.shape == (0, 3) and y.shape == (0,)
