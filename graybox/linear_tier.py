@@ -58,8 +58,12 @@ class LinearTier:
         x = np.asarray(x, dtype=float)
         n = self.order
         w = x[n:].copy()
+        if not len(w):
+            return w
+        term = np.empty_like(w)             # each lag's term, written in place
         for i, a in enumerate(self.coefficients, start=1):
-            w -= a * x[n - i: len(x) - i]
+            np.multiply(a, x[n - i: len(x) - i], out=term)
+            w -= term
         return w
 
 
@@ -75,11 +79,18 @@ def autocovariances(segments: Sequence[np.ndarray], max_lag: int) -> tuple[np.nd
     return autocovariance(segments, max_lag), sum(len(s) for s in segments)
 
 
+def _yule_walker(acov: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+    """The AR(``order``) coefficients and innovation variance of the Yule-Walker equations."""
+    if order == 0:
+        return np.zeros(0), float(acov[0])
+    coefficients = solve_toeplitz(acov[:order], acov[1: order + 1])
+    return coefficients, float(acov[0] - coefficients @ acov[1: order + 1])
+
+
 def _solve(acov: np.ndarray, order: int, n_obs: int) -> LinearTier:
     if order == 0:
         return LinearTier((), float(acov[0]), (), n_obs)
-    coefficients = solve_toeplitz(acov[:order], acov[1: order + 1])
-    sigma2 = float(acov[0] - coefficients @ acov[1: order + 1])
+    coefficients, sigma2 = _yule_walker(acov, order)
     covariance = sigma2 * np.linalg.inv(toeplitz(acov[:order])) / n_obs
     errors = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
     return LinearTier(tuple(map(float, coefficients)), sigma2, tuple(map(float, errors)), n_obs)
@@ -115,8 +126,9 @@ def fit_ar(segments: Sequence[np.ndarray] | np.ndarray, order: int | None = None
     penalty = 2.0 if criterion == "aic" else np.log(n_obs)
     best, best_score = None, np.inf
     for n in range(max_order + 1):
-        fit = _solve(acov, n, n_obs)
-        score = n_obs * np.log(fit.innovation_variance) + penalty * n
+        # the criterion needs the innovation variance alone: the standard errors (an inverse
+        # of the order's Toeplitz matrix) are computed for the chosen order only
+        score = n_obs * np.log(_yule_walker(acov, n)[1]) + penalty * n
         if score < best_score:
-            best, best_score = fit, score
-    return best
+            best, best_score = n, score
+    return _solve(acov, best, n_obs)

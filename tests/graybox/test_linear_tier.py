@@ -89,3 +89,19 @@ def test_a_starved_window_names_the_setting_that_helps():
     assert "more than 180900 s" in slow and "windows are at most a day" in slow
     assert "settings.min_samples" in slow and "a day holds 96 at 900 s" in slow
     assert "use longer windows" not in slow
+
+
+def test_the_chosen_order_is_the_one_every_orders_full_fit_would_choose():
+    # the criterion reads each order's innovation variance alone; the standard errors are
+    # computed for the chosen order only: the same tier as fitting every order in full
+    from graybox.linear_tier import _solve
+
+    rng = np.random.default_rng(5)
+    for n, criterion in ((400, "bic"), (5000, "aic"), (20000, "bic")):
+        x = lfilter([1.0], [1.0, -0.5, 0.3, -0.1], rng.normal(size=n))
+        segments = [x[: n // 3], x[n // 3:]]
+        acov, n_obs = autocovariances(segments, 12)
+        penalty = 2.0 if criterion == "aic" else np.log(n_obs)
+        fits = [_solve(acov, k, n_obs) for k in range(13)]
+        scores = [n_obs * np.log(f.innovation_variance) + penalty * k for k, f in enumerate(fits)]
+        assert fit_ar(segments, max_order=12, criterion=criterion) == fits[int(np.argmin(scores))]

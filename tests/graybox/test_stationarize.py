@@ -103,3 +103,27 @@ def test_box_sum_equals_the_direct_convolution(n, window):
     x = np.random.default_rng(n).normal(size=n)
     np.testing.assert_allclose(_box_sum(x, window), np.convolve(x, np.ones(window), "same"),
                                atol=1e-9)
+
+
+def test_adf_design_written_in_one_copy_gives_the_column_stacked_statistic_to_the_bit():
+    # the lag columns are copied from a reversed sliding window of the differences: the same
+    # design, so the same statistic as the design stacked a column at a time
+    def stacked(x, lags):
+        dx = np.diff(x)
+        rows = len(dx) - lags
+        level = x[lags:-1] - x[lags:-1].mean()
+        design = np.column_stack([np.ones(rows), level] +
+                                 [dx[lags - i: len(dx) - i] for i in range(1, lags + 1)])
+        design /= np.sqrt(np.einsum("ij,ij->j", design, design))
+        target = dx[lags:]
+        inverse = np.linalg.inv(design.T @ design)
+        coef = inverse @ (design.T @ target)
+        resid = target - design @ coef
+        sigma2 = resid @ resid / (rows - design.shape[1])
+        return float(coef[1] / np.sqrt(sigma2 * inverse[1, 1]))
+
+    rng = np.random.default_rng(8)
+    for n, lags in ((300, 0), (300, 1), (2000, 7), (20000, None)):
+        x = np.cumsum(rng.normal(size=n)) * 0.1 + rng.normal(size=n)
+        used = int(12 * (n / 100) ** 0.25) if lags is None else lags
+        assert adf_statistic(x, lags) == stacked(x, used)
