@@ -167,6 +167,12 @@ def _ros2_per_sample(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float
     :data:`JACOBIAN_SUBSTEPS` sub-steps (``rosenbrock_w``)."""
     n = x.shape[-1]
     h = dt / substeps
+    # rows of states held column by column (each state's values contiguous, as the white box
+    # reads them and apply_columns sums them): the same operations element by element, so the
+    # same numbers, on contiguous columns instead of every n-th value
+    by_column = x.ndim == 2
+    columns = np.asfortranarray if by_column else np.asarray
+    x, u0, u1 = columns(x), columns(u0), columns(u1)
     # the non-autonomous term: df/du along the inputs' (constant) rate over the sample
     change = u1 - u0        # the inputs' change over the sample, taken once
     rate = change / dt
@@ -175,16 +181,18 @@ def _ros2_per_sample(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float
         begin = step / substeps
         ua = u0 + change * begin
         ub = u0 + change * (begin + 1.0 / substeps)
-        slope = f(state, ua)
+        slope = columns(f(state, ua))
         if step % JACOBIAN_SUBSTEPS == 0:
             epsilon = 1e-7 * max(1.0, float(np.max(np.abs(ua), initial=0.0)))
-            f_t = (f(state, ua + epsilon * rate) - slope) / epsilon if ua.shape[-1] else 0.0
+            f_t = ((columns(f(state, ua + epsilon * rate)) - slope) / epsilon
+                   if ua.shape[-1] else 0.0)
             shift = _GAMMA * h * f_t
             inverse = _stage_inverse(f, state, ua, slope, _GAMMA * h)
         k1 = apply_columns(inverse, slope + shift)
-        k2 = apply_columns(inverse, f(state + h * k1, ub) - 2.0 * k1 - shift)
+        k2 = apply_columns(inverse, columns(f(state + h * k1, ub)) - 2.0 * k1 - shift)
         state = state + 1.5 * h * k1 + 0.5 * h * k2
-    return state
+    # row by row again, as the callers' reductions over rows read it
+    return np.ascontiguousarray(state) if by_column else state
 
 
 def _stage_inverse(f, x: np.ndarray, u: np.ndarray, fx: np.ndarray, gh: float) -> np.ndarray:
@@ -198,7 +206,7 @@ def _stage_inverse(f, x: np.ndarray, u: np.ndarray, fx: np.ndarray, gh: float) -
     entries = np.empty((n, n, len(x)))
     for j in range(n):
         delta = 1e-7 * np.maximum(1.0, np.abs(x[..., j]))
-        shifted = x.copy()
+        shifted = x.copy(order="K")      # held as ``x`` is (column by column in ROS2-W)
         shifted[..., j] += delta
         difference = f(shifted, u) - fx
         for i in range(n):

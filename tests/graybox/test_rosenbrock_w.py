@@ -145,3 +145,46 @@ def test_the_shared_stage_matrix_is_the_inverse_of_the_jacobians_to_the_bit(n):
     fx = f(x, u)
     expected = inverse_columns(np.eye(n) - 0.085 * jacobian(f, x, u, fx))
     assert np.array_equal(_stage_inverse(f, x, u, fx, 0.085), expected)
+
+
+def test_rows_held_column_by_column_give_the_row_major_arithmetic_to_the_bit():
+    # ROS2-W holds its rows of states column by column (contiguous per state, for the white
+    # box's reads and apply_columns' sums): the same operations element by element as the
+    # row-major loop below (the method before that change), and its result row-major again
+    from graybox.batched_lu import apply_columns
+    from graybox.integration import _GAMMA, _stage_inverse, advance
+
+    def row_major(f, x, u0, u1, dt, substeps):
+        h, change = dt / substeps, u1 - u0
+        rate, state = change / dt, x
+        for step in range(substeps):
+            begin = step / substeps
+            ua = u0 + change * begin
+            ub = u0 + change * (begin + 1.0 / substeps)
+            slope = f(state, ua)
+            if step % JACOBIAN_SUBSTEPS == 0:
+                epsilon = 1e-7 * max(1.0, float(np.max(np.abs(ua), initial=0.0)))
+                shift = _GAMMA * h * ((f(state, ua + epsilon * rate) - slope) / epsilon)
+                inverse = _stage_inverse(f, state, ua, slope, _GAMMA * h)
+            k1 = apply_columns(inverse, slope + shift)
+            k2 = apply_columns(inverse, f(state + h * k1, ub) - 2.0 * k1 - shift)
+            state = state + 1.5 * h * k1 + 0.5 * h * k2
+        return state
+
+    rng = np.random.default_rng(4)
+    x, u = rng.normal(size=(2001, 3)) * 2.0, rng.normal(size=(2001, 2))
+    for f in (_stiff_three, lambda x, u: np.stack([x[..., 1] - u[..., 0] * x[..., 0],
+                                                   np.sin(x[..., 2]) * u[..., 1],
+                                                   -30.0 * x[..., 2] + x[..., 0]], axis=-1)):
+        for substeps in (1, 4, 16):
+            expected = row_major(f, x[:-1], u[:-1], u[1:], 1.0, substeps)
+            got = advance(f, x[:-1], u[:-1], u[1:], 1.0, Integration("rosenbrock_w", substeps))
+            assert np.array_equal(got, expected) and got.flags.c_contiguous
+
+
+def _stiff_three(x, u):
+    # the traction drive's white box in miniature: a stiff lag, a tanh, a square
+    i, w, temp = x[..., 0], x[..., 1], x[..., 2]
+    return np.stack([(u[..., 0] - 0.05 * i - 0.28 * w) / 3e-4,
+                     (0.28 * i - 0.02 * w - 6.0 * np.tanh(w / 2.0)) / 1.7,
+                     (0.05 * i ** 2 - (temp - u[..., 1]) / 0.09) / 4600.0], axis=-1)
