@@ -223,7 +223,10 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         train.append(_design(heads, channel.structure))
         test.append(_design(tails, channel.structure))
     seeds = [channel.structure.init_seed for _, _, channel in members]
-    head_fits = fit_networks(train, needed_units, None, settings.network, random_state=seeds,
+    dim = members[0][2].structure.embedding_dim
+    head_fits = fit_networks(train, needed_units,
+                             _output_layer_starts(needed_units, dim, seeds, settings)
+                             if fixed else None, settings.network, random_state=seeds,
                              chunk_size=chunk_size, train_input_weights=not fixed)
     gains = []
     for (_, _, channel), head, (X_test, y_test) in zip(members, head_fits, test):
@@ -234,23 +237,44 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         needed = bool(gains[-1] > settings.min_heldout_gain)
         channel.structure = replace(channel.structure, nonlinear_needed=needed,
                                     hidden_units=needed_units if needed else hidden)
-    # The full fit starts from the seeded random weights, as the candidates of a baseline
-    # without nonlinear structure do: zeta compares weights fitted by the same procedure.
-    # Without structure, a fully trained network only fits noise, landing in one of many
-    # shallow minima; its hidden layer then stays at the random weights (fixed features) and
-    # only the output weights are fitted, a problem with a single minimum.
+    # A trained full fit starts from the seeded random weights, as the candidates of a
+    # baseline without nonlinear structure do: zeta compares weights fitted by the same
+    # procedure. Without structure, a fully trained network only fits noise, landing in one
+    # of many shallow minima; its hidden layer then stays at the random weights (fixed
+    # features) and only the output weights are fitted, a problem with a single minimum,
+    # from zero (_output_layer_starts).
     for needed in (True, False):
         chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
         if not chosen:
             continue
         problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
         trained = (not fixed) if needed else settings.null_network == "trained"
-        fits = _one_by_one(problems, needed_units if needed else hidden, None,
-                           [seeds[i] for i in chosen], settings.network, chunk_size, trained)
+        units, chosen_seeds = needed_units if needed else hidden, [seeds[i] for i in chosen]
+        fits = _one_by_one(problems, units,
+                           None if trained else _output_layer_starts(units, dim, chosen_seeds,
+                                                                     settings),
+                           chosen_seeds, settings.network, chunk_size, trained)
         for i, fit in zip(chosen, fits):
             members[i][2].records["nonlinear"] = NonlinearTier.from_arrays(
                 fit.w, fit.W, fit.mse, gains[i], fit.iterations)
             members[i][2].network_errors = network_errors(members[i][2], fit.prediction)
+
+
+def _output_layer_starts(hidden: int, dim: int, seeds: Sequence[int],
+                         settings: GrayBoxSettings) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The starts of a new baseline's fixed-feature fits: each seed's random hidden layer
+    (:func:`initial_weights`, the features the network keeps) and output weights at zero.
+
+    The output layer's problem has one minimum, so its start decides only the iterations to
+    it. The seeded random output weights (the start before 2026-11-28) put the network's
+    output far into tanh's flat tails on the drive's residuals, and Levenberg-Marquardt took
+    9-19 iterations to come back; from zero the output is 0, tanh's slope 1, and the first
+    step is close to the ridge regression of the target on the features: 4-6 iterations to
+    the same minimum (within the fit's tolerance: the drive's networks' outputs 1e-6 to 1e-5
+    of their RMS apart). Candidates start from their baseline's weights, as before.
+    """
+    return [(initial_weights(hidden, dim, seed, settings.network.init_scale)[0],
+             np.zeros(hidden)) for seed in seeds]
 
 
 def _one_by_one(problems: list, hidden: int, starts: list | None, seeds: list | None,
