@@ -101,3 +101,31 @@ def test_the_segments_design_is_each_segments_lagged_design_concatenated():
         assert X.shape == (len(y), dim) and X.flags.c_contiguous
     X, y = lagged_segments(segments[1:2], 3, 2)                           # no rows at all
     assert X.shape == (0, 3) and y.shape == (0,)
+
+
+def test_a_new_baselines_output_layer_from_zero_reaches_the_random_starts_minimum_sooner():
+    # a new baseline's fixed-feature fits keep the seeded hidden layer and start the output
+    # weights at zero (graybox.tiers.nonlinear._output_layer_starts): the same minimum, to the
+    # fit's tolerance, in fewer iterations than from the seeded random output weights
+    from graybox.settings import GrayBoxSettings
+    from graybox.tiers.nonlinear import _output_layer_starts
+
+    settings = GrayBoxSettings()
+    hidden, dim = 32, 3
+    (w, W0), = _output_layer_starts(hidden, dim, [17], settings)
+    np.testing.assert_array_equal(w, initial_weights(hidden, dim, 17,
+                                                     settings.network.init_scale)[0])
+    assert not W0.any()
+    rng = np.random.default_rng(17)
+    x = rng.normal(0, 0.25, 20000)
+    x[1:] += 0.3 * np.tanh(4 * x[:-1])
+    X, y = lagged(x, dim, 1)
+    w_random, W_random = initial_weights(hidden, dim, 17, settings.network.init_scale)
+    random_start = np.concatenate([w_random.ravel(), W_random])
+    fitted_random, = fit_output_layers([(X, y)], [random_start], hidden, settings.network,
+                                       keep_predictions=True)
+    fitted_zero, = fit_output_layers([(X, y)], [np.concatenate([w.ravel(), W0])], hidden,
+                                     settings.network, keep_predictions=True)
+    assert fitted_zero.iterations < fitted_random.iterations
+    spread = np.sqrt(np.mean(fitted_random.prediction ** 2))
+    assert np.sqrt(np.mean((fitted_zero.prediction - fitted_random.prediction) ** 2)) < 1e-4 * spread
