@@ -12,6 +12,17 @@ has one minimum, which Gauss-Newton steps reach in a handful of iterations: each
 1-Hz night: ~40 iterations, 0.1 s; here a few milliseconds). Levenberg-Marquardt damping keeps
 every step a descent. Each series is fitted on its own, so its result never depends on the
 others of a call.
+
+The curvature ``J^T J`` (half a step's cost) only shapes the step; the gradient and the loss,
+which decide where the fit stops, are computed afresh every iteration. It is kept from one
+iteration to the next while the fit converges quickly (each step's relative decrease at most
+:data:`KEEP_CURVATURE` of the previous one's) and taken afresh after a slower step or a refused
+one, and for the last step: the fit stops only on a step taken with a fresh curvature. Near
+the minimum the slopes ``1 - tanh^2`` hardly move, so a warm-started fit (every candidate,
+calibration refit and piece) takes its curvature twice: on 60 of the traction drive's fits
+28 % less time, one iteration more or fewer, and the same minimum to the fit's tolerance
+(outputs 1e-8 to 4e-5 of their RMS from the fit that takes it every iteration, the gradient
+at the end as small).
 """
 from __future__ import annotations
 
@@ -20,6 +31,10 @@ from typing import Sequence
 import numpy as np
 
 from graybox.network_settings import FitSettings, NetworkFit
+
+#: the curvature is kept while each step's relative decrease of the loss is at most this
+#: fraction of the previous step's (module docstring)
+KEEP_CURVATURE = 0.05
 
 
 def fit_output_layers(problems: Sequence[tuple[np.ndarray, np.ndarray]],
@@ -82,14 +97,18 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
     loss, prediction = _loss(H, y, W, decay)
     damping = 1e-3
     iterations = 0
+    curvature, stale, previous = None, True, None
     for _ in range(settings.max_iter):
         residual = y - prediction
         slope = 1.0 - prediction ** 2                          # d prediction / d (H W)
         gradient = -2.0 * (H.T @ (slope * residual)) / n + 2.0 * decay * W
         if np.abs(gradient).max() <= settings.tolerance:
             break
-        np.multiply(H_single, slope.astype(np.float32)[:, None], out=J)   # d prediction / d W
-        curvature = 2.0 * (J.T @ J).astype(float) / n + 2.0 * decay * identity
+        fresh = stale
+        if fresh:
+            np.multiply(H_single, slope.astype(np.float32)[:, None], out=J)   # d pred / d W
+            curvature = 2.0 * (J.T @ J).astype(float) / n + 2.0 * decay * identity
+            stale = False
         improved = False
         while damping < 1e12:
             step = np.linalg.solve(curvature + damping * np.diag(np.diag(curvature)) +
@@ -100,6 +119,7 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
                 improved = True
                 break
             damping *= 10.0
+            stale = True                                       # a refused step: afresh next
         if not improved:
             break                                              # at the minimum to precision
         relative = (loss - trial_loss) / max(abs(loss), 1e-300)
@@ -107,5 +127,13 @@ def _levenberg_marquardt(H: np.ndarray, y: np.ndarray, W: np.ndarray, settings: 
         damping = max(damping / 10.0, 1e-12)
         iterations += 1
         if relative <= settings.tolerance:
-            break
+            if fresh:
+                break
+            # converged by a kept curvature's step: the last step is taken with a fresh one,
+            # as every step was before, so the fit stops where it did to its tolerance
+            stale = True
+            continue
+        # a slow step: the kept curvature no longer describes the loss well enough
+        stale = stale or (previous is not None and relative > KEEP_CURVATURE * previous)
+        previous = relative
     return W, prediction, iterations
