@@ -98,7 +98,9 @@ def test_the_segments_design_is_each_segments_lagged_design_concatenated():
         X, y = lagged_segments(segments, dim, tau, 0.37)
         np.testing.assert_array_equal(X, np.concatenate([p[0] for p in parts]))
         np.testing.assert_array_equal(y, np.concatenate([p[1] for p in parts]))
-        assert X.shape == (len(y), dim) and X.flags.c_contiguous
+        assert X.shape == (len(y), dim) and X.flags.f_contiguous
+        w = initial_weights(32, dim, 5, 4.0)[0]                         # the same products
+        np.testing.assert_array_equal(X @ w.T, np.concatenate([p[0] for p in parts]) @ w.T)
     X, y = lagged_segments(segments[1:2], 3, 2)                           # no rows at all
     assert X.shape == (0, 3) and y.shape == (0,)
 
