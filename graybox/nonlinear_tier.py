@@ -24,8 +24,8 @@ from graybox.output_layer_fit import fit_output_layers
 #: bytes per series-sample for J = 8, m = 6, with and without trained input weights)
 CHUNK_SAMPLES = 2 ** 19
 
-__all__ = ["NonlinearTier", "lagged", "lagged_segments", "fit_networks", "FitSettings", "NetworkFit",
-           "initial_weights"]
+__all__ = ["NonlinearTier", "lagged", "lagged_segments", "fit_networks", "FitSettings",
+           "NetworkFit", "initial_weights"]
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,6 @@ def lagged(x: np.ndarray, dim: int, tau: int) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack(columns), x[span:]
 
 
-
 def lagged_segments(segments: Sequence[np.ndarray], dim: int, tau: int,
                     scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """:func:`lagged` of every segment divided by ``scale``, the segments' rows one after
@@ -117,6 +116,7 @@ def lagged_segments(segments: Sequence[np.ndarray], dim: int, tau: int,
         y[row: row + n] = x[span:]
         row += n
     return X, y
+
 
 def fit_networks(problems: Sequence[tuple[np.ndarray, np.ndarray]], hidden: int,
                  initial: Sequence[tuple[np.ndarray, np.ndarray] | None] | None = None,
