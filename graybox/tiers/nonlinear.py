@@ -199,12 +199,14 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                     fit.w, fit.W, fit.mse, None, fit.iterations)
                 channel.network_errors = network_errors(channel, fit.prediction)
         if fresh:
-            _fit_fresh(fresh, hidden, settings, chunk_size)
+            _fit_fresh(fresh, dim, hidden, settings, chunk_size)
 
 
-def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int) -> None:
-    """New baselines: fit on the head of every window, measure the gain on the held-out tails,
-    decide whether the tier is needed, then fit on everything.
+def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
+               chunk_size: int) -> None:
+    """New baselines of one group (embedding dimension ``dim``): fit on the head of every
+    window, measure the gain on the held-out tails, decide whether the tier is needed, then
+    fit on everything.
 
     With ``needed_network = "fixed_features"`` the trial network, like the needed network it
     decides on, has ``needed_hidden_units`` seeded random hidden units and only its output
@@ -223,7 +225,6 @@ def _fit_fresh(members, hidden: int, settings: GrayBoxSettings, chunk_size: int)
         train.append(_design(heads, channel.structure))
         test.append(_design(tails, channel.structure))
     seeds = [channel.structure.init_seed for _, _, channel in members]
-    dim = members[0][2].structure.embedding_dim
     head_fits = fit_networks(train, needed_units,
                              _output_layer_starts(needed_units, dim, seeds, settings)
                              if fixed else None, settings.network, random_state=seeds,
