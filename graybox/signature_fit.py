@@ -22,8 +22,8 @@ from threadpoolctl import threadpool_limits
 
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
 from graybox.exceptions import GrayBoxError, InsufficientDataError
-from graybox.integration import (ERROR_POINTS, Integration, IntegrationError,
-                                 choose_integration)
+from graybox.integration import (DEFAULT_SUBSTEPS, ERROR_POINTS, MAX_SUBSTEPS, Integration,
+                                 IntegrationError, choose_integration)
 from graybox.models.base import WhiteBoxModel
 from graybox.models.spec import ModelSpec
 from graybox.operating_conditions import operating_conditions
@@ -34,7 +34,8 @@ from graybox.settings import MIN_SAMPLES_TARGET, STRUCTURE_ROOM, GrayBoxSettings
 from graybox.signature import ChannelSignature, HiddenStart, Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.segment_cache import SegmentCache
-from graybox.state_estimation import WindowStates, estimate_states, window_arrays
+from graybox.state_estimation import (INITIAL_FIT_MIN_SAMPLES, WindowStates, estimate_states,
+                                      window_arrays)
 from graybox.telemetry.policy import format_duration
 from graybox.telemetry.window import window_periods
 from graybox.tiers import TIER_KINDS, Tier
@@ -214,14 +215,55 @@ def _first_integration(model) -> Integration:
     return Integration("rosenbrock_w" if model.integrator == "rosenbrock" else "rk4")
 
 
+#: rows at the start of each segment of a white box with hidden states that the integrator
+#: is not judged on: the hidden start is fitted to a segment's first samples (at least
+#: :data:`~graybox.state_estimation.INITIAL_FIT_MIN_SAMPLES`, these) and is least determined
+#: at the first of them, where an error in a lightly damped mode's start rings before it
+#: decays (the 10-Hz servo's velocity: 3 m/s at its first row, below 0.1 m/s after it);
+#: a model no integrator follows fails on the rows after them as on those
+HIDDEN_START_ROWS = INITIAL_FIT_MIN_SAMPLES
+
+
+def _judged_rows(model, window: WindowStates) -> tuple[np.ndarray, np.ndarray]:
+    """A segment's states and inputs the integrator is judged on: without its first
+    :data:`HIDDEN_START_ROWS` where the model has hidden states (and the segment is more
+    than twice as long), every row otherwise."""
+    long_enough = len(window.states) > 2 * HIDDEN_START_ROWS
+    skip = HIDDEN_START_ROWS if model.hidden_states and long_enough else 0
+    return window.states[skip:], window.u[skip:]
+
+
+def _first_estimate(model, y: np.ndarray, u: np.ndarray, interval: float, estimate
+                    ) -> tuple[Integration, WindowStates]:
+    """A new baseline's first hidden-state estimate of one segment and its integrator.
+
+    An ``"auto"`` white box's is RK4 at the default sub-steps, then, where that diverges,
+    RK4 at twice as many up to the most the choice takes (a lightly damped fast mode: the
+    10-Hz servo's follows at 4 and is accurate at 32), then ``rosenbrock_w`` (a stiff one).
+    """
+    first = _first_integration(model)
+    if model.integrator != "auto":
+        return first, estimate(model, y, u, interval, first)
+    while True:
+        try:
+            return first, estimate(model, y, u, interval, first)
+        except IntegrationError:
+            if 2 * first.substeps > MAX_SUBSTEPS // 2:
+                break
+            first = Integration("rk4", 2 * first.substeps)
+    stiff = Integration("rosenbrock_w")
+    return stiff, estimate(model, y, u, interval, stiff)
+
+
 def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: float,
                cache: SegmentCache | None) -> tuple[Integration, list[WindowStates]]:
     """The integrator (a candidate: its baseline's) and every segment's full state.
 
     A new baseline's integrator is chosen at the data's own states
     (:func:`graybox.integration.choose_integration`); hidden states are first estimated with
-    RK4 (``rosenbrock_w`` where RK4 diverges or the model asks for it), and again if the
-    choice differs.
+    RK4 (:func:`_first_estimate`: more sub-steps or ``rosenbrock_w`` where RK4 at the default
+    diverges on the first segment, and ``rosenbrock_w`` where the model asks for it), and
+    again if the choice differs.
     """
     model = request.model
     arrays = [window_arrays(model, frame) for frame in frames]
@@ -230,28 +272,35 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
         integration = request.baseline.integration_used
         return integration, [estimate(model, y, u, interval, integration)
                              for y, u in arrays]
-    # stiff hidden dynamics: where RK4 diverges (an "auto" model), the L-stable method
-    first, stiff = _first_integration(model), Integration("rosenbrock_w")
-    try:
-        head = estimate(model, *arrays[0], interval, first)
-    except IntegrationError:
-        if model.integrator != "auto":
-            raise
-        first, head = stiff, estimate(model, *arrays[0], interval, stiff)
+    stiff = Integration("rosenbrock_w")
+    first, head = _first_estimate(model, *arrays[0], interval, estimate)
     # a white box that no integrator follows fails on its first segment, not after the
     # whole baseline's estimates (a 10-Hz servo's: 400 s and 5 GB an asset)
-    _check_integrable(model, head, interval)
+    chosen = _check_integrable(model, head, interval)
+    states = [head]
+    if first.method == "rk4" and first.substeps > DEFAULT_SUBSTEPS:
+        # RK4 diverged at the default sub-steps: every segment estimated with the first
+        # segment's choice (the 10-Hz servo's RK4 follows at 4 sub-steps, the choice takes
+        # 32), not with the first estimate's and then again, their hidden starts fitted side
+        # by side (a 10-Hz segment's start fit at 32 sub-steps: 150 s of CPU alone)
+        if chosen is not None and chosen != first:
+            first, states = chosen, []
+        if cache is not None:
+            for y, u in arrays[len(states):]:
+                cache.stage_start(model, y, u, interval, first)
+            cache.fit_starts()
     try:
-        states = [head] + [estimate(model, y, u, interval, first) for y, u in arrays[1:]]
+        states += [estimate(model, y, u, interval, first) for y, u in arrays[len(states):]]
     except IntegrationError:
         if model.integrator != "auto" or first == stiff:
             raise
         first = stiff
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
-    x = np.concatenate([s.states for s in states])
-    u = np.concatenate([s.u for s in states])
+    judged = [_judged_rows(model, s) for s in states]
+    x = np.concatenate([rows for rows, _ in judged])
+    u = np.concatenate([inputs for _, inputs in judged])
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
-    steps = np.concatenate([np.diff(s.states, axis=0) for s in states])
+    steps = np.concatenate([np.diff(rows, axis=0) for rows, _ in judged])
     change = np.sqrt(np.nanmean(steps ** 2, axis=0))
     integration = choose_integration(model, x[finite], u[finite], interval, change)
     if integration != first and model.hidden_states:
@@ -259,16 +308,18 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
     return integration, states
 
 
-def _check_integrable(model, window: WindowStates, interval: float) -> None:
-    """Raise :class:`IntegrationError` where no integrator reaches the bound at one segment's
-    states (:func:`graybox.integration.choose_integration`; the choice itself is made on
+def _check_integrable(model, window: WindowStates, interval: float) -> Integration | None:
+    """The integrator chosen at one segment's states (:func:`_judged_rows`), raising
+    :class:`IntegrationError` where none reaches the bound
+    (:func:`graybox.integration.choose_integration`; the baseline's choice itself is made on
     every segment's states after). A segment shorter than the choice's sample points is not
-    judged alone."""
-    finite = np.isfinite(window.states).all(axis=1) & np.isfinite(window.u).all(axis=1)
+    judged alone (None)."""
+    states, u = _judged_rows(model, window)
+    finite = np.isfinite(states).all(axis=1) & np.isfinite(u).all(axis=1)
     if finite.sum() <= ERROR_POINTS:
-        return
-    change = np.sqrt(np.nanmean(np.diff(window.states, axis=0) ** 2, axis=0))
-    choose_integration(model, window.states[finite], window.u[finite], interval, change)
+        return None
+    change = np.sqrt(np.nanmean(np.diff(states, axis=0) ** 2, axis=0))
+    return choose_integration(model, states[finite], u[finite], interval, change)
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
