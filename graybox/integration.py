@@ -243,7 +243,7 @@ def _check_growth(model, x: np.ndarray, u: np.ndarray, dt: float) -> None:
 
 
 def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
-                       change: np.ndarray) -> Integration:
+                       change: np.ndarray, judged: np.ndarray | None = None) -> Integration:
     """The cheapest method and sub-steps whose error estimate is below the bound.
 
     Parameters
@@ -255,6 +255,10 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
     dt : float
     change : ndarray of shape (n_states,)
         RMS sample-to-sample change of each state in the data (the error's unit).
+    judged : ndarray of bool, shape (T,), optional
+        Rows the error may be estimated at: of the :data:`ERROR_POINTS` spread over the
+        data, those outside it are left out (a segment's first rows, where a hidden start is
+        least determined: :func:`graybox.signature_fit._integrate`). Default: every row.
 
     Raises
     ------
@@ -262,6 +266,10 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
         Naming the model, the state and what to do, when no method reaches the bound.
     """
     take = np.unique(np.linspace(0, len(x) - 2, min(ERROR_POINTS, len(x) - 1)).round().astype(int))
+    if judged is not None and judged[take].any():
+        # the points stay where they are over the data, those outside the judged rows
+        # dropped: the other points and so the choice elsewhere unchanged
+        take = take[judged[take]]
     x0, u0, u1 = x[take], u[take], u[take + 1]
     _check_growth(model, x0, u0, dt)
     methods = {"auto": METHODS[:2], "rk4": ("rk4",), "rosenbrock": ("rosenbrock",)}[

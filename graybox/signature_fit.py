@@ -216,21 +216,23 @@ def _first_integration(model) -> Integration:
 
 
 #: rows at the start of each segment of a white box with hidden states that the integrator
-#: is not judged on: the hidden start is fitted to a segment's first samples (at least
+#: is not judged at: the hidden start is fitted to a segment's first samples (at least
 #: :data:`~graybox.state_estimation.INITIAL_FIT_MIN_SAMPLES`, these) and is least determined
 #: at the first of them, where an error in a lightly damped mode's start rings before it
-#: decays (the 10-Hz servo's velocity: 3 m/s at its first row, below 0.1 m/s after it);
-#: a model no integrator follows fails on the rows after them as on those
+#: decays (the 10-Hz servo's velocity: 3 m/s at its first row, below 0.1 m/s after it; its
+#: RK4 start at 4 sub-steps -1.3 m/s, 0.06 at the next row); a model no integrator follows
+#: fails on the rows after them as on those
 HIDDEN_START_ROWS = INITIAL_FIT_MIN_SAMPLES
 
 
-def _judged_rows(model, window: WindowStates) -> tuple[np.ndarray, np.ndarray]:
-    """A segment's states and inputs the integrator is judged on: without its first
-    :data:`HIDDEN_START_ROWS` where the model has hidden states (and the segment is more
-    than twice as long), every row otherwise."""
-    long_enough = len(window.states) > 2 * HIDDEN_START_ROWS
-    skip = HIDDEN_START_ROWS if model.hidden_states and long_enough else 0
-    return window.states[skip:], window.u[skip:]
+def _judged_rows(model, window: WindowStates) -> np.ndarray:
+    """Which of a segment's rows the integrator is judged at
+    (:func:`graybox.integration.choose_integration`): all but the first
+    :data:`HIDDEN_START_ROWS` where the model has hidden states, every row otherwise."""
+    judged = np.ones(len(window.states), dtype=bool)
+    if model.hidden_states:
+        judged[:HIDDEN_START_ROWS] = False
+    return judged
 
 
 def _first_estimate(model, y: np.ndarray, u: np.ndarray, interval: float, estimate
@@ -296,30 +298,34 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
             raise
         first = stiff
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
-    judged = [_judged_rows(model, s) for s in states]
-    x = np.concatenate([rows for rows, _ in judged])
-    u = np.concatenate([inputs for _, inputs in judged])
+    x = np.concatenate([s.states for s in states])
+    u = np.concatenate([s.u for s in states])
+    rows = [_judged_rows(model, s) for s in states]
+    judged = np.concatenate(rows)
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
-    steps = np.concatenate([np.diff(rows, axis=0) for rows, _ in judged])
+    # the bound's unit without the first rows either (a wrong start's jump widens it)
+    steps = np.concatenate([np.diff(s.states[r], axis=0) for s, r in zip(states, rows)])
     change = np.sqrt(np.nanmean(steps ** 2, axis=0))
-    integration = choose_integration(model, x[finite], u[finite], interval, change)
+    integration = choose_integration(model, x[finite], u[finite], interval, change,
+                                     judged[finite])
     if integration != first and model.hidden_states:
         states = [estimate(model, y, u, interval, integration) for y, u in arrays]
     return integration, states
 
 
 def _check_integrable(model, window: WindowStates, interval: float) -> Integration | None:
-    """The integrator chosen at one segment's states (:func:`_judged_rows`), raising
+    """The integrator chosen at one segment's states (at its :func:`_judged_rows`), raising
     :class:`IntegrationError` where none reaches the bound
     (:func:`graybox.integration.choose_integration`; the baseline's choice itself is made on
     every segment's states after). A segment shorter than the choice's sample points is not
     judged alone (None)."""
-    states, u = _judged_rows(model, window)
-    finite = np.isfinite(states).all(axis=1) & np.isfinite(u).all(axis=1)
+    finite = np.isfinite(window.states).all(axis=1) & np.isfinite(window.u).all(axis=1)
     if finite.sum() <= ERROR_POINTS:
         return None
-    change = np.sqrt(np.nanmean(np.diff(states, axis=0) ** 2, axis=0))
-    return choose_integration(model, states[finite], u[finite], interval, change)
+    judged = _judged_rows(model, window)
+    change = np.sqrt(np.nanmean(np.diff(window.states[judged], axis=0) ** 2, axis=0))
+    return choose_integration(model, window.states[finite], window.u[finite], interval, change,
+                              judged[finite])
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
