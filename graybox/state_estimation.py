@@ -6,7 +6,8 @@ voltages) is run through the window as an open-loop predictor of them:
 
 1. **The window's initial hidden state** is fitted by least squares
    (``scipy.optimize.least_squares``) over the window's first :data:`INITIAL_FIT_SECONDS`
-   (at least :data:`INITIAL_FIT_MIN_SAMPLES` samples): the hidden start that makes the model
+   (at least :data:`INITIAL_FIT_MIN_SAMPLES` samples, at most :data:`INITIAL_FIT_MAX_SAMPLES`:
+   a logger faster than 1 Hz fits its start to fewer seconds): the hidden start that makes the model
    reproduce the computed outputs (and the measured states' one-step changes) best, each
    scaled by its spread. The model's ``initial_state`` gives the search's start. The
    segments of one fit call (a calibration's pieces, a night's candidates of every asset)
@@ -41,6 +42,12 @@ from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
 INITIAL_FIT_MIN_SAMPLES = 20
+#: the start fit's samples at most (a 1-Hz logger's 900 s): each of its evaluations runs
+#: them one after another, so a 10-Hz servo's 9,000 at 32 RK4 sub-steps cost 150 s of CPU a
+#: segment. A faster logger so fits its start to fewer seconds: as many samples of the
+#: outputs that read the start (the servo's 14-Hz velocity is read within a second), less
+#: of a slow hidden mode's drift (no zoo plant logged faster than 1 Hz has one)
+INITIAL_FIT_MAX_SAMPLES = 900
 #: samples per multiple-shooting chunk: a chunk's steps run one after another, the chunks
 #: side by side, and each step costs about the same whatever the number of chunks (a
 #: small white box's call is mostly overhead), so short chunks are fast: 20 instead of
@@ -242,7 +249,8 @@ def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
 
 def start_fit_samples(dt: float) -> int:
     """Samples at a segment's start that its initial hidden state is fitted to (at most)."""
-    return max(INITIAL_FIT_MIN_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt)))
+    return max(INITIAL_FIT_MIN_SAMPLES,
+               min(INITIAL_FIT_MAX_SAMPLES, int(np.ceil(INITIAL_FIT_SECONDS / dt))))
 
 
 class _StartFit:
