@@ -298,16 +298,7 @@ def _integrate(request: FitRequest, frames: Sequence[pd.DataFrame], interval: fl
             raise
         first = stiff
         states = [estimate(model, y, u, interval, first) for y, u in arrays]
-    x = np.concatenate([s.states for s in states])
-    u = np.concatenate([s.u for s in states])
-    rows = [_judged_rows(model, s) for s in states]
-    judged = np.concatenate(rows)
-    finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
-    # the bound's unit without the first rows either (a wrong start's jump widens it)
-    steps = np.concatenate([np.diff(s.states[r], axis=0) for s, r in zip(states, rows)])
-    change = np.sqrt(np.nanmean(steps ** 2, axis=0))
-    integration = choose_integration(model, x[finite], u[finite], interval, change,
-                                     judged[finite])
+    integration = _choose_at(model, states, interval)
     if integration != first and model.hidden_states:
         states = [estimate(model, y, u, interval, integration) for y, u in arrays]
     return integration, states
@@ -322,10 +313,21 @@ def _check_integrable(model, window: WindowStates, interval: float) -> Integrati
     finite = np.isfinite(window.states).all(axis=1) & np.isfinite(window.u).all(axis=1)
     if finite.sum() <= ERROR_POINTS:
         return None
-    judged = _judged_rows(model, window)
-    change = np.sqrt(np.nanmean(np.diff(window.states[judged], axis=0) ** 2, axis=0))
-    return choose_integration(model, window.states[finite], window.u[finite], interval, change,
-                              judged[finite])
+    return _choose_at(model, [window], interval)
+
+
+def _choose_at(model, windows: Sequence[WindowStates], interval: float) -> Integration:
+    """:func:`graybox.integration.choose_integration` at the segments' finite states, judged at
+    their :func:`_judged_rows`, the bound's unit (each state's RMS sample-to-sample change)
+    from those rows too: a wrong start's jump would widen it."""
+    x = np.concatenate([w.states for w in windows])
+    u = np.concatenate([w.u for w in windows])
+    rows = [_judged_rows(model, w) for w in windows]
+    finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
+    steps = np.concatenate([np.diff(w.states[r], axis=0) for w, r in zip(windows, rows)])
+    change = np.sqrt(np.nanmean(steps ** 2, axis=0))
+    return choose_integration(model, x[finite], u[finite], interval, change,
+                              np.concatenate(rows)[finite])
 
 
 def analysis_interval(request: FitRequest, settings: GrayBoxSettings,
