@@ -338,11 +338,14 @@ class _StartFit:
         pieces = np.arange(count) if pieces is None else np.asarray(pieces)
         batch = np.concatenate([z] + [z + delta[i] * np.eye(n_hidden)[i]
                                       for i in range(n_hidden)])
-        e = self.errors(batch, np.tile(pieces, n_hidden + 1))
-        e = np.where(np.isfinite(e), e, 1e6)
-        base = e[:count]
-        jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
-                             for i in range(n_hidden)], axis=-1)
+        # a trial start whose run diverges overflows: its errors count as large, and a
+        # start fit that ends there fails the prediction's own check (check_prediction)
+        with np.errstate(all="ignore"):
+            e = self.errors(batch, np.tile(pieces, n_hidden + 1))
+            e = np.where(np.isfinite(e), e, 1e6)
+            base = e[:count]
+            jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
+                                 for i in range(n_hidden)], axis=-1)
         return base, jacobian
 
 
@@ -391,8 +394,9 @@ def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray
             cache[key] = (e[0], jacobian[0])
         return cache[key]
 
-    fit = least_squares(lambda z: evaluate(z)[0], layout.guess, jac=lambda z: evaluate(z)[1],
-                        x_scale=scale, max_nfev=50)
+    with np.errstate(all="ignore"):     # the solver's steps from a diverging run's errors
+        fit = least_squares(lambda z: evaluate(z)[0], layout.guess,
+                            jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50)
     return fit.x
 
 
@@ -446,8 +450,11 @@ def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray
                     cache[key] = value
                 return cache[key]
 
-            return least_squares(lambda z: evaluate(z)[0], layout.guess,
-                                 jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50).x
+            # numpy's error state is per thread: set here, in the solver's own
+            with np.errstate(all="ignore"):
+                return least_squares(lambda z: evaluate(z)[0], layout.guess,
+                                     jac=lambda z: evaluate(z)[1], x_scale=scale,
+                                     max_nfev=50).x
 
         starts.extend(run_in_lockstep([solver] * len(problem.n), batch))
     return np.array(starts).reshape(len(pieces), n_hidden)
