@@ -520,8 +520,13 @@ def _fit_batched(prepared: list[AssetFit], settings: GrayBoxSettings, chunk_size
 
 
 def _as_graybox_error(error: Exception, request: FitRequest) -> GrayBoxError:
-    if isinstance(error, GrayBoxError):
-        return error
-    return GrayBoxError(f"asset {request.asset_id!r}: {type(error).__name__}: {error}")
+    """The error of one request, its message naming the asset (a GrayBoxError keeps its
+    class; one raised below the request, such as the white box's, is told whose it is)."""
+    named = f"asset {request.asset_id!r}"
+    if not isinstance(error, GrayBoxError):
+        return GrayBoxError(f"{named}: {type(error).__name__}: {error}")
+    if request.asset_id and named not in str(error) and len(error.args) == 1:
+        error.args = (f"{named}: {error.args[0]}",)
+    return error
 
 

@@ -37,7 +37,8 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from graybox.exceptions import InsufficientDataError
-from graybox.integration import Integration, IntegrationError, advance
+from graybox.integration import (Integration, IntegrationError, advance,
+                                 check_finite_prediction)
 from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
@@ -174,8 +175,11 @@ def moved_chunk_starts(window: WindowStates, move: np.ndarray) -> np.ndarray:
 def predict_one_step(model, states: np.ndarray, u: np.ndarray, dt: float,
                      integration: Integration) -> np.ndarray:
     """Every sample's full state predicted from the estimated state one sample earlier:
-    (T - 1, n_states)."""
-    return advance(model.derivatives, states[:-1], u[:-1], u[1:], dt, integration)
+    (T - 1, n_states). A prediction that is not finite from a finite start is an
+    :class:`IntegrationError` (:func:`graybox.integration.check_finite_prediction`)."""
+    predicted = advance(model.derivatives, states[:-1], u[:-1], u[1:], dt, integration)
+    check_finite_prediction(model, states[:-1], u[:-1], u[1:], predicted)
+    return predicted
 
 
 def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: str) -> None:
