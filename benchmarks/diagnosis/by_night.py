@@ -1,0 +1,101 @@
+"""``python -m benchmarks.diagnosis.by_night A.json [B.json ...]``: the diagnosis runs' top-1
+and top-3 split into the onset night and the later nights, side by side.
+
+Reads the ``--json`` records of ``python -m benchmarks.diagnosis`` (the grid's rows) and
+prints one markdown table: per fault kind, magnitude and model error, each record's detected
+nights, top-1 and top-3 over all of them, over the onset nights (the first night of the
+fault) and over the later ones; then each record's healthy nights given a cause and the CPU
+seconds per diagnosed night. The onset/later split the docs' diagnosis tables use
+(docs/benchmarks.md, "One night, or the candidate's nights"), written once.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+
+from benchmarks.diagnosis import scores
+
+
+def _pct(hits: int | None, total: int) -> str:
+    if hits is None:
+        return "-"
+    return f"{hits}/{total} ({hits / total:.0%})" if total else "0/0"
+
+
+def split(record: dict) -> dict:
+    """``(fault, magnitude, model error) -> {"all"|"onset"|"later": accuracy cell}`` of a
+    ``--json`` record's grid rows (:func:`scores.accuracy` on each subset of nights)."""
+    grid = record["grid"]
+    onset = grid["grid"]["baseline_days"] + grid["grid"]["pre_nights"]
+    subsets = {"all": lambda n: True, "onset": lambda n: n == onset, "later": lambda n: n > onset}
+    out: dict = {}
+    for name, keep in subsets.items():
+        for cell in scores.accuracy([r for r in grid["rows"] if keep(r["night"])]):
+            out.setdefault((cell["fault"], cell["magnitude"], cell["model_error"]), {})[name] = cell
+    return out
+
+
+def _hits(cell: dict | None, field: str) -> str:
+    if cell is None:
+        return "0/0"
+    return _pct(cell[field], cell["detected"])
+
+
+def table(records: list[dict], names: list[str]) -> list[str]:
+    """The side-by-side markdown table of ``records`` (columns named ``names``)."""
+    splits = [split(r) for r in records]
+    keys = sorted({k for s in splits for k in s})
+    head = ["fault", "magnitude", "model error"]
+    for name in names:
+        head += [f"{name}: top-1 (all / onset / later)", f"{name}: top-3 (all / onset / later)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for key in keys:
+        fault, magnitude, error = key
+        cells = [f"{fault}", f"{magnitude:g}", f"{error:.0%}"]
+        for s in splits:
+            parts = s.get(key, {})
+            for field in ("top1", "top3"):
+                if parts.get("all", {}).get("expected") is None:
+                    cells.append("-")
+                    continue
+                cells.append(" / ".join(_hits(parts.get(n), field)
+                                        for n in ("all", "onset", "later")))
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def summary(records: list[dict], names: list[str]) -> list[str]:
+    """Per record and model error: healthy nights given a cause (and of those that alarmed),
+    and the CPU seconds per diagnosed night."""
+    lines = ["| run | model error | healthy nights given a cause | false alarms given a cause | "
+             "diagnosed nights | CPU s per diagnosed night (median / 90th pct. / largest) | "
+             "diagnosis errors |", "|---|---|---|---|---|---|---|"]
+    for name, record in zip(names, records):
+        rows = record["grid"]["rows"]
+        for f in scores.false_causes(rows):
+            mine = [r for r in rows if r["model_error"] == f["model_error"]]
+            cost = scores.cost(mine)
+            errors = sum("diagnosis_error" in r for r in mine)
+            lines.append(
+                f"| {name} | {f['model_error']:.0%} | {_pct(f['with_cause'], f['healthy_nights'])}"
+                f" | {f['false_alarms_with_cause']}/{f['false_alarms']} | {cost['diagnosed']} | "
+                f"{cost.get('cpu_median', float('nan')):.2f} / {cost.get('cpu_p90', float('nan')):.2f}"
+                f" / {cost.get('cpu_max', float('nan')):.2f} | {errors} |")
+    return lines
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis.by_night",
+                                description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("records", nargs="+", type=pathlib.Path, metavar="F.json")
+    p.add_argument("--names", help="the columns' names, comma-separated (default the files')")
+    args = p.parse_args(argv)
+    records = [json.loads(path.read_text()) for path in args.records]
+    names = args.names.split(",") if args.names else [path.stem for path in args.records]
+    print("\n".join(table(records, names) + [""] + summary(records, names)))
+
+
+if __name__ == "__main__":
+    main()
