@@ -4,8 +4,8 @@ and top-3 split into the onset night and the later nights, side by side.
 Reads the ``--json`` records of ``python -m benchmarks.diagnosis`` (the grid's rows) and
 prints one markdown table: per fault kind, magnitude and model error, each record's detected
 nights, top-1 and top-3 over all of them, over the onset nights (the first night of the
-fault) and over the later ones; then each record's healthy nights given a cause and the CPU
-seconds per diagnosed night. The onset/later split the docs' diagnosis tables use
+fault) and over the later ones; then the top-1 night by night from the onset; then each
+record's healthy nights given a cause and the CPU seconds per diagnosed night. The onset/later split the docs' diagnosis tables use
 (docs/benchmarks.md, "One night, or the candidate's nights"), written once.
 """
 from __future__ import annotations
@@ -24,11 +24,14 @@ def _pct(hits: int | None, total: int) -> str:
 
 
 def split(record: dict) -> dict:
-    """``(fault, magnitude, model error) -> {"all"|"onset"|"later": accuracy cell}`` of a
-    ``--json`` record's grid rows (:func:`scores.accuracy` on each subset of nights)."""
+    """``(fault, magnitude, model error) -> {"all"|"onset"|"later"|k: accuracy cell}`` of a
+    ``--json`` record's grid rows (:func:`scores.accuracy` on each subset of nights; ``k``:
+    the k-th night from the onset, the onset night 1)."""
     grid = record["grid"]
     onset = grid["grid"]["baseline_days"] + grid["grid"]["pre_nights"]
     subsets = {"all": lambda n: True, "onset": lambda n: n == onset, "later": lambda n: n > onset}
+    subsets.update({k + 1: (lambda n, k=k: n == onset + k)
+                    for k in range(grid["grid"]["post_nights"])})
     out: dict = {}
     for name, keep in subsets.items():
         for cell in scores.accuracy([r for r in grid["rows"] if keep(r["night"])]):
@@ -65,6 +68,23 @@ def table(records: list[dict], names: list[str]) -> list[str]:
     return lines
 
 
+def night_by_night(records: list[dict], names: list[str]) -> list[str]:
+    """Top-1 on the k-th night from the onset (the onset night 1), per record and cell."""
+    splits = [split(r) for r in records]
+    nights = max(r["grid"]["grid"]["post_nights"] for r in records)
+    head = ["fault", "magnitude", "model error", "run"] + [f"night {k}" for k in
+                                                          range(1, nights + 1)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for key in sorted({k for s in splits for k in s}):
+        for name, parts in ((n, s.get(key, {})) for n, s in zip(names, splits)):
+            if parts.get("all", {}).get("expected") is None:
+                continue
+            fault, magnitude, error = key
+            lines.append(f"| {fault} | {magnitude:g} | {error:.0%} | {name} | " + " | ".join(
+                _hits(parts.get(k), "top1") for k in range(1, nights + 1)) + " |")
+    return lines
+
+
 def summary(records: list[dict], names: list[str]) -> list[str]:
     """Per record and model error: healthy nights given a cause (and of those that alarmed),
     and the CPU seconds per diagnosed night."""
@@ -94,7 +114,8 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     records = [json.loads(path.read_text()) for path in args.records]
     names = args.names.split(",") if args.names else [path.stem for path in args.records]
-    print("\n".join(table(records, names) + [""] + summary(records, names)))
+    print("\n".join(table(records, names) + [""] + night_by_night(records, names) + [""]
+                    + summary(records, names)))
 
 
 if __name__ == "__main__":

@@ -89,3 +89,17 @@ def test_since_alarm_reads_the_episode_and_keeps_the_onset_nights_answer(runs):
         healthy = episode["healthy", night]
         if not healthy["alarm"]:
             assert _answer(healthy) == _answer(default["healthy", night])
+
+
+def test_by_night_splits_the_onset_night_from_the_later_ones(runs):
+    from benchmarks.diagnosis.by_night import night_by_night, split, table
+
+    record = {"grid": runs["since-alarm"]}
+    cells = split(record)[("bias", 2.0, 0.0)]
+    assert (cells["all"]["detected"], cells["onset"]["detected"], cells["later"]["detected"]) \
+        == (2, 1, 1)
+    assert cells[1]["top1"] == cells[2]["top1"] == 1
+    lines = table([record, {"grid": runs["candidate"]}], ["since-alarm", "candidate"])
+    assert lines[2].startswith("| bias | 2 | 0% | 2/2 (100%) / 1/1 (100%) / 1/1 (100%) |")
+    assert night_by_night([record], ["since-alarm"])[2] == (
+        "| bias | 2 | 0% | since-alarm | 1/1 (100%) | 1/1 (100%) |")
