@@ -4,15 +4,21 @@ and top-3 split into the onset night and the later nights, side by side.
 Reads the ``--json`` records of ``python -m benchmarks.diagnosis`` (the grid's rows) and
 prints one markdown table: per fault kind, magnitude and model error, each record's detected
 nights, top-1 and top-3 over all of them, over the onset nights (the first night of the
-fault) and over the later ones; then the top-1 night by night from the onset; then each
-record's healthy nights given a cause and the CPU seconds per diagnosed night. The onset/later split the docs' diagnosis tables use
+fault) and over the later ones; then the top-1 night by night from the onset; the score gap
+of the expected hypothesis over its best rival night by night (its mean and spread, and how
+much of it stays with the vehicle from night to night); then each record's healthy nights
+given a cause and the CPU seconds per diagnosed night. The onset/later split the docs' diagnosis tables use
 (docs/benchmarks.md, "One night, or the candidate's nights"), written once.
 """
 from __future__ import annotations
 
 import argparse
+import collections
 import json
+import math
 import pathlib
+
+import numpy as np
 
 from benchmarks.diagnosis import scores
 
@@ -85,6 +91,65 @@ def night_by_night(records: list[dict], names: list[str]) -> list[str]:
     return lines
 
 
+def gap(row: dict) -> float:
+    """The expected hypothesis' score minus its best rival's among the kept first five (its
+    lead when first, its deficit otherwise); NaN when it is not among them."""
+    name = scores._hypothesis_name(row["expected"])
+    mine = [h["score"] for h in row["top"] if h["hypothesis"] == name]
+    others = [h["score"] for h in row["top"] if h["hypothesis"] != name]
+    return mine[0] - max(others) if mine and others else math.nan
+
+
+def gaps(record: dict) -> dict:
+    """``(fault, magnitude, model error) -> {"nights": {k: [gap, ...]}, "between": sd,
+    "within": sd, "vehicles": n}`` over the detected nights: the gaps on the k-th night from
+    the onset, and over the vehicles detected on every night, the spread of a vehicle's mean
+    gap (between) and of its gaps about that mean (within, averaged)."""
+    grid = record["grid"]
+    onset = grid["grid"]["baseline_days"] + grid["grid"]["pre_nights"]
+    nights = grid["grid"]["post_nights"]
+    per = collections.defaultdict(lambda: collections.defaultdict(dict))
+    for row in grid["rows"]:
+        if not row["expected"] or not row.get("alarm") or not row["diagnosed"]:
+            continue
+        key = (row["fault"], row["magnitude"], row["model_error"])
+        per[key][row["seed"], row["vehicle"]][row["night"] - onset + 1] = gap(row)
+    out = {}
+    for key, vehicles in per.items():
+        by_night = {k: [v[k] for v in vehicles.values() if k in v and math.isfinite(v[k])]
+                    for k in range(1, nights + 1)}
+        full = np.array([[v[k] for k in range(1, nights + 1)] for v in vehicles.values()
+                         if all(math.isfinite(v.get(k, math.nan)) for k in range(1, nights + 1))])
+        out[key] = {"nights": by_night, "vehicles": len(full),
+                    "between": float(full.mean(axis=1).std(ddof=1)) if len(full) > 1 else math.nan,
+                    "within": (float(full.std(axis=1, ddof=1).mean())
+                               if len(full) > 1 and nights > 1 else math.nan)}
+    return out
+
+
+def gap_table(records: list[dict], names: list[str], faults=("bias",)) -> list[str]:
+    """The gaps of ``faults``' cells night by night: mean, standard deviation and share
+    positive; and the between- and within-vehicle spreads."""
+    nights = max(r["grid"]["grid"]["post_nights"] for r in records)
+    head = ["fault", "magnitude", "model error", "run"] + [
+        f"night {k}: gap mean / sd (positive)" for k in range(1, nights + 1)] + [
+        "vehicle's mean gap: sd between vehicles / within (vehicles)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, record in zip(names, records):
+        for (fault, magnitude, error), cell in sorted(gaps(record).items()):
+            if fault not in faults:
+                continue
+            parts = []
+            for k in range(1, nights + 1):
+                g = np.array(cell["nights"].get(k, []))
+                parts.append(f"{g.mean():.2f} / {g.std(ddof=1):.2f} ({int((g > 0).sum())}/{len(g)})"
+                             if len(g) > 1 else "-")
+            lines.append(f"| {fault} | {magnitude:g} | {error:.0%} | {name} | " + " | ".join(parts)
+                         + f" | {cell['between']:.2f} / {cell['within']:.2f} "
+                           f"({cell['vehicles']}) |")
+    return lines
+
+
 def summary(records: list[dict], names: list[str]) -> list[str]:
     """Per record and model error: healthy nights given a cause (and of those that alarmed),
     and the CPU seconds per diagnosed night."""
@@ -115,7 +180,7 @@ def main(argv=None) -> None:
     records = [json.loads(path.read_text()) for path in args.records]
     names = args.names.split(",") if args.names else [path.stem for path in args.records]
     print("\n".join(table(records, names) + [""] + night_by_night(records, names) + [""]
-                    + summary(records, names)))
+                    + gap_table(records, names) + [""] + summary(records, names)))
 
 
 if __name__ == "__main__":

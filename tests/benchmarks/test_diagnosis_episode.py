@@ -103,3 +103,15 @@ def test_by_night_splits_the_onset_night_from_the_later_ones(runs):
     assert lines[2].startswith("| bias | 2 | 0% | 2/2 (100%) / 1/1 (100%) / 1/1 (100%) |")
     assert night_by_night([record], ["since-alarm"])[2] == (
         "| bias | 2 | 0% | since-alarm | 1/1 (100%) | 1/1 (100%) |")
+
+
+def test_the_gap_is_the_expected_hypothesis_lead_over_its_best_rival():
+    from benchmarks.diagnosis.by_night import gap
+
+    top = [{"hypothesis": "parameter compressor_linear", "score": 9.0},
+           {"hypothesis": "omega sensor bias", "score": 7.5},
+           {"hypothesis": "parameter turbine_gain", "score": 3.0}]
+    assert gap({"expected": "bias omega", "top": top}) == -1.5
+    assert gap({"expected": "bias omega", "top": top[1:]}) == 4.5
+    assert gap({"expected": "parameter inertia", "top": top}) != gap(
+        {"expected": "parameter inertia", "top": top})   # not among the kept five: NaN
