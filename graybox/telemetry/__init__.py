@@ -83,11 +83,11 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     """
     validate_asset_id(asset_id)
     extra = [name for name, _, _ in policy.running if name not in columns]
-    rows = read_rows(root, asset_id, [*columns, *extra], start=start, end=end)
-    rows = data_rows(rows, asset_id, policy, channels=rows.channels[:len(rows.channels)
-                                                                       - len(extra)])
+    logged = read_rows(root, asset_id, [*columns, *extra], start=start, end=end)
+    rows = data_rows(logged, asset_id, policy, channels=logged.channels[:len(logged.channels)
+                                                                           - len(extra)])
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
                              f"(grid running)")
-    rows, dt_ns = validate_rows(rows, asset_id, policy, inputs)
+    rows, dt_ns = validate_rows(rows, asset_id, policy, inputs, logged.ts)
     return grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))

@@ -9,7 +9,7 @@ from graybox.telemetry.layout import NS_PER_SECOND
 from graybox.telemetry.policy import GridPolicy
 from graybox.telemetry.rows import Rows
 from graybox.telemetry.validation import (check_duration, check_order, fill_missing,
-                                          grid_points, interval_ns, operating_points,
+                                          grid_points, logged_interval_ns, operating_points,
                                           period_starts, data_rows)
 from graybox.telemetry.window import TelemetryWindow
 
@@ -45,7 +45,8 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
         if timestamps are not increasing; ``"too_few_samples"`` if the interval cannot be
         inferred (one row) or the grid covers less than ``policy.min_duration``.
     """
-    rows = data_rows(Rows.from_frame(raw), asset_id, policy)
+    logged = Rows.from_frame(raw)
+    rows = data_rows(logged, asset_id, policy)
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", "no telemetry rows to put on a grid")
     check_order(rows, asset_id)  # interpolation needs increasing times
@@ -53,7 +54,7 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
         raise TelemetryError(asset_id, "too_few_samples",
                              "1 sample(s) in the window: two are needed to infer the "
                              "sample interval")
-    dt_ns = interval_ns(rows.ts, policy)
+    dt_ns = logged_interval_ns(rows.ts, logged.ts, policy)
     rows = fill_missing(rows, asset_id, policy, dt_ns)
     check_duration(asset_id, operating_points(rows, dt_ns, policy), dt_ns, policy)
     return grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))

@@ -74,20 +74,23 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     TelemetryError
         On the first problem found.
     """
-    validate_rows(data_rows(Rows.from_frame(raw), asset_id, policy), asset_id, policy, inputs)
+    logged = Rows.from_frame(raw)
+    validate_rows(data_rows(logged, asset_id, policy), asset_id, policy, inputs, logged.ts)
 
 
-def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = ()
-                  ) -> tuple[Rows, int]:
+def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collection[str] = (),
+                  logged: np.ndarray | None = None) -> tuple[Rows, int]:
     """:func:`validate` on :class:`Rows`; returns the rows with their missing values
-    interpolated (``Rows.missing`` marks them) and the sample interval in ns (for gridding)."""
+    interpolated (``Rows.missing`` marks them) and the sample interval in ns (for gridding).
+    ``logged``: the timestamps of every row read, before the running and held rows were
+    left out (:func:`logged_interval_ns`)."""
     _check_finite(rows, asset_id)
     check_order(rows, asset_id)
     if len(rows) < 2 and policy.sample_interval is None:
         raise TelemetryError(asset_id, "too_few_samples",
                              f"{len(rows)} sample(s) in the window: two are needed to infer the "
                              f"sample interval")
-    dt_ns = interval_ns(rows.ts, policy)
+    dt_ns = logged_interval_ns(rows.ts, logged, policy)
     rows = fill_missing(rows, asset_id, policy, dt_ns)
     _check_ranges(rows, asset_id, policy)
     _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
@@ -200,6 +203,27 @@ def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
                   f"non-finite value in column {name!r}={float(v[i])!r} (a running channel)", i)
         on &= (v >= low) & (v <= high)
     return rows.take(on, keep)
+
+
+#: the kept rows' step is not the logger's where it is more than this many of all rows' steps
+SCATTERED_ROWS = 1.5
+
+
+def logged_interval_ns(ts: np.ndarray, logged: np.ndarray | None, policy: GridPolicy) -> int:
+    """:func:`interval_ns` of the kept rows ``ts`` (running, not held), or of every row the
+    logger wrote (``logged``) where the kept rows are too scattered to show its step: a
+    turbine that produced in three separate 10-minute rows of a calm day has kept rows
+    about 40 minutes apart, not 10, and a window gridded at that step cannot be compared
+    with its baseline. Kept rows whose step is the logger's (an intermittent machine's
+    operating periods, a historian's held rows left out) give it as before."""
+    step = interval_ns(ts, policy)
+    if policy.sample_interval is not None or logged is None or len(logged) <= len(ts):
+        return step
+    logged = np.unique(logged[logged != np.iinfo(np.int64).min])
+    if len(logged) < 2:
+        return step
+    every = interval_ns(logged, policy)
+    return every if step > SCATTERED_ROWS * every else step
 
 
 def interval_ns(ts: np.ndarray, policy: GridPolicy) -> int:
