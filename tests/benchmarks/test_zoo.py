@@ -46,7 +46,14 @@ HEAVY = {"ev_battery", "traction_drive", "cooling_loop", "servo_hydraulic"}
 #: families that miss the false-alarm bound with the protocol's 5-day baseline (a finding,
 #: docs/benchmarks.md): the bus's ridership falls at weekends, and the reduced run's two
 #: nights are a Saturday and a Sunday against a Monday-to-Friday baseline
-MISSES = {"bus_longitudinal"}
+#: The held-out wind turbine (written blind, 10-min SCADA rows kept by ``running`` on the
+#: production time) fails a baseline and a night instead, a finding of 2026-11-28
+#: (docs/benchmarks.md): calm days. WINDTU-001's baseline fails on its day 2 (mean wind
+#: 2.6 m/s, 30 producing rows, the longest period 16): "channel 'power': window(s) [2] have 15
+#: residual samples at the 600-s analysis interval; the method needs more than 0 for
+#: differencing plus min_samples = 48 ..."; WINDTU-002's night 1 (45 producing rows, the
+#: longest period 20) has 19 where it needs 65. A turbine's fleet has such days every week.
+MISSES = {"bus_longitudinal", "wind_turbine"}
 #: the reduced zoo run: its families and its fleet (5 baseline days, the zoo protocol's own:
 #: day-to-day variation is estimated from them)
 REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES)
