@@ -65,8 +65,8 @@ Faults and why these magnitudes (fixed from the physics before any detection run
   (about 9 % less curve power in region 2); 8 % is a failing cup: 25 % below the curve at
   7 m/s, the turbine starting later and appearing to over-perform.
 
-The simulation costs about 1.6 s of CPU per batch of 64 asset-days, 0.2 s for 9 (a vectorised 5-s grid for
-the rotor, a 1-min loop for the controller and the temperatures).
+The simulation costs about 1.6 s of CPU per batch of 64 asset-days, 0.2 s for 9 (a vectorised
+5-s grid for the rotor, a 1-min loop for the controller and the temperatures).
 """
 from __future__ import annotations
 
@@ -262,8 +262,8 @@ class WindTurbine(Family):
         mean_wind = _weibull_wind(p["weibull_scale"][:, None], synoptic) * diurnal[None, :]
         intensity = batch.uniform(0.08, 0.15)[:, None] * (1.0 - 0.3 * np.cos(
             2 * np.pi * (hs - 2.0) / 24.0))[None, :]
-        rotor_wind = np.maximum(mean_wind * (1.0 + intensity * smooth_noise(batch, steps, 20.0 / H)),
-                                0.0)
+        gusts = intensity * smooth_noise(batch, steps, 20.0 / H)
+        rotor_wind = np.maximum(mean_wind * (1.0 + gusts), 0.0)
         point_wind = np.maximum(rotor_wind + mean_wind * 0.5 * intensity
                                 * smooth_noise(batch, steps, 5.0 / H), 0.0)
         # -- the ambient and the air -------------------------------------------------------------
@@ -339,9 +339,11 @@ class WindTurbine(Family):
         def per_min(values):
             return values.reshape(size, minutes, per_minute).mean(axis=2)
 
-        gearbox_m, generator_m, converter_m = per_min(gearbox), per_min(generator), per_min(converter)
+        gearbox_m, generator_m = per_min(gearbox), per_min(generator)
+        converter_m = per_min(converter)
         speed_m, shaft_m = per_min(speed_pu), per_min(shaft) / RATED_KW
-        healthy_friction = p["bearing_friction"][:, None] * (0.6 * speed_m + 1.2 * speed_m * shaft_m)
+        healthy_friction = (p["bearing_friction"][:, None]
+                            * (0.6 * speed_m + 1.2 * speed_m * shaft_m))
         friction = healthy_friction * (1.0 + batch.active("bearing_degradation", tm))
         fan = 1.0 - batch.active("generator_fan", tm)
         # -- temperatures (1-min steps) --------------------------------------------------------
@@ -358,12 +360,15 @@ class WindTurbine(Family):
             amb = ambient_m[:, k]
             valve = keep_valve * valve + (1 - keep_valve) * np.clip((oil - 45.0) / 8.0, 0.0, 1.0)
             cooler_fan = np.where(cooler_fan, oil > 52.0, oil > 57.0)
-            cooled = 0.3 * (oil - nacelle) + valve * (0.35 + cooler_fan * p["cooler_ua"]) * (oil - amb)
+            cooled = (0.3 * (oil - nacelle)
+                      + valve * (0.35 + cooler_fan * p["cooler_ua"]) * (oil - amb))
             into_bearing = p["bearing_ua"] * (bearing - oil)
-            oil = oil + step * (gearbox_m[:, k] - healthy_friction[:, k] + into_bearing - cooled) / p["oil_capacity"]
+            oil = oil + step * (gearbox_m[:, k] - healthy_friction[:, k] + into_bearing
+                                - cooled) / p["oil_capacity"]
             bearing = bearing + step * (friction[:, k] - into_bearing) / 225.0
             ua = np.where(running[:, k], 0.25 + 0.75 * p["winding_ua"] * fan[:, k], 0.25)
-            winding = winding + step * (generator_m[:, k] - ua * (winding - nacelle)) / p["winding_capacity"]
+            winding = winding + step * (generator_m[:, k] - ua * (winding - nacelle)
+                                        ) / p["winding_capacity"]
             losses = gearbox_m[:, k] + generator_m[:, k] + converter_m[:, k]
             nacelle = nacelle + step * (0.3 * losses - 4.0 * (nacelle - amb)) / 600.0
             temps["oil"][:, k], temps["bearing"][:, k] = oil, bearing
