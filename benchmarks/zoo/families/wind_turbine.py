@@ -252,7 +252,7 @@ class WindTurbine(Family):
     def simulate_days(self, batch: DayBatch) -> dict[str, np.ndarray]:
         p = batch.true
         size = len(batch)
-        n, t, hour, total = self.clock(WARMUP)
+        n, _, _, total = self.clock(WARMUP)
         _, ts, hs, steps = self.clock(WARMUP, SUBSTEPS)
         _, tm, hm, minutes = self.clock(WARMUP, MINUTES)
         # -- the wind (5-s grid) ---------------------------------------------------------------
