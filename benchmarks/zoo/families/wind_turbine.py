@@ -10,8 +10,9 @@ eddies (5-s correlation). The rotor: ``P = 0.5 rho A Cp(lambda, beta) U^3`` with
 analytic surface (Cp 0.48 at lambda 8.1, beta 0), the rotor speed tracking lambda 8.1 between
 its limits (a 15-s lag of inertia), the pitch (a bisection of the surface) holding the
 electrical power at rated or at the grid operator's limit; air density from the ambient
-temperature and the site's altitude (0-600 m: 1.17-1.30 kg/m^3 over the year); a yaw error of
-the day (|N(0, 4 deg)|, cos^3) and the blades' soiling of the day (0-1.5 % of Cp). Losses:
+temperature and the site's altitude (0-600 m: 1.12-1.33 kg/m^3 over the fleet's winter); a
+yaw error of the day (|N(0, 4 deg)|, cos^3) and the blades' soiling of the day (0-1.5 % of
+Cp). Losses:
 gearbox 1.2 % of the shaft power plus 18 kW x (speed / rated) churning, generator copper
 1.1 % of rated x (load)^2 plus 8 kW x (speed / rated) iron, converter 5 kW + 2 %.
 
