@@ -99,8 +99,14 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
     result.baseline_version = version
     result.windows = [WindowResult(record.window_start, record.window_end, record.version,
                                    record.run_id, False, None, record.created)]
-    used = ", ".join(f"{w.start:%Y-%m-%d}" for w in windows)
+    left = [pd.Timestamp(t) for t in signature.left_out or ()]
+    used = ", ".join(f"{w.start:%Y-%m-%d}" for w in windows
+                     if not any(w.start <= t < w.end for t in left))
     result.note = f"{note} (windows {used})"
+    if left:
+        # the fit left them out (graybox.calibration.fit_baselines): too little operation
+        result.note += (f"; left out, too little operation to fit: "
+                        f"{', '.join(f'{t:%Y-%m-%d %H:%M}' for t in left)}")
 
 
 def _promotion(registry, asset: str, version: int, promote: bool,

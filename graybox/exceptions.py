@@ -67,6 +67,25 @@ class InsufficientDataError(GrayBoxError):
     """Too little data for the requested fit (for example a window shorter than the model needs)."""
 
 
+class ShortWindowsError(InsufficientDataError):
+    """Windows of one fit too short for it (too little operation in them).
+
+    Parameters
+    ----------
+    message : str
+    windows : tuple of int
+        Their positions among the fit's windows: a new baseline leaves them out where enough
+        others remain (:func:`graybox.calibration.fit_baselines`).
+    """
+
+    def __init__(self, message: str, windows: tuple[int, ...] = ()):
+        super().__init__(message)
+        self.windows = tuple(int(k) for k in windows)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.windows)
+
+
 class StructureMismatchError(GrayBoxError):
     """Two signatures were fitted with different frozen structures and cannot be compared."""
 

@@ -123,6 +123,10 @@ class Signature:
         Per telemetry window, the exogenous inputs' means and spreads
         (:mod:`graybox.operating_conditions`); None for a model without exogenous inputs and
         for signatures stored before the record.
+    left_out : tuple of str or None
+        A baseline's windows (their first timestamps, ISO) left out because they held too
+        little operation to fit (:func:`graybox.calibration.fit_baselines`); None where none
+        was.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -140,10 +144,12 @@ class Signature:
     hidden_starts: tuple[HiddenStart, ...] | None = None
     tuning: ParameterEstimate | None = None
     conditions: OperatingConditions | None = None
+    left_out: tuple[str, ...] | None = None
 
     #: written only when present, so signatures stored before them read and write as before
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts",
-                                                             "tuning", "conditions"})
+                                                             "tuning", "conditions",
+                                                             "left_out"})
 
     @property
     def integration_used(self) -> Integration:

@@ -21,7 +21,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
-from graybox.exceptions import GrayBoxError, InsufficientDataError
+from graybox.exceptions import GrayBoxError, InsufficientDataError, ShortWindowsError
 from graybox.integration import (DEFAULT_SUBSTEPS, ERROR_POINTS, MAX_SUBSTEPS, Integration,
                                  IntegrationError, choose_integration)
 from graybox.models.base import WhiteBoxModel
@@ -99,12 +99,12 @@ def _operating_segments(parts, settings: GrayBoxSettings, interval: float
             kept = [p for p in periods if len(p) >= shortest]
             if not kept:
                 longest = max(len(p) for p in periods) * interval
-                raise InsufficientDataError(
+                raise ShortWindowsError(
                     f"window {k} starting {periods[0].index[0].isoformat()}: none of its "
                     f"{len(periods)} operating periods is long enough to fit (the longest "
                     f"lasts {longest:g} s; a period needs ar_span + delay_span + "
                     f"derivative_span = {settings.shortest_period:g} s, and at least "
-                    f"{settings.shortest_period_samples(interval)} samples)")
+                    f"{settings.shortest_period_samples(interval)} samples)", (k,))
             periods = kept
         frames.extend(periods)
         owners.extend([k] * len(periods))

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from graybox.channel_structure import ChannelStructure, Selection
-from graybox.exceptions import InsufficientDataError
+from graybox.exceptions import InsufficientDataError, ShortWindowsError
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import choose_differencing
@@ -50,11 +50,12 @@ class LinearTierKind(Tier):
             too_short = [k for k, n in enumerate(usable) if n <= settings.min_sample_count]
             if too_short:
                 shortest = min(usable[k] for k in too_short) + lost
-                raise InsufficientDataError(
+                raise ShortWindowsError(
                     f"channel {name!r}: window(s) {too_short} have {shortest} residual samples "
                     f"at the {interval:g}-s analysis interval; the method needs more than "
                     f"{differencing.lost} for differencing plus min_samples = "
-                    f"{settings.min_sample_count}: {_what_helps(settings, interval, shortest)}")
+                    f"{settings.min_sample_count}: {_what_helps(settings, interval, shortest)}",
+                    tuple(too_short))
             # a segment too short to difference contributes nothing
             y = [differencing.apply(s) if len(s) > lost else s[:0] for s in segments]
             if frozen is None:

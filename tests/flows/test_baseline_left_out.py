@@ -1,0 +1,48 @@
+"""A new baseline leaves out a day that held too little operation to fit and says which, in
+the command's result (graybox.calibration.fit_baselines, ``Signature.left_out``). A pump runs
+three hours a day at 5 s; on its third baseline day only 4 minutes (a calm day of a wind
+turbine, a machine idle most of the day). Before, the whole baseline failed on that day."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from plant_telemetry import pump_config, pump_period
+
+START = pd.Timestamp("2026-03-01", tz="UTC")
+DAYS = 4
+SHORT_DAY = 2
+
+
+@pytest.mark.slow
+def test_a_day_with_too_little_operation_is_left_out_of_the_baseline_and_named(
+        harness, tmp_path, capsys):
+    from flows.cli import main
+    from graybox.models import PumpLoop
+    from graybox.telemetry import write_telemetry
+
+    root = tmp_path / "telemetry"
+    rng = np.random.default_rng(7)
+    frames = []
+    for k in range(DAYS):
+        day = START + pd.Timedelta(days=k)
+        periods = ([(pd.Timedelta("9h"), 240.0)] if k == SHORT_DAY else
+                   [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
+        frames += [pump_period(PumpLoop(), day + offset, seconds, 5.0, rng)
+                   for offset, seconds in periods]
+    write_telemetry(root, "P-001", pd.concat(frames, ignore_index=True))
+    config = tmp_path / "fleet.toml"
+    config.write_text(pump_config(root, tmp_path / "mlflow.db",
+                                  "grid = { intermittent = true, min_duration = \"3min\" }"))
+    status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
+                   START.isoformat(), "--end", (START + pd.Timedelta(days=DAYS)).isoformat(),
+                   "--json"])
+    out = capsys.readouterr()
+    assert status == 0, out.err
+    [asset] = json.loads(out.out)["assets"]
+    assert asset["status"] == "ok"
+    assert "(windows 2026-03-01, 2026-03-02, 2026-03-04)" in asset["note"]
+    assert asset["note"].endswith("left out, too little operation to fit: 2026-03-03 09:00")

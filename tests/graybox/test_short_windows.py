@@ -1,0 +1,34 @@
+"""Known answer: a new baseline leaves out a window that held too little operation to fit
+(a calm day of a wind turbine, a machine idle most of the day) where enough others remain,
+and says which (``Signature.left_out``); with too few left it fails as before, naming them."""
+from __future__ import annotations
+
+import graybox as gb
+from graybox.exceptions import ShortWindowsError
+from graybox.record_json import from_dict, to_dict
+from graybox.signature import Signature
+from test_units import HeatedTank, _days
+
+
+def test_a_window_too_short_to_fit_is_left_out_of_a_baseline_and_named():
+    days = _days(1.0, 0.0, 1.0)[:5]
+    short = days[2].iloc[:40]                 # 20 minutes of the third day: too little
+    windows = days[:2] + [short] + days[3:]
+    [(signature, calibration)] = gb.fit_baselines(
+        [gb.FitRequest(HeatedTank(), windows, asset_id="T-1", seed=0)])
+    assert signature.left_out == (short.index[0].isoformat(),)
+    # the baseline is the one fitted on the other four days
+    [(alone, alone_calibration)] = gb.fit_baselines(
+        [gb.FitRequest(HeatedTank(), days[:2] + days[3:], asset_id="T-1", seed=0)])
+    assert alone.left_out is None
+    assert to_dict(signature) == {**to_dict(alone), "left_out": [short.index[0].isoformat()]}
+    assert calibration == alone_calibration
+    assert from_dict(Signature, to_dict(signature)) == signature
+
+
+def test_a_baseline_left_with_too_few_windows_fails_naming_them():
+    days = _days(1.0, 0.0, 1.0)[:4]
+    windows = [days[0], days[1].iloc[:40], days[2].iloc[:40], days[3]]
+    [error] = gb.fit_baselines([gb.FitRequest(HeatedTank(), windows, asset_id="T-1", seed=0)])
+    assert isinstance(error, ShortWindowsError)
+    assert error.windows == (1, 2) and "asset 'T-1'" in str(error)
