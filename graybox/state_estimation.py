@@ -54,6 +54,10 @@ INITIAL_FIT_MAX_SAMPLES = 900
 #: 600 fits a battery baseline day 2.8 times faster with the same drifts to 6 digits
 CHUNK_SAMPLES = 20
 MAX_PASSES = 6
+#: the start fit's time-parallel runs (:func:`_run_chained`) chain their chunks to this
+#: fraction of each hidden state's scale: far below the fit's forward-difference step (1e-6
+#: of the scale), whose errors move together with the point's (the same guesses, moved)
+START_CHAIN_TOLERANCE = 1e-10
 #: chained chunk starts agree with their predecessors' ends to this fraction of the hidden
 #: state's scale
 CHAIN_TOLERANCE = 1e-6
@@ -235,16 +239,134 @@ def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
     out = np.empty((len(starts), length + 1, len(layout.hidden)))
     out[:, 0] = starts
     full = np.zeros((len(starts), layout.n_states))
+    # the measured states' columns once (not every step's rows of every output)
+    measured = y[:, layout.measured_outputs]
     hidden = starts
     for j in range(length):
         now = np.minimum(first + j, last)
         after = np.minimum(first + j + 1, last)
-        full[:, layout.measured] = y[now][:, layout.measured_outputs]
+        full[:, layout.measured] = measured[now]
         full[:, layout.hidden] = hidden
         step = advance(model.derivatives, full, u[now], u[after], dt, integration)
-        hidden = np.where((first + j < last)[:, None], step[:, layout.hidden], hidden)
+        moving = first + j < last
+        # the same values as ``np.where`` gives; most steps of most runs move every row
+        hidden = (step[:, layout.hidden] if np.all(moving) else
+                  np.where(moving[:, None], step[:, layout.hidden], hidden))
         out[:, j + 1] = hidden
     return out
+
+
+def _moved(starts: np.ndarray, moves: np.ndarray, sensitivity: np.ndarray) -> np.ndarray:
+    """Chunk starts (R, n_chunks, n_hidden): ``starts`` (n_chunks, n_hidden), chained, with
+    the first moved by ``moves[r]`` and each next by its predecessor's move carried by the
+    predecessor's ``sensitivity`` (n_chunks, n_hidden, n_hidden)."""
+    carried = np.empty((len(moves),) + starts.shape)
+    carried[:, 0] = moves
+    for c in range(1, len(starts)):
+        carried[:, c] = (sensitivity[c - 1] * carried[:, c - 1, None, :]).sum(axis=-1)
+    return starts + carried
+
+
+def _chain_rows(starts: np.ndarray, guesses: np.ndarray, ends: np.ndarray,
+                sensitivity: np.ndarray) -> np.ndarray:
+    """:func:`_chain` of every row: ``starts`` (R, n_hidden), ``guesses`` and ``ends``
+    (R, n_chunks, n_hidden), ``sensitivity`` (R, n_chunks, n_hidden, n_hidden). Row by row
+    (no row's arithmetic depends on another's)."""
+    chained = guesses.copy()
+    chained[:, 0] = starts
+    for c in range(1, guesses.shape[1]):
+        move = chained[:, c - 1] - guesses[:, c - 1]
+        chained[:, c] = ends[:, c - 1] + (sensitivity[:, c - 1] * move[:, None, :]).sum(axis=-1)
+    return chained
+
+
+def _run_chained(model_of: Callable[[np.ndarray], object], layout: _Layout, y, u, dt,
+                 integration, starts: np.ndarray, first: np.ndarray, steps: int,
+                 last: np.ndarray, owner: np.ndarray, guesses: np.ndarray,
+                 sensitivity: np.ndarray, known: np.ndarray, scale: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_run`'s hidden states of runs ``r`` from ``starts[r]`` at sample ``first[r]``
+    for ``steps`` steps (held past ``last[r]``), time-parallel: (R, steps + 1, n_hidden).
+
+    Each run is cut into chunks of :data:`CHUNK_SAMPLES` steps, run side by side from
+    ``guesses[r]`` (R, n_chunks, n_hidden; the first chunk's is the start), and chained as
+    :func:`_run_hidden` chains a window's chunks, pass after pass, until every chunk starts
+    where its predecessor ends within :data:`START_CHAIN_TOLERANCE` of the state's scale
+    (``scale``, or the state's magnitude where larger). Run ``r`` chains with the chunk
+    sensitivities of run ``owner[r]`` (an evaluation's forward differences with its
+    point's): ``sensitivity[o]`` (n_chunks, n_hidden, n_hidden) where ``known[o]``, else
+    computed by a pass that also runs the owner's chunks from starts moved by 1e-4 of the
+    scale along each hidden state. A pass with known sensitivities runs the chunks alone;
+    when it does not chain, the next pass computes them anew (as :func:`_run_hidden`'s
+    lazy passes). An owner's runs end together, when all of them chain. Runs that diverge
+    (a chunk's end not finite) or do not chain within ``2 * MAX_PASSES`` passes are run
+    sequentially instead (:func:`_run`), as is every run before this one was time-parallel.
+
+    Returns
+    -------
+    hidden : ndarray (R, steps + 1, n_hidden)
+    chained : ndarray (R, n_chunks, n_hidden)
+        The chunks' starts of the runs returned.
+    sensitivity : ndarray (R, n_chunks, n_hidden, n_hidden)
+        The owners' chunk sensitivities the runs chained with.
+    chained_ok : ndarray (R,) of bool
+        Whether the run was chained (not run sequentially).
+    """
+    count, chunks, n_hidden = guesses.shape
+    length = CHUNK_SAMPLES
+    chunk_first = first[:, None] + length * np.arange(chunks)
+    guesses, sensitivity, known = guesses.copy(), sensitivity.copy(), known.copy()
+    hidden = np.empty((count, steps + 1, n_hidden))
+    active = np.ones(count, dtype=bool)
+    chained_ok = np.zeros(count, dtype=bool)
+    delta = 1e-4 * scale
+    for _ in range(2 * MAX_PASSES):
+        rows = np.flatnonzero(active)
+        if not rows.size:
+            break
+        fresh = rows[(owner[rows] == rows) & ~known[rows]]
+        batch = np.concatenate([guesses[rows]] + [guesses[fresh] + delta[i] * np.eye(n_hidden)[i]
+                                                  for i in range(n_hidden)])
+        which = np.concatenate([rows] + [fresh] * n_hidden)
+        runs = _run(model_of(np.repeat(which, chunks)), layout, y, u, dt, integration,
+                    batch.reshape(-1, n_hidden),
+                    np.concatenate([chunk_first[rows]] + [chunk_first[fresh]] * n_hidden
+                                   ).ravel(),
+                    length, np.repeat(last[which], chunks))
+        runs = runs.reshape(len(which), chunks, length + 1, n_hidden)
+        ends = runs[:len(rows), :, -1]
+        if fresh.size:
+            at = np.searchsorted(rows, fresh)
+            moved_ends = runs[len(rows):, :, -1].reshape(n_hidden, len(fresh), chunks, n_hidden)
+            sensitivity[fresh] = np.stack([(moved_ends[i] - ends[at]) / delta[i]
+                                           for i in range(n_hidden)], axis=-1)
+            known[fresh] = True
+        chained = _chain_rows(starts[rows], guesses[rows], ends, sensitivity[owner[rows]])
+        with np.errstate(invalid="ignore"):
+            off = (np.abs(chained - guesses[rows])
+                   / np.maximum(scale, np.abs(guesses[rows]))).max(axis=(1, 2))
+        off = np.where(np.isnan(off), np.inf, off)
+        worst = np.zeros(count)
+        np.maximum.at(worst, owner[rows], off)
+        done = worst[owner[rows]] <= START_CHAIN_TOLERANCE
+        diverged = ~np.isfinite(worst[owner[rows]])
+        ended = rows[done]
+        hidden[ended] = np.concatenate(
+            [runs[:len(rows)][done, :, :-1].reshape(len(ended), chunks * length, n_hidden),
+             runs[:len(rows)][done, -1:, -1]], axis=1)[:, :steps + 1]
+        chained_ok[ended] = True
+        active[rows[done | diverged]] = False
+        going = ~(done | diverged)
+        guesses[rows[going]] = chained[going]
+        # a pass with the owners' earlier sensitivities that did not chain: the next
+        # computes them anew; a pass that computed them: the next tries them alone
+        stale = rows[going & (owner[rows] == rows)]
+        known[stale] = np.isin(stale, fresh)
+    sequential = np.flatnonzero(~chained_ok)
+    if sequential.size:
+        hidden[sequential] = _run(model_of(sequential), layout, y, u, dt, integration,
+                                  starts[sequential], first[sequential], steps, last[sequential])
+    return hidden, guesses, sensitivity, chained_ok
 
 
 def start_fit_samples(dt: float) -> int:
@@ -264,8 +386,15 @@ class _StartFit:
 
     def __init__(self, model, layout: _Layout, pieces: Sequence[tuple[np.ndarray, np.ndarray]],
                  dt: float, integration: Integration,
-                 variants: Callable[[np.ndarray], object] | None = None):
+                 variants: Callable[[np.ndarray], object] | None = None,
+                 time_parallel: bool = True):
         self.model, self.layout, self.dt, self.integration = model, layout, dt, integration
+        # the runs of an evaluation chunked and chained (:func:`_run_chained`), or sequential
+        self.time_parallel = time_parallel
+        # per segment: the trial start evaluated last, its chunks' chained starts and their
+        # sensitivities, from which the next evaluation's chunks are guessed
+        self.memory: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.scale = np.maximum(1.0, np.abs(layout.guess))
         # each segment's own variant of the model: ``variants(segments)`` is the model of
         # rows whose segments are those (:func:`graybox.row_parameters.row_variants`)
         self.variants = variants
@@ -297,13 +426,56 @@ class _StartFit:
             rows.append(length * computed + np.arange((n - 1) * measured))
         return np.concatenate(rows)
 
-    def errors(self, batch: np.ndarray, piece: np.ndarray) -> np.ndarray:
+    def hidden_runs(self, batch: np.ndarray, piece: np.ndarray, count: int) -> np.ndarray:
+        """The hidden states (R, length, n_hidden) of the trial starts ``batch[r]`` of
+        segments ``piece[r]``, each run over its segment's fitted samples (then held). Rows
+        ``r``, ``r + count``, ``r + 2 count``... are one segment's: an evaluation's point and
+        its forward differences.
+
+        Time-parallel (:func:`_run_chained`) unless made sequential or the segments are no
+        longer than a chunk: each segment's chunks are guessed from its previous
+        evaluation's chained ones, moved by their sensitivities (exact for hidden dynamics
+        affine in the hidden states, when one pass of the chunks alone confirms them).
+        """
+        layout, steps = self.layout, int(self.n.max()) - 1
+        first, last = self.offset[piece], self.offset[piece] + self.n[piece] - 1
+        if not self.time_parallel or steps <= CHUNK_SAMPLES:
+            return _run(self._model(piece), layout, self.y, self.u, self.dt, self.integration,
+                        batch, first, steps, last)
+        chunks = -(-steps // CHUNK_SAMPLES)
+        n_hidden = len(layout.hidden)
+        owner = np.tile(np.arange(count), len(batch) // count)
+        guesses = np.repeat(batch[:, None], chunks, axis=1)
+        sensitivity = np.zeros((len(batch), chunks, n_hidden, n_hidden))
+        known = np.zeros(len(batch), dtype=bool)
+        for k in range(count):
+            memory = self.memory.get(int(piece[k]))
+            if memory is not None:
+                point, starts, moving = memory
+                rows = owner == k
+                guesses[rows] = _moved(starts, batch[rows] - point, moving)
+                sensitivity[k], known[k] = moving, True
+        guesses[:, 0] = batch
+        hidden, chained, sensitivity, ok = _run_chained(
+            lambda rows: self._model(piece[rows]), layout, self.y, self.u, self.dt,
+            self.integration, batch, first, steps, last, owner, guesses, sensitivity, known,
+            self.scale)
+        for k in range(count):
+            if ok[k]:
+                self.memory[int(piece[k])] = (batch[k].copy(), chained[k], sensitivity[k])
+            else:
+                self.memory.pop(int(piece[k]), None)
+        return hidden
+
+    def errors(self, batch: np.ndarray, piece: np.ndarray,
+               hidden: np.ndarray | None = None) -> np.ndarray:
         """Scaled errors (R, n_errors) of the trial starts ``batch[r]`` of segments
-        ``piece[r]``."""
+        ``piece[r]``, from their hidden runs ``hidden`` (default: run here, sequentially)."""
         layout, length = self.layout, int(self.n.max())
         first, last = self.offset[piece], self.offset[piece] + self.n[piece] - 1
-        hidden = _run(self._model(piece), layout, self.y, self.u, self.dt, self.integration,
-                      batch, first, length - 1, last)
+        if hidden is None:
+            hidden = _run(self._model(piece), layout, self.y, self.u, self.dt,
+                          self.integration, batch, first, length - 1, last)
         at = np.minimum(first[:, None] + np.arange(length), last[:, None])     # (R, length)
         valid = np.arange(length)[None] < self.n[piece][:, None]
         full = np.zeros(hidden.shape[:2] + (layout.n_states,))
@@ -338,7 +510,8 @@ class _StartFit:
         pieces = np.arange(count) if pieces is None else np.asarray(pieces)
         batch = np.concatenate([z] + [z + delta[i] * np.eye(n_hidden)[i]
                                       for i in range(n_hidden)])
-        e = self.errors(batch, np.tile(pieces, n_hidden + 1))
+        rows = np.tile(pieces, n_hidden + 1)
+        e = self.errors(batch, rows, self.hidden_runs(batch, rows, count))
         e = np.where(np.isfinite(e), e, 1e6)
         base = e[:count]
         jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
