@@ -54,6 +54,14 @@ INITIAL_FIT_MAX_SAMPLES = 900
 #: 600 fits a battery baseline day 2.8 times faster with the same drifts to 6 digits
 CHUNK_SAMPLES = 20
 MAX_PASSES = 6
+#: a long window's first multiple-shooting pass moves every this many chunks' starts only
+#: (:func:`_run_hidden`), at least :data:`SENSITIVITY_SAMPLES` of them, and gives every
+#: chunk their common sensitivity where they have one
+SENSITIVITY_STRIDE = 8
+SENSITIVITY_SAMPLES = 8
+#: sampled chunk sensitivities agreeing to this (in the states' scales) are one: forward
+#: differences of 1e-4 of the scale agree to about 1e-11 where the dynamics are the same
+COMMON_SENSITIVITY_TOLERANCE = 1e-8
 #: the start fit's time-parallel runs (:func:`_run_chained`) chain their chunks to this
 #: fraction of each hidden state's scale: far below the fit's forward-difference step (1e-6
 #: of the scale), whose errors move together with the point's (the same guesses, moved)
@@ -664,6 +672,13 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
     dynamics affine in the hidden states (an equivalent circuit) the sensitivities do not
     change from pass to pass, and the second, confirming, pass costs a quarter of a full
     one for three hidden states.
+
+    The first pass of a window of at least :data:`SENSITIVITY_SAMPLES` strides of
+    :data:`SENSITIVITY_STRIDE` chunks moves only every :data:`SENSITIVITY_STRIDE`-th
+    chunk's start: when those chunks' sensitivities are one (hidden dynamics affine with
+    constant coefficients, as an equivalent circuit's: each chunk's is the same product of
+    the same steps' propagators), every chunk is given it (:func:`_common_sensitivity`) and
+    the pass chains with it; otherwise it is followed by a full pass at the same guesses.
     """
     total = len(y)
     firsts, length = _chunks(total)
@@ -672,6 +687,24 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
     delta = 1e-4 * scale
     guesses = np.repeat(start[None], len(firsts), axis=0)
     sensitivity = None
+    # the last chunk may be shorter (its sensitivity is never chained with): not sampled
+    sampled = np.arange(0, len(firsts) - 1, SENSITIVITY_STRIDE)
+    if len(sampled) >= SENSITIVITY_SAMPLES:
+        batch = np.concatenate([guesses] + [guesses[sampled] + delta[i] * np.eye(n_hidden)[i]
+                                            for i in range(n_hidden)])
+        runs = _run(model, layout, y, u, dt, integration, batch,
+                    np.concatenate([firsts] + [firsts[sampled]] * n_hidden), length)
+        base, used = runs[:len(firsts)], guesses
+        ends = base[:, -1]
+        moved = runs[len(firsts):, -1].reshape(n_hidden, len(sampled), n_hidden)
+        common = _common_sensitivity(np.stack([(moved[i] - ends[sampled]) / delta[i]
+                                               for i in range(n_hidden)], axis=-1), scale)
+        if common is not None:
+            sensitivity = np.repeat(common[None], len(firsts), axis=0)
+            chained = _chain(start, guesses, ends, sensitivity)
+            if not np.max(np.abs(chained - guesses) / scale) > CHAIN_TOLERANCE:
+                return _joined(base, firsts, length, total), used, sensitivity
+            guesses = chained
     for _ in range(MAX_PASSES):
         if sensitivity is not None:
             base, used = _run(model, layout, y, u, dt, integration, guesses, firsts,
@@ -693,6 +726,17 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
             break
         guesses = chained
     return _joined(base, firsts, length, total), used, sensitivity
+
+
+def _common_sensitivity(sensitivity: np.ndarray, scale: np.ndarray) -> np.ndarray | None:
+    """The chunks' common sensitivity (n_hidden, n_hidden), their mean, when every one of
+    ``sensitivity`` (K, n_hidden, n_hidden) is within :data:`COMMON_SENSITIVITY_TOLERANCE`
+    of it (each entry in the states' ``scale``); else ``None``."""
+    mean = sensitivity.mean(axis=0)
+    relative = scale[None, None, :] / scale[None, :, None]
+    with np.errstate(invalid="ignore"):
+        spread = np.max(np.abs(sensitivity - mean) * relative)
+    return mean if spread <= COMMON_SENSITIVITY_TOLERANCE else None
 
 
 def _chain(start: np.ndarray, guesses: np.ndarray, ends: np.ndarray,
