@@ -678,7 +678,8 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
     chunk's start: when those chunks' sensitivities are one (hidden dynamics affine with
     constant coefficients, as an equivalent circuit's: each chunk's is the same product of
     the same steps' propagators), every chunk is given it (:func:`_common_sensitivity`) and
-    the pass chains with it; otherwise it is followed by a full pass at the same guesses.
+    the pass chains with it; otherwise the other chunks' moved runs complete it as a full
+    pass (the same runs).
     """
     total = len(y)
     firsts, length = _chunks(total)
@@ -689,23 +690,36 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
     sensitivity = None
     # the last chunk may be shorter (its sensitivity is never chained with): not sampled
     sampled = np.arange(0, len(firsts) - 1, SENSITIVITY_STRIDE)
+    passes = MAX_PASSES
     if len(sampled) >= SENSITIVITY_SAMPLES:
+        passes -= 1
         batch = np.concatenate([guesses] + [guesses[sampled] + delta[i] * np.eye(n_hidden)[i]
                                             for i in range(n_hidden)])
         runs = _run(model, layout, y, u, dt, integration, batch,
                     np.concatenate([firsts] + [firsts[sampled]] * n_hidden), length)
         base, used = runs[:len(firsts)], guesses
         ends = base[:, -1]
-        moved = runs[len(firsts):, -1].reshape(n_hidden, len(sampled), n_hidden)
-        common = _common_sensitivity(np.stack([(moved[i] - ends[sampled]) / delta[i]
+        moved = np.empty((n_hidden, len(firsts), n_hidden))
+        moved[:, sampled] = runs[len(firsts):, -1].reshape(n_hidden, len(sampled), n_hidden)
+        common = _common_sensitivity(np.stack([(moved[i, sampled] - ends[sampled]) / delta[i]
                                                for i in range(n_hidden)], axis=-1), scale)
         if common is not None:
             sensitivity = np.repeat(common[None], len(firsts), axis=0)
-            chained = _chain(start, guesses, ends, sensitivity)
-            if not np.max(np.abs(chained - guesses) / scale) > CHAIN_TOLERANCE:
-                return _joined(base, firsts, length, total), used, sensitivity
-            guesses = chained
-    for _ in range(MAX_PASSES):
+        else:
+            # the other chunks' moved runs: the pass is then the full pass
+            rest = np.setdiff1d(np.arange(len(firsts)), sampled)
+            batch = np.concatenate([guesses[rest] + delta[i] * np.eye(n_hidden)[i]
+                                    for i in range(n_hidden)])
+            moved[:, rest] = _run(model, layout, y, u, dt, integration, batch,
+                                  np.tile(firsts[rest], n_hidden), length
+                                  )[:, -1].reshape(n_hidden, len(rest), n_hidden)
+            sensitivity = np.stack([(moved[i] - ends) / delta[i] for i in range(n_hidden)],
+                                   axis=-1)
+        chained = _chain(start, guesses, ends, sensitivity)
+        if not np.max(np.abs(chained - guesses) / scale) > CHAIN_TOLERANCE:
+            return _joined(base, firsts, length, total), used, sensitivity
+        guesses = chained
+    for _ in range(passes):
         if sensitivity is not None:
             base, used = _run(model, layout, y, u, dt, integration, guesses, firsts,
                               length), guesses
