@@ -756,7 +756,28 @@ def _common_sensitivity(sensitivity: np.ndarray, scale: np.ndarray) -> np.ndarra
 def _chain(start: np.ndarray, guesses: np.ndarray, ends: np.ndarray,
            sensitivity: np.ndarray) -> np.ndarray:
     """The chunks' chained starts: the first at ``start``, each next one the previous chunk's
-    end moved by its sensitivity times the previous start's move from its guess."""
+    end moved by its sensitivity times the previous start's move from its guess.
+
+    The moves from the guesses obey ``m[c] = (ends[c-1] - guesses[c]) + S[c-1] m[c-1]``, a
+    linear recurrence, computed as a prefix composition of its affine maps in
+    ``log2(n_chunks)`` array steps (a day's 4,320 chunks: 13 instead of 4,320 Python steps);
+    the same starts to rounding. Where that is not finite (a diverging run's chunks), one
+    chunk after another.
+    """
+    moves = np.empty_like(guesses)
+    moves[0] = start - guesses[0]
+    moves[1:] = ends[:-1] - guesses[1:]
+    maps = np.empty_like(sensitivity)
+    maps[0] = 0.0
+    maps[1:] = sensitivity[:-1]
+    stride = 1
+    with np.errstate(all="ignore"):
+        while stride < len(guesses):
+            moves[stride:] = (maps[stride:] @ moves[:-stride, :, None])[..., 0] + moves[stride:]
+            maps[stride:] = maps[stride:] @ maps[:-stride]
+            stride *= 2
+    if np.all(np.isfinite(moves)):
+        return guesses + moves
     chained = guesses.copy()
     chained[0] = start
     for c in range(1, len(guesses)):
