@@ -249,19 +249,27 @@ def _run(model, layout: _Layout, y, u, dt, integration, starts: np.ndarray,
     full = np.zeros((len(starts), layout.n_states))
     # the measured states' columns once (not every step's rows of every output)
     measured = y[:, layout.measured_outputs]
+    measured_at, hidden_at = _columns(layout.measured), _columns(layout.hidden)
     hidden = starts
     for j in range(length):
         now = np.minimum(first + j, last)
         after = np.minimum(first + j + 1, last)
-        full[:, layout.measured] = measured[now]
-        full[:, layout.hidden] = hidden
+        full[:, measured_at] = measured[now]
+        full[:, hidden_at] = hidden
         step = advance(model.derivatives, full, u[now], u[after], dt, integration)
         moving = first + j < last
         # the same values as ``np.where`` gives; most steps of most runs move every row
-        hidden = (step[:, layout.hidden] if np.all(moving) else
-                  np.where(moving[:, None], step[:, layout.hidden], hidden))
+        hidden = (step[:, hidden_at] if np.all(moving) else
+                  np.where(moving[:, None], step[:, hidden_at], hidden))
         out[:, j + 1] = hidden
     return out
+
+
+def _columns(index: np.ndarray) -> np.ndarray | slice:
+    """``index`` as a slice where it is a contiguous run (a view, not a gathered copy)."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
 
 
 def _moved(starts: np.ndarray, moves: np.ndarray, sensitivity: np.ndarray) -> np.ndarray:
@@ -641,12 +649,11 @@ def _chunks(total: int) -> tuple[np.ndarray, int]:
 
 
 def _joined(runs: np.ndarray, firsts: np.ndarray, length: int, total: int) -> np.ndarray:
-    """The chunks' runs (n_chunks, length + 1, n_hidden) as one (total, n_hidden)."""
-    hidden = np.empty((total, runs.shape[-1]))
-    for c, first in enumerate(firsts):
-        stop = min(first + length, total - 1)
-        hidden[first:stop + 1] = runs[c, :stop - first + 1]
-    return hidden
+    """The chunks' runs (n_chunks, length + 1, n_hidden) as one (total, n_hidden): each
+    sample from the chunk that starts at or before it (``firsts`` those of :func:`_chunks`,
+    every ``length``-th sample), the last from the last chunk's end."""
+    flat = np.concatenate([runs[:, :length].reshape(-1, runs.shape[-1]), runs[-1:, length]])
+    return flat[:total]
 
 
 def _run_chunks(model, layout: _Layout, y, u, dt, integration,
