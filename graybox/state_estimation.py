@@ -12,7 +12,9 @@ voltages) is run through the window as an open-loop predictor of them:
    scaled by its spread. The model's ``initial_state`` gives the search's start. The
    segments of one fit call (a calibration's pieces, a night's candidates of every asset)
    are fitted side by side (:func:`initial_hidden_together`): each by its own fit, their
-   function evaluations batched into one run of every segment.
+   function evaluations batched into one run of every segment. Each evaluation's runs are
+   time-parallel (:func:`_run_chained`): chunks chained as step 2 chains them, guessed from
+   the segment's previous evaluation.
 2. **From it the hidden states run through the window** by the model's own dynamics, the
    measured states reset to the telemetry at every sample (so only the hidden part is
    open-loop). Sequential in time, this is computed by multiple shooting: the window is cut
@@ -42,11 +44,12 @@ from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
 INITIAL_FIT_MIN_SAMPLES = 20
-#: the start fit's samples at most (a 1-Hz logger's 900 s): each of its evaluations runs
-#: them one after another, so a 10-Hz servo's 9,000 at 32 RK4 sub-steps cost 150 s of CPU a
-#: segment. A faster logger so fits its start to fewer seconds: as many samples of the
-#: outputs that read the start (the servo's 14-Hz velocity is read within a second), less
-#: of a slow hidden mode's drift (no zoo plant logged faster than 1 Hz has one)
+#: the start fit's samples at most (a 1-Hz logger's 900 s): each of its evaluations ran
+#: them one after another (before its runs were time-parallel), so a 10-Hz servo's 9,000 at
+#: 32 RK4 sub-steps cost 150 s of CPU a segment. A faster logger so fits its start to fewer
+#: seconds: as many samples of the outputs that read the start (the servo's 14-Hz velocity
+#: is read within a second), less of a slow hidden mode's drift (no zoo plant logged faster
+#: than 1 Hz has one)
 INITIAL_FIT_MAX_SAMPLES = 900
 #: samples per multiple-shooting chunk: a chunk's steps run one after another, the chunks
 #: side by side, and each step costs about the same whatever the number of chunks (a

@@ -4,12 +4,12 @@
 Known answers: a time-parallel run is the sequential run (``_run``) to 1e-9 of the state's
 scale, with hidden dynamics affine and nonlinear in the hidden states; a run that diverges
 is run sequentially, and gives the sequential run's non-finite values. The fitted starts
-(``least_squares`` on errors from chained runs) are the sequential fit's to 1e-6 relative
-(measured: 1e-7 or better; the chained runs differ from the sequential ones at rounding, which
-the forward differences' 1e-6 step amplifies to about 1e-10 in the Jacobian, and the solver's
-own tolerances, 1e-8, let its last iterate move by more), on an affine model, a nonlinear one and the
-battery pack; a start the data do not determine (a state of charge above the OCV table's last
-breakpoint) is left where the sequential fit leaves it.
+(``least_squares`` on errors from chained runs) are the sequential fit's to 1e-6 relative,
+on an affine model, a nonlinear one and the battery pack (measured: 2-3e-7 of the scale at
+most; the chained runs differ from the sequential ones at rounding, the forward differences
+of 1e-6 of the scale amplify it, and the solver's own tolerances, 1e-8, let its last iterate
+differ by more); a start the data do not determine (a state of charge above the OCV table's
+last breakpoint) is left where the sequential fit leaves it.
 """
 from __future__ import annotations
 
