@@ -99,6 +99,10 @@ class WindowStates:
         Each chunk's end state's derivative in its start (the chaining's last): a move of
         the initial hidden state carried to every chunk's start by their product
         (:func:`moved_chunk_starts`). Only where the chaining ran here.
+    digest : str, optional
+        A digest of ``y`` and ``u`` (the segment cache's, :class:`graybox.segment_cache.
+        SegmentCache`, which finds the segment's later results by it without hashing its
+        data again); a decimated window's names the full one's and the factor.
     """
 
     y: np.ndarray
@@ -107,11 +111,13 @@ class WindowStates:
     initial_hidden: dict
     chunk_starts: np.ndarray | None = None
     chunk_sensitivity: np.ndarray | None = None
+    digest: str | None = None
 
     def decimated(self, factor: int) -> "WindowStates":
         """Every ``factor``-th sample."""
         return WindowStates(self.y[::factor], self.u[::factor], self.states[::factor],
-                            self.initial_hidden, self.chunk_starts, self.chunk_sensitivity)
+                            self.initial_hidden, self.chunk_starts, self.chunk_sensitivity,
+                            None if self.digest is None else f"{self.digest}/{factor}")
 
 
 def window_arrays(model, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
