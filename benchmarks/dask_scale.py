@@ -40,7 +40,6 @@ import argparse
 import datetime
 import json
 import math
-import os
 import pathlib
 import re
 import shutil
@@ -52,7 +51,8 @@ import time
 
 from benchmarks.measured_process import stop_on_signals
 from benchmarks.prefect_server import PrefectServer, tree_cpu
-from benchmarks.nightly_scale import START, child_environment, commit, fleet_health, generate, say
+from benchmarks.nightly_scale import (START, child_environment, fleet_health, generate, run_stamp,
+                                      say)
 from flows.config.settings import NightlySettings
 
 GAS_TURBINE = "gas_turbine"
@@ -358,11 +358,7 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
                 for r in nights}
     if len(outcomes) != 1:
         raise RuntimeError(f"the runners disagree on the night's outcome: {outcomes}")
-    result = {"command": "python -m benchmarks.dask_scale " + " ".join(argv),
-              "commit": commit(), "cpus": os.cpu_count(),
-              "date": datetime.datetime.now(datetime.timezone.utc).strftime(
-                  "%Y-%m-%d %H:%M UTC"),
-              "family": args.family, "assets": args.assets, "batch_size": args.batch_size,
+    result = {**run_stamp("benchmarks.dask_scale", argv), "family": args.family, "assets": args.assets, "batch_size": args.batch_size,
               "mlflow": "postgresql" if args.mlflow_postgres else "sqlite",
               "prefect": ("server on postgresql" if args.prefect_postgres
                           else "server on sqlite" if args.prefect_server else "temporary"),

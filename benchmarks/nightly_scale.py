@@ -274,6 +274,14 @@ def commit() -> str:
         return "unknown"
 
 
+def run_stamp(module: str, argv: list[str]) -> dict:
+    """What a benchmark's JSON records of its run: the command, the commit, the date (UTC)
+    and the machine's CPUs."""
+    return {"command": f"python -m {module} " + " ".join(argv), "commit": commit(),
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "cpus": os.cpu_count()}
+
+
 def say(text: str) -> None:
     print(f"[{time.strftime('%H:%M:%S')}] {text}", file=sys.stderr, flush=True)
 
@@ -284,10 +292,7 @@ def run(args: argparse.Namespace, argv: list[str]) -> dict:
     root = pathlib.Path(args.workdir or tempfile.mkdtemp(prefix="nightly-scale-")).resolve()
     root.mkdir(parents=True, exist_ok=True)
     say(f"work directory {root}; measuring numpy's matmul rate ...")
-    results = {"command": "python -m benchmarks.nightly_scale " + " ".join(argv),
-               "commit": commit(), "date": datetime.datetime.now(datetime.timezone.utc)
-               .strftime("%Y-%m-%d %H:%M UTC"), "cpus": os.cpu_count(),
-               "quick": args.quick, "batch_size": args.batch_size,
+    results = {**run_stamp("benchmarks.nightly_scale", argv), "quick": args.quick, "batch_size": args.batch_size,
                "memory_budget": args.memory_budget, "matmul": matmul_rate().to_dict(),
                "sizes": []}
     for n in args.sizes:

@@ -224,6 +224,69 @@ def error_estimate(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float,
         return np.sqrt(np.mean((coarse - fine) ** 2, axis=0))
 
 
+#: what a white box that is not finite at the data's states is told to check
+_FINITE_ADVICE = ("A white box must be finite wherever the plant runs: check square roots and "
+                  "logarithms of quantities that can turn negative, divisions that can reach "
+                  "zero, and tables read beyond their breakpoints")
+
+
+def _first_row(model, x: np.ndarray, u: np.ndarray, row: int) -> str:
+    return (f"states {dict(zip(model.states, np.round(x[row], 6).tolist()))}, inputs "
+            f"{dict(zip(model.inputs, np.round(u[row], 6).tolist()))}")
+
+
+def check_finite_derivatives(model, x: np.ndarray, u: np.ndarray) -> None:
+    """Raise :class:`IntegrationError` where ``derivatives(x, u)`` is not finite at a row
+    whose states and inputs are."""
+    with np.errstate(all="ignore"):
+        start = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
+        slopes = np.asarray(model.derivatives(x[start], u[start]))
+    undefined = np.flatnonzero(start)[~np.isfinite(slopes).all(axis=1)]
+    if undefined.size:
+        raise IntegrationError(
+            f"{type(model).__name__}: derivatives(x, u) is not finite at {undefined.size} of "
+            f"the data's states (the first: {_first_row(model, x, u, undefined[0])}). "
+            f"{_FINITE_ADVICE}")
+
+
+def check_finite_outputs(model, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
+    """Raise :class:`IntegrationError` where the outputs ``y = output(x, u)`` are missing
+    (NaN) at a row whose states and inputs are finite (as
+    :func:`check_finite_prediction`, for the output map)."""
+    with np.errstate(all="ignore"):
+        start = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
+        rows = np.flatnonzero(start & np.isnan(y).any(axis=1))
+    if rows.size:
+        raise IntegrationError(
+            f"{type(model).__name__}: output(x, u) is not finite at {rows.size} of the "
+            f"predicted states (the first: {_first_row(model, x, u, rows[0])}). "
+            f"{_FINITE_ADVICE}")
+
+
+def check_finite_prediction(model, x: np.ndarray, u0: np.ndarray, u1: np.ndarray,
+                            predicted: np.ndarray) -> None:
+    """Raise :class:`IntegrationError` where the prediction over one sample is missing
+    (NaN) although its start (states and both inputs) is finite: the white box is undefined
+    at the data's states or within the sample (a square root of a quantity that turns
+    negative, a division that reaches zero, a table read beyond its breakpoints). Left
+    alone, those samples would read as gaps in the telemetry and drop out of the analysis
+    unseen. A prediction that only grows large is
+    :func:`graybox.state_estimation.check_prediction`'s to judge."""
+    with np.errstate(all="ignore"):
+        start = (np.isfinite(x).all(axis=1) & np.isfinite(u0).all(axis=1)
+                 & np.isfinite(u1).all(axis=1))
+        rows = np.flatnonzero(start & np.isnan(predicted).any(axis=1))
+    if not rows.size:
+        return
+    check_finite_derivatives(model, x[rows], u0[rows])
+    raise IntegrationError(
+        f"{type(model).__name__}: the prediction over one sample is not finite from "
+        f"{rows.size} of the data's states, though derivatives(x, u) is finite there (the "
+        f"first: {_first_row(model, x, u0, rows[0])}): the white box is not finite within "
+        f"the sample, or its integration diverges (a stiff model declares integrator = "
+        f"\"rosenbrock\"). {_FINITE_ADVICE}")
+
+
 def _check_growth(model, x: np.ndarray, u: np.ndarray, dt: float) -> None:
     """Raise if the linearised model grows by more than :data:`MAX_GROWTH` per sample at
     most of the data's states: no accurate prediction exists, and an L-stable method would
@@ -271,6 +334,7 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
         # dropped: the other points and so the choice elsewhere unchanged
         take = take[judged[take]]
     x0, u0, u1 = x[take], u[take], u[take + 1]
+    check_finite_derivatives(model, x0, u0)
     _check_growth(model, x0, u0, dt)
     methods = {"auto": METHODS[:2], "rk4": ("rk4",), "rosenbrock": ("rosenbrock",)}[
         model.integrator]

@@ -14,7 +14,7 @@ import pandas as pd
 
 from graybox.exceptions import InsufficientDataError
 from graybox.models.base import WhiteBoxModel
-from graybox.integration import Integration, advance
+from graybox.integration import Integration, advance, check_finite_outputs
 from graybox.state_estimation import (WindowStates, check_prediction, estimate_states,
                                       predict_one_step, window_arrays)
 
@@ -85,6 +85,8 @@ def output_residual(model: WhiteBoxModel, window: WindowStates, dt: float,
         return window.y[1:] - predicted_y
     before = model.output(window.states[:-1], window.u[:-1])
     after = model.output(predicted, window.u[1:])
+    check_finite_outputs(model, window.states[:-1], window.u[:-1], before)
+    check_finite_outputs(model, predicted, window.u[1:], after)
     check_prediction(model, window.y[1:], window.y[:-1] + after - before, "one-step prediction")
     return (window.y[1:] - window.y[:-1]) - (after - before)
 

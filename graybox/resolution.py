@@ -47,6 +47,10 @@ def reading_resolution(values: np.ndarray) -> float:
     if not common.size:
         return 0.0
     step = float(common.min())
+    if step == 0.0:
+        # changes below the values' significant digits are common (a wide reading's offset
+        # against its variation): no logger's grid
+        return 0.0
     multiples = (values - values.min()) / step
     on_grid = np.abs(multiples - np.round(multiples)) <= GRID_TOLERANCE
     return step if on_grid.mean() >= ON_GRID_SHARE else 0.0

@@ -323,6 +323,10 @@ def _choose_at(model, windows: Sequence[WindowStates], interval: float) -> Integ
     x = np.concatenate([w.states for w in windows])
     u = np.concatenate([w.u for w in windows])
     rows = [_judged_rows(model, w) for w in windows]
+    if all(r.sum() < 2 for r in rows):
+        # every segment within its hidden start's rows (short operating periods of a slow
+        # logger): judged at all of them, not at none (a bound of no steps is NaN)
+        rows = [np.ones(len(w.states), dtype=bool) for w in windows]
     finite = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
     steps = np.concatenate([np.diff(w.states[r], axis=0) for w, r in zip(windows, rows)])
     change = np.sqrt(np.nanmean(steps ** 2, axis=0))
@@ -516,8 +520,13 @@ def _fit_batched(prepared: list[AssetFit], settings: GrayBoxSettings, chunk_size
 
 
 def _as_graybox_error(error: Exception, request: FitRequest) -> GrayBoxError:
-    if isinstance(error, GrayBoxError):
-        return error
-    return GrayBoxError(f"asset {request.asset_id!r}: {type(error).__name__}: {error}")
+    """The error of one request, its message naming the asset (a GrayBoxError keeps its
+    class; one raised below the request, such as the white box's, is told whose it is)."""
+    named = f"asset {request.asset_id!r}"
+    if not isinstance(error, GrayBoxError):
+        return GrayBoxError(f"{named}: {type(error).__name__}: {error}")
+    if request.asset_id and named not in str(error) and len(error.args) == 1:
+        error.args = (f"{named}: {error.args[0]}",)
+    return error
 
 

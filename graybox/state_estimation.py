@@ -39,7 +39,8 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from graybox.exceptions import InsufficientDataError
-from graybox.integration import Integration, IntegrationError, advance
+from graybox.integration import (Integration, IntegrationError, advance,
+                                 check_finite_prediction)
 from graybox.lockstep import run_in_lockstep
 
 INITIAL_FIT_SECONDS = 900.0
@@ -195,8 +196,11 @@ def moved_chunk_starts(window: WindowStates, move: np.ndarray) -> np.ndarray:
 def predict_one_step(model, states: np.ndarray, u: np.ndarray, dt: float,
                      integration: Integration) -> np.ndarray:
     """Every sample's full state predicted from the estimated state one sample earlier:
-    (T - 1, n_states)."""
-    return advance(model.derivatives, states[:-1], u[:-1], u[1:], dt, integration)
+    (T - 1, n_states). A prediction that is not finite from a finite start is an
+    :class:`IntegrationError` (:func:`graybox.integration.check_finite_prediction`)."""
+    predicted = advance(model.derivatives, states[:-1], u[:-1], u[1:], dt, integration)
+    check_finite_prediction(model, states[:-1], u[:-1], u[1:], predicted)
+    return predicted
 
 
 def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: str) -> None:
@@ -535,12 +539,15 @@ class _StartFit:
         pieces = np.arange(count) if pieces is None else np.asarray(pieces)
         batch = np.concatenate([z] + [z + delta[i] * np.eye(n_hidden)[i]
                                       for i in range(n_hidden)])
-        rows = np.tile(pieces, n_hidden + 1)
-        e = self.errors(batch, rows, self.hidden_runs(batch, rows, count))
-        e = np.where(np.isfinite(e), e, 1e6)
-        base = e[:count]
-        jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
-                             for i in range(n_hidden)], axis=-1)
+        # a trial start whose run diverges overflows: its errors count as large, and a
+        # start fit that ends there fails the prediction's own check (check_prediction)
+        with np.errstate(all="ignore"):
+            rows = np.tile(pieces, n_hidden + 1)
+            e = self.errors(batch, rows, self.hidden_runs(batch, rows, count))
+            e = np.where(np.isfinite(e), e, 1e6)
+            base = e[:count]
+            jacobian = np.stack([(e[(i + 1) * count:(i + 2) * count] - base) / delta[i]
+                                 for i in range(n_hidden)], axis=-1)
         return base, jacobian
 
 
@@ -589,8 +596,9 @@ def _initial_hidden(model, layout: _Layout, y, u, dt, integration) -> np.ndarray
             cache[key] = (e[0], jacobian[0])
         return cache[key]
 
-    fit = least_squares(lambda z: evaluate(z)[0], layout.guess, jac=lambda z: evaluate(z)[1],
-                        x_scale=scale, max_nfev=50)
+    with np.errstate(all="ignore"):     # the solver's steps from a diverging run's errors
+        fit = least_squares(lambda z: evaluate(z)[0], layout.guess,
+                            jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50)
     return fit.x
 
 
@@ -644,8 +652,11 @@ def initial_hidden_together(model, pieces: Sequence[tuple[np.ndarray, np.ndarray
                     cache[key] = value
                 return cache[key]
 
-            return least_squares(lambda z: evaluate(z)[0], layout.guess,
-                                 jac=lambda z: evaluate(z)[1], x_scale=scale, max_nfev=50).x
+            # numpy's error state is per thread: set here, in the solver's own
+            with np.errstate(all="ignore"):
+                return least_squares(lambda z: evaluate(z)[0], layout.guess,
+                                     jac=lambda z: evaluate(z)[1], x_scale=scale,
+                                     max_nfev=50).x
 
         starts.extend(run_in_lockstep([solver] * len(problem.n), batch))
     return np.array(starts).reshape(len(pieces), n_hidden)

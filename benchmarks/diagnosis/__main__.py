@@ -19,6 +19,7 @@ import sys
 import time
 
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES
+from benchmarks.diagnosis.episode import EVIDENCE
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import SIZES, DiagnosisGrid, run_grid
 from benchmarks.diagnosis.report import render
@@ -62,6 +63,13 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
                    help="nights a candidate is fitted and diagnosed on (default the product's "
                         "[nightly] candidate_nights: %(default)s)")
+    p.add_argument("--evidence", choices=EVIDENCE, default="candidate",
+                   help="what an alarmed night is diagnosed on: its candidate's nights (default, "
+                        "the product) or, an experiment the product does not run, every night "
+                        "since its alert opened (since-alarm)")
+    p.add_argument("--episode-nights", type=int, default=4,
+                   help="with --evidence since-alarm, the alert episode's nights at most "
+                        "(default %(default)s; at least --candidate-nights)")
     p.add_argument("--zoo", type=_names(tuple(ZOO)), default=(), metavar="F,F",
                    help=f"also the plant-zoo families ({', '.join(ZOO)}), reduced")
     p.add_argument("--zoo-vehicles", type=int, default=3, help="healthy vehicles per family")
@@ -72,7 +80,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="do not run: render the section again from a --json record")
     p.add_argument("--out", type=pathlib.Path, help="write the markdown section here")
     p.add_argument("--json", type=pathlib.Path, help="write the settings, rows and clock here")
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    if args.episode_nights < args.candidate_nights:
+        p.error(f"--episode-nights {args.episode_nights} is below --candidate-nights "
+                f"{args.candidate_nights}")
+    return args
 
 
 def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
@@ -87,7 +99,8 @@ def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
                          seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
                          baseline_days=args.baseline_days, pre_nights=args.pre_nights,
                          post_nights=args.post_nights, tune=not args.untuned,
-                         candidate_nights=args.candidate_nights)
+                         candidate_nights=args.candidate_nights, evidence=args.evidence,
+                         episode_nights=args.episode_nights)
 
 
 def _uptime() -> str:

@@ -21,7 +21,11 @@ each a healthy asset and one faulty asset per (fault kind, magnitude) on the veh
 3. ``graybox.diagnose`` on every alarmed faulty night after the onset and on every healthy
    night (alarmed or not: the false-cause rate), timed, on the telemetry the candidate was
    fitted on (every night of its span), as :func:`flows.pipeline.diagnose_alarm` does.
-   On the onset night the span's first night is healthy.
+   On the onset night the span's first night is healthy. With ``evidence = "since-alarm"``
+   (an experiment, not the product: :mod:`benchmarks.diagnosis.episode`) an alarmed night is
+   diagnosed on its alert episode's nights instead: from the span of the candidate that
+   opened the alert (the first of the consecutive alarmed nights; a faulty asset's nights
+   before the onset alarm as its healthy twin's) to the night, at most ``episode_nights``.
 """
 from __future__ import annotations
 
@@ -35,6 +39,7 @@ import pandas as pd
 
 import graybox as gb
 from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
+from benchmarks.diagnosis.episode import diagnosed_nights
 from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
 from graybox.diagnosis import diagnose
 from flows.config.settings import NightlySettings
@@ -69,6 +74,12 @@ class DiagnosisGrid:
         for comparison).
     candidate_nights : int, default the product's ``[nightly] candidate_nights``
         Nights a candidate is fitted on, and diagnosed on when it alarms.
+    evidence : {"candidate", "since-alarm"}, default "candidate"
+        What an alarmed night is diagnosed on: its candidate's nights (the product), or its
+        alert episode's (:func:`benchmarks.diagnosis.episode.diagnosed_nights`; an
+        experiment).
+    episode_nights : int, default 4
+        The alert episode's cap, in nights (``since-alarm`` only).
     """
 
     magnitudes: dict
@@ -83,6 +94,8 @@ class DiagnosisGrid:
     false_alarm_rate: float = 0.01
     tune: bool = True
     candidate_nights: int = NightlySettings().candidate_nights
+    evidence: str = "candidate"
+    episode_nights: int = 4
 
     def detection_grid(self) -> Grid:
         return Grid(magnitudes=dict(self.magnitudes), model_errors=tuple(self.model_errors),
@@ -173,6 +186,28 @@ def diagnosis_fields(signature, windows, model, expected: tuple[str, str] | None
     return out
 
 
+def _holder(windows: dict, asset: str, vehicle, day: int) -> str:
+    """Whose telemetry is ``asset``'s on ``day``: its own, or before the onset its healthy
+    twin's (identical up to the onset)."""
+    return asset if (asset, day) in windows else asset_id(vehicle.seed, vehicle.vehicle)
+
+
+def _alarmed_nights(jobs: list, drifts: list, onset_day: int) -> dict[str, set[int]]:
+    """``asset -> nights whose candidate alarmed``; a faulty asset's nights before the onset
+    are its healthy twin's (the same telemetry, baseline and candidate)."""
+    own: dict[str, set[int]] = {}
+    for (v, kind, magnitude, night, _), drift in zip(jobs, drifts):
+        nights = own.setdefault(asset_id(v.seed, v.vehicle, kind, magnitude), set())
+        if drift is not None and any(e.exceeded for e in drift.entries):
+            nights.add(night)
+    alarmed = {}
+    for (v, kind, magnitude, _, _) in jobs:
+        asset = asset_id(v.seed, v.vehicle, kind, magnitude)
+        twin = own.get(asset_id(v.seed, v.vehicle), set()) if kind != "healthy" else set()
+        alarmed[asset] = own[asset] | {n for n in twin if n < onset_day}
+    return alarmed
+
+
 def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tuple[list[dict], dict]:
     """Every scored asset-night of one seed, for every model error, and the clock."""
     detection = grid.detection_grid()
@@ -212,13 +247,12 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
                 for kind, magnitude in detection.scenarios()]
             for kind, magnitude, nights in assets:
                 asset = asset_id(v.seed, v.vehicle, kind, magnitude)
-                twin = asset_id(v.seed, v.vehicle)
                 for night in nights:
                     # the candidate's span, as the nightly flow reads it; before the onset a
                     # faulty asset's telemetry is its healthy twin's
                     days = trailing_nights(night, detection.candidate_nights,
                                            detection.baseline_days)
-                    parts = [windows[asset if (asset, d) in windows else twin, d] for d in days]
+                    parts = [windows[_holder(windows, asset, v, d), d] for d in days]
                     jobs.append((v, kind, magnitude, night,
                                  gb.FitRequest(models[v.vehicle], parts, baseline=signature,
                                                asset_id=asset)))
@@ -230,7 +264,12 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
             f"{len(jobs)} nights in "
             f"{clock[f'candidate_seconds_{error:g}']:.0f} s; diagnosing")
         began = time.perf_counter()
-        for (v, kind, magnitude, night, request), candidate in zip(jobs, candidates):
+        drifts = [None if isinstance(candidate, gb.GrayBoxError)
+                  else gb.compute_drift(candidate, *baselines[job[0].vehicle])
+                  for job, candidate in zip(jobs, candidates)]
+        alarmed = _alarmed_nights(jobs, drifts, detection.onset_day)
+        for (v, kind, magnitude, night, request), candidate, drift in zip(jobs, candidates,
+                                                                           drifts):
             signature, calibration = baselines[v.vehicle]
             expected = expected_hypothesis(kind) if kind != "healthy" else None
             row = {"seed": seed, "model_error": error, "vehicle": v.vehicle, "fault": kind,
@@ -239,18 +278,25 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
                    "expected": None if expected is None else " ".join(expected)}
             if v.vehicle in tuning:
                 row["tuned"] = dict(zip(tuning[v.vehicle].names, tuning[v.vehicle].values))
-            if isinstance(candidate, gb.GrayBoxError):
+            if drift is None:
                 row.update(alarm=None, candidate_error=str(candidate)[:200])
                 rows.append(row)
                 continue
-            drift = gb.compute_drift(candidate, signature, calibration)
             exceeded = [e for e in drift.entries if e.exceeded]
             row.update(alarm=bool(exceeded),
                        exceeded=";".join(f"{e.channel}/{e.tier}" for e in exceeded))
             if exceeded or kind == "healthy":
+                parts = request.windows
+                if grid.evidence != "candidate":
+                    asset = asset_id(v.seed, v.vehicle, kind, magnitude)
+                    days = diagnosed_nights(night, alarmed[asset], detection.candidate_nights,
+                                            detection.baseline_days, grid.evidence,
+                                            grid.episode_nights)
+                    parts = [windows[_holder(windows, asset, v, d), d] for d in days]
+                    row["diagnosed_nights"] = [days.start, days.stop - 1]
                 try:
                     row.update(diagnosis_fields(
-                        signature, request.windows, models[v.vehicle], expected,
+                        signature, parts, models[v.vehicle], expected,
                         lambda h: implied_magnitude(kind, h.estimate, h.baseline)))
                     clock["diagnose_seconds"] += row["seconds"]
                     clock["diagnosed"] += 1

@@ -68,6 +68,15 @@ def headline(cells: list[dict]) -> str:
             f"magnitude with the white box 20 % off: " + ("; ".join(parts) or "not run") + ".")
 
 
+def _episode(grid: dict) -> str:
+    """The ``since-alarm`` experiment's protocol, said in the header ("" for the product's)."""
+    if grid.get("evidence", "candidate") == "candidate":
+        return ""
+    return (f"; an alarmed night diagnosed instead on its alert episode ({grid['evidence']}: "
+            f"from the span of the candidate that opened the alert, at most "
+            f"{grid['episode_nights']} nights; an experiment, not the product)")
+
+
 def scored(rows: list[dict], sample_interval: str) -> list[str]:
     """The accuracy table, the confusion tables, the false causes and the cost of ``rows``."""
     cost = scores.cost(rows)
@@ -106,7 +115,8 @@ def render(result: dict | None, command: str, wall_seconds: float, load: tuple[s
                       f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before "
                       f"the onset, {grid['post_nights']} nights from it; "
                       f"{grid['sample_interval']:g} s samples; candidates fitted and diagnosed "
-                      f"on {grid.get('candidate_nights', 1)} night(s). White box tuned on the "
+                      f"on {grid.get('candidate_nights', 1)} night(s)"
+                      + _episode(grid) + ". White box tuned on the "
                       f"baseline days when off: {result['tuned'] or 'no (untuned)'}.", "",
                   headline(cells), "",
                   *scored(result["rows"], f"{grid['sample_interval']:g} s samples")]

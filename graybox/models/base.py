@@ -8,6 +8,7 @@ data (:mod:`graybox.hidden_states`).
 """
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import re
@@ -96,6 +97,9 @@ class WhiteBoxModel:
             cls.outputs = cls.states
         if not abstract:
             _check_declarations(cls)
+        for method, counted in (("derivatives", "states"), ("output", "outputs")):
+            if method in cls.__dict__:
+                setattr(cls, method, _shape_checked(cls.__dict__[method], counted))
 
     def __init__(self, parameters: Mapping[str, float] | None = None,
                  columns: Mapping[str, str] | None = None):
@@ -248,6 +252,31 @@ class WhiteBoxModel:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(parameters={self.parameters!r})"
+
+
+def _shape_checked(method, counted: str):
+    """``method`` (``derivatives`` or ``output``) returning one column per name of
+    ``counted`` (``"states"`` or ``"outputs"``) for every row of ``x``, or an error that says
+    so. A model of one state or output may return the rows alone (``(T,)`` for ``(T, 1)``:
+    ``(u[..., 0] - x[..., 0]) / tau`` is how such a model is naturally written)."""
+
+    @functools.wraps(method)
+    def shaped(self, x, u):
+        result = method(self, x, u)
+        columns = len(getattr(self, counted))
+        expected = np.shape(x)[:-1] + (columns,)
+        if getattr(result, "shape", None) == expected:
+            return result
+        result = np.asarray(result, dtype=float)
+        if columns == 1 and result.shape == expected[:-1]:
+            return result[..., None]
+        raise ModelSpecError(
+            f"{type(self).__name__}.{method.__name__}(x, u) returned an array of shape "
+            f"{result.shape} for x of shape {np.shape(x)}; it must return {expected}: one "
+            f"column per name of {counted} {getattr(self, counted)}, in that order, for every "
+            f"row (build it with np.stack([...], axis=-1) from x[..., i] and u[..., j])")
+
+    return shaped
 
 
 def _as_finite_float(value, what: str) -> float:

@@ -74,6 +74,42 @@ def test_declarations_are_checked_when_the_class_is_defined():
                 return x
 
 
+class _Lag(WhiteBoxModel):
+    """One state following its input: written the natural way, ``(T,)`` for ``(T, 1)``."""
+
+    states = ("level",)
+    inputs = ("target",)
+    default_parameters = {"tau": 10.0}
+
+    def derivatives(self, x, u):
+        return (u[..., 0] - x[..., 0]) / self.parameters["tau"]
+
+
+class _TwoStates(WhiteBoxModel):
+    states = ("a", "b")
+    outputs = ("a", "total")
+    inputs = ("drive",)
+
+    def derivatives(self, x, u):
+        return u[..., 0] - x[..., 0]            # one column for two states: a mistake
+
+    def output(self, x, u):
+        return np.stack([x[..., 0], x[..., 0] + x[..., 1]], axis=-1)
+
+
+def test_a_one_state_model_may_return_its_rows_alone_and_a_wrong_shape_is_named():
+    x, u = np.array([[1.0], [3.0]]), np.array([[2.0], [2.0]])
+    np.testing.assert_allclose(_Lag().derivatives(x, u), [[0.1], [-0.1]])
+    # the simulator's stacked form, (rows, vehicles, states), keeps its shape too
+    assert _Lag().derivatives(np.ones((5, 3, 1)), np.ones((5, 3, 1))).shape == (5, 3, 1)
+    x2 = np.ones((4, 2))
+    assert _TwoStates().output(x2, np.ones((4, 1))).shape == (4, 2)
+    with pytest.raises(ModelSpecError, match=r"_TwoStates.derivatives\(x, u\) returned an "
+                       r"array of shape \(4,\) for x of shape \(4, 2\); it must return "
+                       r"\(4, 2\): one column per name of states \('a', 'b'\)"):
+        _TwoStates().derivatives(x2, np.ones((4, 1)))
+
+
 def test_missing_columns_name_column_and_variable():
     model = GasTurbineShaft(columns={"omega": "shaft_speed"})
     with pytest.raises(TelemetryError) as info:

@@ -29,3 +29,12 @@ def test_a_sensor_logged_in_full_and_a_constant_have_no_step():
     assert reading_resolution(rng.normal(0, 1, 1000)) == 0.0
     assert reading_resolution(np.full(50, 3.2)) == 0.0
     assert reading_resolution(np.array([1.0, np.nan, 1.5, 2.0])) == pytest.approx(0.5)
+
+
+def test_a_reading_whose_changes_are_below_its_significant_digits_has_no_step(recwarn):
+    # a pressure of 100 kPa logged in full in MPa-scale steps: its changes are below the ten
+    # significant digits its values are compared at, and round to 0 (not a step, no warning)
+    rng = np.random.default_rng(3)
+    pressure = 1e5 + np.cumsum(rng.normal(0, 1e-7, 1000))
+    assert reading_resolution(pressure) == 0.0
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
