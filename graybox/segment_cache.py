@@ -57,14 +57,19 @@ class SegmentCache:
         self._results: dict[tuple, object] = {}
         self._models: dict[int, object] = {}
 
-    def _key(self, kind: str, model, arrays: tuple[np.ndarray, ...], *details) -> tuple:
+    def _key(self, kind: str, model, arrays: tuple[np.ndarray, ...], *details,
+             digest: str | None = None) -> tuple:
+        """The key of ``arrays``' results of ``kind``; ``digest``, the arrays' own where
+        known (a :class:`~graybox.state_estimation.WindowStates`'), saves hashing them."""
         self._models[id(model)] = model
-        # SHA-256 from the array's own buffer: under half blake2b's time on a day's segment
-        # with the processor's SHA instructions, and no copy of the data to hash
-        digest = hashlib.sha256()
-        for array in arrays:
-            digest.update(np.ascontiguousarray(array))
-        return (kind, id(model), *details, tuple(a.shape for a in arrays), digest.hexdigest())
+        if digest is None:
+            # SHA-256 from the array's own buffer: under half blake2b's time on a day's
+            # segment with the processor's SHA instructions, and no copy of the data to hash
+            hashed = hashlib.sha256()
+            for array in arrays:
+                hashed.update(np.ascontiguousarray(array))
+            digest = hashed.hexdigest()
+        return (kind, id(model), *details, tuple(a.shape for a in arrays), digest)
 
     def estimate(self, model, y: np.ndarray, u: np.ndarray, dt: float,
                  integration: Integration) -> WindowStates:
@@ -75,6 +80,9 @@ class SegmentCache:
         states = estimate_states(model, y, u, dt, integration, self._starts.get(key),
                                  self._initial.pop(key, None))
         self._starts[key] = states.chunk_starts
+        # the data's digest with them: :meth:`remember` keys the segment's residual and
+        # level data by it (and a decimated window's by it and the factor) without hashing
+        states.digest = key[-1]
         return states
 
     def stage_start(self, model, y: np.ndarray, u: np.ndarray, dt: float,
@@ -110,7 +118,7 @@ class SegmentCache:
                  compute: Callable[[], Value]) -> Value:
         """``compute()`` for ``segment``, or what it gave for the same data and ``details``
         (everything else the result depends on) earlier."""
-        key = self._key(kind, model, (segment.y, segment.u), *details)
+        key = self._key(kind, model, (segment.y, segment.u), *details, digest=segment.digest)
         if key in self._results:
             return self._results[key]
         value = compute()

@@ -157,3 +157,51 @@ def test_a_moved_start_carried_by_the_chunks_sensitivities_is_the_run_from_it():
         moved = moved_chunk_starts(window, move)
         np.testing.assert_allclose(moved, sequential[firsts], rtol=0, atol=tolerance)
         assert np.max(np.abs(moved - window.chunk_starts)) > 1e-4
+
+
+def _long():
+    """A window of at least ``SENSITIVITY_SAMPLES`` strides of ``SENSITIVITY_STRIDE`` chunks:
+    its first pass samples the chunks' sensitivities."""
+    return (state_estimation.SENSITIVITY_SAMPLES * state_estimation.SENSITIVITY_STRIDE + 3) \
+        * state_estimation.CHUNK_SAMPLES + 7
+
+
+def test_an_affine_long_run_chains_with_its_sampled_common_sensitivity():
+    # known answer: the sequential run to 1e-10 of the scale, from a first pass that moves
+    # every 8th chunk only and a confirming pass of the chunks alone; the common sensitivity
+    # is every chunk's (the full pass's) to 1e-8
+    model = AffineHidden()
+    layout = _Layout(model)
+    y, u, x = _data(model, n=_long(), seed=7)
+    start = x[0, layout.hidden]
+    rows = _Rows(model)
+    model.derivatives = rows
+    hidden, starts, sensitivity = _run_hidden(model, layout, y, u, 1.0, RK4, start)
+    counted = sorted(set(rows.rows))
+    model.derivatives = rows.derivatives
+    firsts, _ = _chunks(len(y))
+    sampled = len(np.arange(0, len(firsts) - 1, state_estimation.SENSITIVITY_STRIDE))
+    assert counted == [len(firsts), len(firsts) + 2 * sampled]
+    sequential = _run(model, layout, y, u, 1.0, RK4, start[None], np.array([0]), len(y) - 1)[0]
+    np.testing.assert_allclose(hidden, sequential, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(starts, sequential[firsts], rtol=0, atol=1e-10)
+    full = _every_pass_in_full(model, layout, y, u, 1.0, RK4, start)
+    np.testing.assert_allclose(hidden, full[0], rtol=0, atol=1e-10)
+    # each chunk's own sensitivity, as a full pass computes it at the chained starts
+    delta = 1e-4 * np.maximum(1.0, np.abs(start))
+    batch = np.concatenate([starts] + [starts + delta[i] * np.eye(2)[i] for i in range(2)])
+    runs = _run(model, layout, y, u, 1.0, RK4, batch, np.tile(firsts, 3), _chunks(len(y))[1])
+    ends = runs[:len(firsts), -1]
+    chunk_by_chunk = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
+                               / delta[i] for i in range(2)], axis=-1)
+    np.testing.assert_allclose(sensitivity[:-1], chunk_by_chunk[:-1], rtol=0, atol=1e-8)
+
+
+def test_a_nonlinear_long_run_whose_sensitivities_differ_is_the_full_passes_run_to_the_bit():
+    model = NonlinearHidden()
+    layout = _Layout(model)
+    y, u, x = _data(model, n=_long(), seed=7)
+    start = x[0, layout.hidden] + np.array([0.3, 0.0])
+    hidden, starts, _ = _run_hidden(model, layout, y, u, 1.0, RK4, start)
+    full = _every_pass_in_full(model, layout, y, u, 1.0, RK4, start)
+    assert np.array_equal(hidden, full[0]) and np.array_equal(starts, full[1])

@@ -10,6 +10,7 @@ from graybox import state_estimation
 from graybox.integration import Integration
 from graybox import signature_fit
 from graybox.calibration import fit_baselines
+from graybox import segment_cache
 from graybox.segment_cache import SegmentCache
 from graybox.signature_fit import FitRequest
 from graybox.state_estimation import estimate_states, window_arrays
@@ -91,3 +92,33 @@ def test_a_calibration_reads_each_baseline_window_once_and_fits_what_it_fits_wit
     uncached = fit_baselines([request])[0]
     assert cached[0].to_json() == uncached[0].to_json()
     assert cached[1].to_json() == uncached[1].to_json()
+
+
+def test_a_segments_results_are_found_by_its_estimates_digest_without_hashing_again(
+        monkeypatch):
+    model, frame, _, _ = _simulate_hidden(600, 4, q0=0.4, temp0=30.0)
+    y, u = window_arrays(model, frame)
+    rk4 = Integration("rk4", 2)
+    cache = SegmentCache()
+    states = cache.estimate(model, y, u, DT, rk4)
+    hashed = []
+    original = segment_cache.hashlib.sha256
+    monkeypatch.setattr(segment_cache.hashlib, "sha256",
+                        lambda *a: hashed.append(1) or original(*a))
+    computed = []
+    value = cache.remember("residual", model, states, ("a",), lambda: computed.append(1) or 7)
+    again = cache.remember("residual", model, states, ("a",), lambda: computed.append(1) or 8)
+    assert (value, again, computed, hashed) == (7, 7, [1], [])
+    # a decimated window is its own segment, by factor; the same factor finds it again
+    five = cache.remember("level", model, states.decimated(5), (), lambda: 5)
+    three = cache.remember("level", model, states.decimated(3), (), lambda: 3)
+    assert (five, three, hashed) == (5, 3, [])
+    assert cache.remember("level", model, states.decimated(5), (), lambda: 0) == 5
+    # the same data estimated again carries the same digest; other data another
+    assert cache.estimate(model, y.copy(), u.copy(), DT, rk4).digest == states.digest
+    assert cache.estimate(model, y[1:], u[1:], DT, rk4).digest != states.digest
+    # a window without a digest (not the cache's estimate) is hashed, as before
+    plain = estimate_states(model, y, u, DT, rk4)
+    assert plain.digest is None
+    assert cache.remember("residual", model, plain, ("a",), lambda: 9) == 7
+    assert hashed
