@@ -102,7 +102,8 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
     left = [pd.Timestamp(t) for t in signature.left_out or ()]
     used = ", ".join(f"{w.start:%Y-%m-%d}" for w in windows
                      if not any(w.start <= t < w.end for t in left))
-    result.note = f"{note} (windows {used})"
+    # after what the reading noted (windows without rows or too short to read, left out)
+    result.note = f"{note} (windows {used})" + (f"; {result.note}" if result.note else "")
     if left:
         # the fit left them out (graybox.calibration.fit_baselines): too little operation
         result.note += (f"; left out, too little operation to fit: "

@@ -318,7 +318,9 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
 
     A new baseline (no reference) is fitted on all of its windows or not at all: bad
     telemetry fails it (its note says why), and so do fewer than :data:`MIN_WINDOWS` windows
-    with rows. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
+    with rows. A window with too little operation to read (``too_few_samples``: shorter than
+    the grid's ``min_duration``) is not bad telemetry: a new baseline leaves it out and its
+    note names it. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
     ``job.idle_note``. Anything but bad telemetry that stops the reading fails the asset.
     """
     if job.model is None:
@@ -358,6 +360,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                   clock: StageClock | None) -> None:
     """:func:`read`'s reading: the windows of ``job`` into ``asset``, and the notes."""
     empty = []
+    short = []          # a new baseline's windows with too little operation to read
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
     spans = []          # the nights of the windows taken (the telemetry's days)
@@ -397,6 +400,11 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     if any(start < d + DAY and d < end for d in dates):
                         empty.append(start)      # a partition is there, without rows
                     continue
+                if job.reference is None and error.kind == "too_few_samples":
+                    # a new baseline's day that ran too little (shorter than min_duration):
+                    # left out and named, as the fit leaves out one too short to fit
+                    short.append(start)
+                    continue
                 if job.reference is not None:   # on the night whose telemetry it is
                     _alert_sensor(config, job, error, next(
                         (n for n in window.nights if found.get(n) is error), window.night))
@@ -414,6 +422,10 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
     if empty:   # a date partition without rows: said, never skipped silently
         notes.append(f"skipped {len(empty)} window(s) whose telemetry has no rows: "
                      f"{', '.join(start.isoformat() for start in empty)}")
+    if short:
+        notes.append(f"left out {len(short)} window(s) with too little operation to read "
+                     f"(shorter than the grid's min_duration): "
+                     f"{', '.join(start.isoformat() for start in short)}")
     if links:
         notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
                      f"{', '.join(links)}")

@@ -1,7 +1,8 @@
 """A new baseline leaves out a day that held too little operation to fit and says which, in
 the command's result (graybox.calibration.fit_baselines, ``Signature.left_out``). A pump runs
 three hours a day at 5 s; on its third baseline day only 4 minutes (a calm day of a wind
-turbine, a machine idle most of the day). Before, the whole baseline failed on that day."""
+turbine, a machine idle most of the day), on its fifth 2 minutes, less than the grid's
+``min_duration``. Before, the whole baseline failed on either day."""
 from __future__ import annotations
 
 import json
@@ -13,8 +14,9 @@ import pytest
 from plant_telemetry import pump_config, pump_period
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
-DAYS = 4
-SHORT_DAY = 2
+DAYS = 5
+SHORT_DAY = 2          # 4 minutes: read, too short to fit
+UNREAD_DAY = 4         # 2 minutes: shorter than the grid's min_duration, not read
 
 
 @pytest.mark.slow
@@ -30,6 +32,7 @@ def test_a_day_with_too_little_operation_is_left_out_of_the_baseline_and_named(
     for k in range(DAYS):
         day = START + pd.Timedelta(days=k)
         periods = ([(pd.Timedelta("9h"), 240.0)] if k == SHORT_DAY else
+                   [(pd.Timedelta("9h"), 120.0)] if k == UNREAD_DAY else
                    [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
         frames += [pump_period(PumpLoop(), day + offset, seconds, 5.0, rng)
                    for offset, seconds in periods]
@@ -44,5 +47,7 @@ def test_a_day_with_too_little_operation_is_left_out_of_the_baseline_and_named(
     assert status == 0, out.err
     [asset] = json.loads(out.out)["assets"]
     assert asset["status"] == "ok"
-    assert "(windows 2026-03-01, 2026-03-02, 2026-03-04)" in asset["note"]
+    assert "(windows 2026-03-01, 2026-03-02, 2026-03-04); " in asset["note"]
+    assert ("left out 1 window(s) with too little operation to read (shorter than the grid's "
+            "min_duration): 2026-03-05T00:00:00+00:00" in asset["note"])
     assert asset["note"].endswith("left out, too little operation to fit: 2026-03-03 09:00")
