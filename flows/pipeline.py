@@ -37,7 +37,8 @@ import pandas as pd
 
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.drift import Drift, compute_drift
-from graybox.exceptions import GrayBoxError, InsufficientDataError, TelemetryError
+from graybox.exceptions import (GrayBoxError, InsufficientDataError, ShortWindowsError,
+                                TelemetryError)
 from graybox.signature_fit import FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
@@ -235,6 +236,9 @@ class PendingAsset:
     changed_days : list of datetime.date
         Days marked changed by an import whose windows this run selected: their marks are
         cleared once everything is committed (:mod:`flows.changed_days`).
+    idle_status : str, optional
+        A candidate asset's status when none of its windows had telemetry to analyse (the
+        job's ``idle_status``).
     """
 
     ref: AssetRef
@@ -249,6 +253,7 @@ class PendingAsset:
     baseline_fit: tuple | GrayBoxError | None = None
     committed_end: pd.Timestamp | None = None
     changed_days: list = field(default_factory=list)
+    idle_status: str | None = None
 
     @property
     def asset_id(self) -> str:
@@ -326,7 +331,8 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
     if job.model is None:
         return None
     asset = PendingAsset(job.ref, job.result, job.model, job.reference,
-                         stop_at_error=job.stop_at_error, changed_days=list(job.changed_days))
+                         stop_at_error=job.stop_at_error, changed_days=list(job.changed_days),
+                         idle_status=job.idle_status)
     try:
         _read_windows(config, job, asset, clock)
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
@@ -389,7 +395,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     try:
                         earlier.append(night(s, e))
                     except TelemetryError as error:
-                        if error.kind != "no_data":   # an idle night is left out
+                        # an idle night, or one that ran too little to read, is left out
+                        if error.kind not in ("no_data", "too_few_samples"):
                             raise
             except TelemetryError as error:
                 if error.kind == "no_data":
@@ -400,9 +407,10 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     if any(start < d + DAY and d < end for d in dates):
                         empty.append(start)      # a partition is there, without rows
                     continue
-                if job.reference is None and error.kind == "too_few_samples":
-                    # a new baseline's day that ran too little (shorter than min_duration):
-                    # left out and named, as the fit leaves out one too short to fit
+                if error.kind == "too_few_samples":
+                    # a day that ran too little to read (shorter than min_duration): left
+                    # out of a new baseline, and a night not monitored, both named; never a
+                    # failure that holds up the nights after it
                     short.append(start)
                     continue
                 if job.reference is not None:   # on the night whose telemetry it is
@@ -423,8 +431,9 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
         notes.append(f"skipped {len(empty)} window(s) whose telemetry has no rows: "
                      f"{', '.join(start.isoformat() for start in empty)}")
     if short:
-        notes.append(f"left out {len(short)} window(s) with too little operation to read "
-                     f"(shorter than the grid's min_duration): "
+        notes.append(f"{'not monitored' if job.reference is not None else 'left out'} "
+                     f"{len(short)} window(s) with too little operation to read (shorter "
+                     f"than the grid's min_duration): "
                      f"{', '.join(start.isoformat() for start in short)}")
     if links:
         notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
@@ -640,6 +649,8 @@ def compare(assets: Sequence[PendingAsset], fits: Sequence[Signature | GrayBoxEr
         for window in asset.windows:
             window.fit = next(fitted)
     for asset in assets:
+        _leave_out_calm_nights(asset)
+    for asset in assets:
         reference = asset.reference
         for window in asset.windows:
             if isinstance(window.fit, GrayBoxError):
@@ -657,6 +668,25 @@ def compare(assets: Sequence[PendingAsset], fits: Sequence[Signature | GrayBoxEr
                 window.failure = error
                 if asset.stop_at_error:
                     break
+
+
+def _leave_out_calm_nights(asset: PendingAsset) -> None:
+    """A candidate asset's windows whose own night ran too little to fit
+    (:class:`ShortWindowsError`; an earlier night of the span is left out by the fit
+    itself) are not monitored: named in the note and left out, so they never hold up the
+    nights after them; an asset with no other window gets its idle status."""
+    if asset.reference is None:
+        return
+    calm = [w for w in asset.windows if isinstance(w.fit, ShortWindowsError)]
+    if not calm:
+        return
+    asset.windows = [w for w in asset.windows if not isinstance(w.fit, ShortWindowsError)]
+    note = (f"not monitored {len(calm)} window(s) with too little operation to fit: "
+            f"{', '.join(w.night.isoformat() for w in calm)}")
+    result = asset.result
+    result.note = note if not result.note else f"{result.note}; {note}"
+    if not asset.windows and asset.stop is None and not result.failed:
+        result.status = asset.idle_status or result.status
 
 
 def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,

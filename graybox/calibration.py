@@ -65,9 +65,9 @@ from scipy import special
 from graybox import record_json
 from graybox.analysis_rate import decimation_factor
 from graybox.epsilon_scaling import epsilon_scale
-from graybox.exceptions import (ArtifactError, GrayBoxError, InsufficientDataError,
-                                ShortWindowsError)
-from graybox.signature_fit import FitRequest, fit_signatures
+from graybox.exceptions import ArtifactError, GrayBoxError, InsufficientDataError
+from graybox.signature_fit import (MIN_BASELINE_WINDOWS, FitRequest, fit_signatures,
+                                   without_short_windows)
 from graybox.operating_conditions import outside
 from graybox.telemetry.window import window_periods
 from graybox.settings import GrayBoxSettings
@@ -270,8 +270,11 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     # data are computed once (the pieces, new data, are not kept)
     cache = SegmentCache()
     signatures = fit_signatures(fresh, settings, chunk_size, clock, cache, kinds)
-    fresh, signatures = _without_short_windows(fresh, signatures, settings, chunk_size, clock,
-                                               cache, kinds)
+    # a window that ran too little to fit is left out where enough others remain
+    fresh, signatures = without_short_windows(
+        fresh, signatures, lambda again: fit_signatures(again, settings, chunk_size, clock,
+                                                        cache, kinds),
+        least=MIN_BASELINE_WINDOWS)
     cache.storing = False
     results: list = list(signatures)
     jobs = []  # (position, baseline signature, number of windows)
@@ -322,45 +325,6 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
         except GrayBoxError as error:
             results[p] = type(error)(f"asset {sig.asset_id!r}: {error}")
     return results
-
-
-#: windows a baseline keeps at the least when it leaves out those with too little operation
-MIN_BASELINE_WINDOWS = 3
-
-
-def _without_short_windows(fresh: list[FitRequest], signatures: list, settings,
-                           chunk_size: int, clock, cache, kinds) -> tuple[list, list]:
-    """The baselines refitted without their windows that held too little operation to fit (a
-    wind turbine's calm day, a machine idle most of a day: :class:`ShortWindowsError`), where
-    at least :data:`MIN_BASELINE_WINDOWS` others remain; each such baseline records the
-    windows it left out (``Signature.left_out``). Others are returned as they are; a baseline
-    left with too few windows keeps its error, which names them."""
-    fresh, signatures = list(fresh), list(signatures)
-    left_out: dict[int, list[str]] = {}
-    while True:
-        retry = []
-        for p, signature in enumerate(signatures):
-            if not isinstance(signature, ShortWindowsError) or not signature.windows:
-                continue
-            short = set(signature.windows)
-            kept = [w for k, w in enumerate(fresh[p].windows) if k not in short]
-            if len(kept) < MIN_BASELINE_WINDOWS or len(kept) == len(fresh[p].windows):
-                continue
-            left_out.setdefault(p, []).extend(
-                window_periods(w)[0].index[0].isoformat()
-                for k, w in enumerate(fresh[p].windows) if k in short)
-            fresh[p] = replace(fresh[p], windows=kept)
-            retry.append(p)
-        if not retry:
-            break
-        refits = fit_signatures([fresh[p] for p in retry], settings, chunk_size, clock, cache,
-                                kinds)
-        for p, signature in zip(retry, refits):
-            signatures[p] = signature
-    for p, starts in left_out.items():
-        if isinstance(signatures[p], Signature):
-            signatures[p] = replace(signatures[p], left_out=tuple(sorted(starts)))
-    return fresh, signatures
 
 
 def calibration_pieces(baseline: Signature, n_samples: int, settings: GrayBoxSettings) -> int:

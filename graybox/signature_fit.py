@@ -14,7 +14,7 @@ causes it and the others are unaffected.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -473,7 +473,66 @@ def fit_signatures(requests: Sequence[FitRequest], settings: GrayBoxSettings | N
                 except Exception as error:  # noqa: BLE001
                     results[position] = _as_graybox_error(error, item.request)
             del prepared         # the group's residuals, not held while the next is prepared
+    # a candidate of several nights whose earlier night ran too little is fitted on the
+    # nights that ran; one whose own (last) night ran too little keeps its error
+    short = [p for p, r in enumerate(requests)
+             if r.baseline is not None and isinstance(results[p], ShortWindowsError)]
+    if short:
+        _, refitted = without_short_windows(
+            [requests[p] for p in short], [results[p] for p in short],
+            lambda again: fit_signatures(again, settings, chunk_size, clock, cache, kinds),
+            least=1, keep_last=True)
+        for p, result in zip(short, refitted):
+            results[p] = result
     return results
+
+
+#: windows a baseline keeps at the least when it leaves out those with too little operation
+MIN_BASELINE_WINDOWS = 3
+
+
+def without_short_windows(requests: Sequence[FitRequest], results: list,
+                          refit: Callable[[list[FitRequest]], list], least: int,
+                          keep_last: bool = False) -> tuple[list[FitRequest], list]:
+    """The fits of ``requests`` (``results``) redone without their windows that held too
+    little operation to fit (a wind turbine's calm day, a machine idle most of a day: a
+    :class:`ShortWindowsError` names them), where at least ``least`` others remain (and,
+    with ``keep_last``, the last window is not one of them: a candidate's own night). Each
+    refitted signature records the windows left out (``Signature.left_out``, their first
+    timestamps); the others are returned as they are.
+
+    Returns
+    -------
+    (requests, results)
+        The requests as fitted at last, and their results.
+    """
+    requests, results = list(requests), list(results)
+    left_out: dict[int, list[str]] = {}
+    while True:
+        retry = []
+        for p, result in enumerate(results):
+            if not isinstance(result, ShortWindowsError) or not result.windows:
+                continue
+            windows = requests[p].windows
+            short = set(result.windows)
+            kept = [w for k, w in enumerate(windows) if k not in short]
+            if (len(kept) < least or len(kept) == len(windows)
+                    or (keep_last and len(windows) - 1 in short)):
+                continue
+            left_out.setdefault(p, []).extend(window_periods(w)[0].index[0].isoformat()
+                                              for k, w in enumerate(windows) if k in short)
+            requests[p] = replace(requests[p], windows=kept)
+            retry.append(p)
+        if not retry:
+            break
+        for p, result in zip(retry, refit([requests[p] for p in retry])):
+            results[p] = result
+    for p, starts in left_out.items():
+        if isinstance(results[p], Signature):
+            results[p] = replace(results[p], left_out=tuple(sorted(starts)))
+    return requests, results
+
+
 
 
 def _resolved(settings: GrayBoxSettings, request: FitRequest) -> GrayBoxSettings:

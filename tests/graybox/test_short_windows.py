@@ -32,3 +32,21 @@ def test_a_baseline_left_with_too_few_windows_fails_naming_them():
     [error] = gb.fit_baselines([gb.FitRequest(HeatedTank(), windows, asset_id="T-1", seed=0)])
     assert isinstance(error, ShortWindowsError)
     assert error.windows == (1, 2) and "asset 'T-1'" in str(error)
+
+
+def test_a_candidate_fitted_without_its_earlier_night_that_ran_too_little():
+    """A two-night candidate whose first night ran 20 minutes is the candidate of its second
+    night alone, and says so; one whose own night ran too little keeps its error."""
+    days = _days(1.0, 0.0, 1.0)
+    [(baseline, _)] = gb.fit_baselines([gb.FitRequest(HeatedTank(), days[:4], asset_id="T-1",
+                                                      seed=0)])
+    short, night = days[4].iloc[:40], days[5]
+    [both] = gb.fit_signatures([gb.FitRequest(HeatedTank(), [short, night], baseline=baseline,
+                                              asset_id="T-1")])
+    [alone] = gb.fit_signatures([gb.FitRequest(HeatedTank(), [night], baseline=baseline,
+                                               asset_id="T-1")])
+    assert both.left_out == (short.index[0].isoformat(),)
+    assert to_dict(both) == {**to_dict(alone), "left_out": [short.index[0].isoformat()]}
+    [error] = gb.fit_signatures([gb.FitRequest(HeatedTank(), [night, short], baseline=baseline,
+                                               asset_id="T-1")])
+    assert isinstance(error, ShortWindowsError) and error.windows == (1,)

@@ -1,0 +1,59 @@
+"""A night that ran too little is not monitored, named, and never holds up the nights after
+it. A pump at 5 s, baselined on three days; on the fourth day it ran 4 minutes (read, too
+short to fit), on the fifth 2 minutes (shorter than the grid's min_duration: not read), the
+sixth and seventh normally. Before, the nightly run stopped the asset at the fourth night on
+every run: the nights after it were never analysed."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from plant_telemetry import pump_config, pump_period
+
+START = pd.Timestamp("2026-03-01", tz="UTC")
+RAN = {3: 240.0, 4: 120.0}      # day -> seconds of operation, the others 3 h
+
+
+@pytest.mark.slow
+def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_path, capsys):
+    from flows.cli import main
+    from graybox.models import PumpLoop
+    from graybox.telemetry import write_telemetry
+
+    root = tmp_path / "telemetry"
+    rng = np.random.default_rng(7)
+    frames = []
+    for k in range(7):
+        day = START + pd.Timedelta(days=k)
+        periods = ([(pd.Timedelta("9h"), RAN[k])] if k in RAN else
+                   [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
+        frames += [pump_period(PumpLoop(), day + offset, seconds, 5.0, rng)
+                   for offset, seconds in periods]
+    write_telemetry(root, "P-001", pd.concat(frames, ignore_index=True))
+    config = tmp_path / "fleet.toml"
+    config.write_text(pump_config(root, tmp_path / "mlflow.db",
+                                  "grid = { intermittent = true, min_duration = \"3min\" }"))
+    assert main(["--config", str(config), "baseline", "fit", "--all", "--start",
+                 START.isoformat(), "--end", (START + pd.Timedelta(days=3)).isoformat(),
+                 "--promote", "--reason", "healthy days", "--json"]) == 0
+    capsys.readouterr()
+    as_of = (START + pd.Timedelta(days=7)).isoformat()
+    status = main(["--config", str(config), "run", "--as-of", as_of, "--json"])
+    out = capsys.readouterr()
+    assert status == 0, out.err
+    [asset] = json.loads(out.out)["assets"]
+    assert asset["status"] == "ok"
+    analysed = [w["window_start"] for w in asset["windows"]]
+    assert analysed == [(START + pd.Timedelta(days=k)).isoformat() for k in (5, 6)]
+    assert ("not monitored 1 window(s) with too little operation to read (shorter than the "
+            "grid's min_duration): 2026-03-05T00:00:00+00:00") in asset["note"]
+    assert ("not monitored 1 window(s) with too little operation to fit: "
+            "2026-03-04T00:00:00+00:00") in asset["note"]
+    # the next run has nothing left to do
+    status = main(["--config", str(config), "run", "--as-of", as_of, "--json"])
+    out = capsys.readouterr()
+    assert status == 0, out.err
+    assert json.loads(out.out)["assets"][0]["windows"] == []
