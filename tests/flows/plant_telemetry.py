@@ -86,3 +86,21 @@ def pump_period(model: LinearStateSpace, start: pd.Timestamp, seconds: float, dt
     frame["pdisch_setpoint"], frame["inlet_temperature"] = setpoint, inlet
     frame.insert(0, "timestamp", start + pd.to_timedelta(t, unit="s"))
     return frame
+
+
+def pump_days(start: pd.Timestamp, days: int, ran: dict[int, float], dt: float = 5.0,
+              seed: int = 7) -> pd.DataFrame:
+    """``days`` days of a healthy :class:`~graybox.models.PumpLoop` from ``start``, sampled
+    every ``dt`` seconds: 90 minutes from 06:00 and from 13:00, except on the days of ``ran``
+    (day -> seconds), which run that long from 09:00 (a machine that ran too little)."""
+    from graybox.models import PumpLoop
+
+    rng = np.random.default_rng(seed)
+    frames = []
+    for k in range(days):
+        day = start + pd.Timedelta(days=k)
+        periods = ([(pd.Timedelta("9h"), ran[k])] if k in ran else
+                   [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
+        frames += [pump_period(PumpLoop(), day + offset, seconds, dt, rng)
+                   for offset, seconds in periods]
+    return pd.concat(frames, ignore_index=True)

@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_config, pump_period
+from plant_telemetry import pump_config, pump_days
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 DAYS = 5
@@ -23,20 +22,11 @@ UNREAD_DAY = 4         # 2 minutes: shorter than the grid's min_duration, not re
 def test_a_day_with_too_little_operation_is_left_out_of_the_baseline_and_named(
         harness, tmp_path, capsys):
     from flows.cli import main
-    from graybox.models import PumpLoop
     from graybox.telemetry import write_telemetry
 
     root = tmp_path / "telemetry"
-    rng = np.random.default_rng(7)
-    frames = []
-    for k in range(DAYS):
-        day = START + pd.Timedelta(days=k)
-        periods = ([(pd.Timedelta("9h"), 240.0)] if k == SHORT_DAY else
-                   [(pd.Timedelta("9h"), 120.0)] if k == UNREAD_DAY else
-                   [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
-        frames += [pump_period(PumpLoop(), day + offset, seconds, 5.0, rng)
-                   for offset, seconds in periods]
-    write_telemetry(root, "P-001", pd.concat(frames, ignore_index=True))
+    write_telemetry(root, "P-001", pump_days(START, DAYS, {SHORT_DAY: 240.0,
+                                                          UNREAD_DAY: 120.0}))
     config = tmp_path / "fleet.toml"
     config.write_text(pump_config(root, tmp_path / "mlflow.db",
                                   "grid = { intermittent = true, min_duration = \"3min\" }"))

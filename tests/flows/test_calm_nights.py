@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_config, pump_period
+from plant_telemetry import pump_config, pump_days
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 RAN = {3: 240.0, 4: 120.0}      # day -> seconds of operation, the others 3 h
@@ -20,19 +19,10 @@ RAN = {3: 240.0, 4: 120.0}      # day -> seconds of operation, the others 3 h
 @pytest.mark.slow
 def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_path, capsys):
     from flows.cli import main
-    from graybox.models import PumpLoop
     from graybox.telemetry import write_telemetry
 
     root = tmp_path / "telemetry"
-    rng = np.random.default_rng(7)
-    frames = []
-    for k in range(7):
-        day = START + pd.Timedelta(days=k)
-        periods = ([(pd.Timedelta("9h"), RAN[k])] if k in RAN else
-                   [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
-        frames += [pump_period(PumpLoop(), day + offset, seconds, 5.0, rng)
-                   for offset, seconds in periods]
-    write_telemetry(root, "P-001", pd.concat(frames, ignore_index=True))
+    write_telemetry(root, "P-001", pump_days(START, 7, RAN))
     config = tmp_path / "fleet.toml"
     config.write_text(pump_config(root, tmp_path / "mlflow.db",
                                   "grid = { intermittent = true, min_duration = \"3min\" }"))
