@@ -39,7 +39,7 @@ from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.drift import Drift, compute_drift
 from graybox.exceptions import (GrayBoxError, InsufficientDataError, ShortWindowsError,
                                 TelemetryError)
-from graybox.signature_fit import FitRequest, fit_signatures
+from graybox.signature_fit import MIN_BASELINE_WINDOWS, FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
@@ -63,8 +63,8 @@ if TYPE_CHECKING:  # pragma: no cover
 logger = logging.getLogger(__name__)
 
 DAY = pd.Timedelta(days=1)
-#: windows a new baseline needs at least (epsilon is calibrated from them)
-MIN_WINDOWS = 3
+#: windows a new baseline needs at the least (its calibration leaves each out in turn)
+MIN_WINDOWS = MIN_BASELINE_WINDOWS
 
 
 @dataclass(frozen=True)
@@ -324,8 +324,8 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
     A new baseline (no reference) is fitted on all of its windows or not at all: bad
     telemetry fails it (its note says why), and so do fewer than :data:`MIN_WINDOWS` windows
     with rows. A window with too little operation to read (``too_few_samples``: shorter than
-    the grid's ``min_duration``) is not bad telemetry: a new baseline leaves it out and its
-    note names it. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
+    the grid's ``min_duration``) is not bad telemetry: a new baseline leaves it out, a
+    candidate does not monitor it, and the note names it. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
     ``job.idle_note``. Anything but bad telemetry that stops the reading fails the asset.
     """
     if job.model is None:
@@ -366,7 +366,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                   clock: StageClock | None) -> None:
     """:func:`read`'s reading: the windows of ``job`` into ``asset``, and the notes."""
     empty = []
-    short = []          # a new baseline's windows with too little operation to read
+    short = []          # windows with too little operation to read (not bad telemetry)
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
     spans = []          # the nights of the windows taken (the telemetry's days)

@@ -281,9 +281,10 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     for position, (request, signature) in enumerate(zip(fresh, signatures)):
         if isinstance(signature, GrayBoxError):
             continue
-        if len(request.windows) < 3:
+        if len(request.windows) < MIN_BASELINE_WINDOWS:
             results[position] = InsufficientDataError(
-                f"asset {signature.asset_id!r}: calibration needs at least 3 healthy windows "
+                f"asset {signature.asset_id!r}: calibration needs at least "
+                f"{MIN_BASELINE_WINDOWS} healthy windows "
                 f"(one per night), got {len(request.windows)}")
             continue
         jobs.append((position, signature, len(request.windows)))

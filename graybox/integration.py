@@ -230,6 +230,11 @@ _FINITE_ADVICE = ("A white box must be finite wherever the plant runs: check squ
                   "zero, and tables read beyond their breakpoints")
 
 
+def _finite_rows(*arrays: np.ndarray) -> np.ndarray:
+    """Rows at which every array (each (N, k)) is finite."""
+    return np.logical_and.reduce([np.isfinite(a).all(axis=1) for a in arrays])
+
+
 def _first_row(model, x: np.ndarray, u: np.ndarray, row: int) -> str:
     return (f"states {dict(zip(model.states, np.round(x[row], 6).tolist()))}, inputs "
             f"{dict(zip(model.inputs, np.round(u[row], 6).tolist()))}")
@@ -238,8 +243,8 @@ def _first_row(model, x: np.ndarray, u: np.ndarray, row: int) -> str:
 def check_finite_derivatives(model, x: np.ndarray, u: np.ndarray) -> None:
     """Raise :class:`IntegrationError` where ``derivatives(x, u)`` is not finite at a row
     whose states and inputs are."""
+    start = _finite_rows(x, u)
     with np.errstate(all="ignore"):
-        start = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
         slopes = np.asarray(model.derivatives(x[start], u[start]))
     undefined = np.flatnonzero(start)[~np.isfinite(slopes).all(axis=1)]
     if undefined.size:
@@ -253,9 +258,7 @@ def check_finite_outputs(model, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> 
     """Raise :class:`IntegrationError` where the outputs ``y = output(x, u)`` are missing
     (NaN) at a row whose states and inputs are finite (as
     :func:`check_finite_prediction`, for the output map)."""
-    with np.errstate(all="ignore"):
-        start = np.isfinite(x).all(axis=1) & np.isfinite(u).all(axis=1)
-        rows = np.flatnonzero(start & np.isnan(y).any(axis=1))
+    rows = np.flatnonzero(_finite_rows(x, u) & np.isnan(y).any(axis=1))
     if rows.size:
         raise IntegrationError(
             f"{type(model).__name__}: output(x, u) is not finite at {rows.size} of the "
@@ -272,10 +275,7 @@ def check_finite_prediction(model, x: np.ndarray, u0: np.ndarray, u1: np.ndarray
     alone, those samples would read as gaps in the telemetry and drop out of the analysis
     unseen. A prediction that only grows large is
     :func:`graybox.state_estimation.check_prediction`'s to judge."""
-    with np.errstate(all="ignore"):
-        start = (np.isfinite(x).all(axis=1) & np.isfinite(u0).all(axis=1)
-                 & np.isfinite(u1).all(axis=1))
-        rows = np.flatnonzero(start & np.isnan(predicted).any(axis=1))
+    rows = np.flatnonzero(_finite_rows(x, u0, u1) & np.isnan(predicted).any(axis=1))
     if not rows.size:
         return
     check_finite_derivatives(model, x[rows], u0[rows])
