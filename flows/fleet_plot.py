@@ -53,13 +53,14 @@ def fleet_heatmap_figure(view: FleetView, top: int = DEFAULT_TOP, title: str = "
     extent = (-0.5, nights - 0.5, rows - 0.5, -0.5)
     axis.add_patch(Rectangle((-0.5, -0.5), nights, rows, facecolor="white", edgecolor="#bdbdbd",
                              hatch="////", lw=0, zorder=0))
-    axis.imshow(np.ma.masked_invalid(values), cmap=ListedColormap(RATIO_COLORS),
-                norm=BoundaryNorm(RATIO_BOUNDS, len(RATIO_COLORS)), aspect="auto",
-                interpolation="nearest", extent=extent, zorder=1)
-    axis.imshow(np.ma.masked_invalid(codes),
-                cmap=ListedColormap([MARK_STYLE[m][0] for m in MARKED]),
-                norm=BoundaryNorm(np.arange(len(MARKED) + 1) - 0.5, len(MARKED)), aspect="auto",
-                interpolation="nearest", extent=extent, zorder=2)
+    if rows:                    # an image of no rows has a singular extent
+        axis.imshow(np.ma.masked_invalid(values), cmap=ListedColormap(RATIO_COLORS),
+                    norm=BoundaryNorm(RATIO_BOUNDS, len(RATIO_COLORS)), aspect="auto",
+                    interpolation="nearest", extent=extent, zorder=1)
+        axis.imshow(np.ma.masked_invalid(codes),
+                    cmap=ListedColormap([MARK_STYLE[m][0] for m in MARKED]),
+                    norm=BoundaryNorm(np.arange(len(MARKED) + 1) - 0.5, len(MARKED)),
+                    aspect="auto", interpolation="nearest", extent=extent, zorder=2)
     if rows <= LETTERS_UP_TO:
         for i, j in zip(*np.nonzero(np.isfinite(codes))):
             axis.text(j, i, MARK_STYLE[MARKED[int(codes[i, j])]][1], ha="center", va="center",

@@ -21,7 +21,8 @@ from typing import Iterable, Mapping, Sequence
 
 import pandas as pd
 
-from flows.results import FAILED, NO_BASELINE, NO_TELEMETRY, OK, UP_TO_DATE, RunSummary
+from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK, UP_TO_DATE,
+                           RunSummary)
 
 STALE, UNUSABLE_BASELINE = "stale", "unusable baseline"   # flows.results statuses
 #: statuses drawn on the heat map (each distinctly)
@@ -249,7 +250,8 @@ def coverage_counts(summary: RunSummary) -> dict[str, int]:
             "stale": counts.get(STALE, 0), "failed": counts.get(FAILED, 0),
             "without baseline": counts.get(NO_BASELINE, 0),
             "unusable baseline": counts.get(UNUSABLE_BASELINE, 0),
-            "no telemetry": counts.get(NO_TELEMETRY, 0)}
+            "no telemetry": counts.get(NO_TELEMETRY, 0),
+            "not operating": counts.get(NOT_OPERATING, 0)}
 
 
 def night_document(summary: RunSummary) -> dict:

@@ -52,7 +52,8 @@ from flows.config import FleetConfig, VehicleClass
 from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.errors import TransientError
-from flows.results import FAILED, AssetResult, WindowResult, describe_error, is_transient
+from flows.results import (FAILED, NOT_OPERATING, STALE, AssetResult, WindowResult,
+                           describe_error, is_transient)
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry import FitRecord, FitSubmission, LoadedVersion, RegistryError
@@ -233,6 +234,9 @@ class PendingAsset:
         A new baseline's fit: (Signature, Calibration), or the error that stopped it.
     committed_end : timestamp, optional
         End of the last window recorded.
+    calm : list of (timestamp, timestamp)
+        The nights (start, end of their window) not monitored because they ran too little:
+        too short to read (the grid's ``min_duration``) or to fit (``ShortWindowsError``).
     changed_days : list of datetime.date
         Days marked changed by an import whose windows this run selected: their marks are
         cleared once everything is committed (:mod:`flows.changed_days`).
@@ -252,12 +256,24 @@ class PendingAsset:
     stop_at_error: bool = False
     baseline_fit: tuple | GrayBoxError | None = None
     committed_end: pd.Timestamp | None = None
+    calm: list = field(default_factory=list)
     changed_days: list = field(default_factory=list)
     idle_status: str | None = None
 
     @property
     def asset_id(self) -> str:
         return self.ref.asset_id
+
+    @property
+    def watermark_end(self) -> pd.Timestamp | None:
+        """Where its watermark moves: the end of the last window recorded, or of a later
+        night that ran too little to monitor (it was looked at and named; read again only
+        within the look-back); never past a failure."""
+        before = self.result.watermark_before
+        past = [end for _, end in self.calm if before is None or end > pd.Timestamp(before)]
+        if self.result.failed or self.stop is not None or not past:
+            return self.committed_end
+        return max(past + ([] if self.committed_end is None else [self.committed_end]))
 
     @property
     def nbytes(self) -> int:
@@ -325,8 +341,11 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
     telemetry fails it (its note says why), and so do fewer than :data:`MIN_WINDOWS` windows
     with rows. A window with too little operation to read (``too_few_samples``: shorter than
     the grid's ``min_duration``) is not bad telemetry: a new baseline leaves it out, a
-    candidate does not monitor it, and the note names it. A candidate asset none of whose windows has rows gets ``job.idle_status`` and
-    ``job.idle_note``. Anything but bad telemetry that stops the reading fails the asset.
+    candidate does not monitor it, and the note names it. A candidate asset none of whose
+    windows has rows gets ``job.idle_status`` and ``job.idle_note``; one whose windows all
+    ran too little is returned without windows, settled by :func:`settle_calm` (its
+    watermark moves past them when committed). Anything but bad telemetry that stops the
+    reading fails the asset.
     """
     if job.model is None:
         return None
@@ -353,6 +372,9 @@ def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
     elif not asset.windows:
         if asset.stop is not None:
             asset.fail(asset.stop, asset.stop_start)
+        elif asset.calm and not result.failed:
+            settle_calm(asset)
+            return asset
         elif not result.failed:
             result.status = job.idle_status or result.status
             if job.idle_note:
@@ -412,6 +434,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     # out of a new baseline, and a night not monitored, both named; never a
                     # failure that holds up the nights after it
                     short.append(start)
+                    asset.calm.append((start, end))
                     continue
                 if job.reference is not None:   # on the night whose telemetry it is
                     _alert_sensor(config, job, error, next(
@@ -685,8 +708,22 @@ def _leave_out_calm_nights(asset: PendingAsset) -> None:
             f"{', '.join(w.night.isoformat() for w in calm)}")
     result = asset.result
     result.note = note if not result.note else f"{result.note}; {note}"
+    asset.calm += [(w.night, w.end) for w in calm]
     if not asset.windows and asset.stop is None and not result.failed:
-        result.status = asset.idle_status or result.status
+        settle_calm(asset)
+
+
+def settle_calm(asset: PendingAsset) -> None:
+    """The status of a candidate asset left with no window to compare, only nights that ran
+    too little (``asset.calm``): ``not operating`` when one of them is new (past its
+    watermark), its idle status when all were read before (late windows looked at again),
+    and ``stale`` stays stale."""
+    before = asset.result.watermark_before
+    new = before is None or any(start >= pd.Timestamp(before) for start, _ in asset.calm)
+    if new and asset.idle_status != STALE:
+        asset.result.status = NOT_OPERATING
+    else:
+        asset.result.status = asset.idle_status or asset.result.status
 
 
 def record_candidates(config: FleetConfig, registry, asset: PendingAsset, *, reanalysis: bool,

@@ -8,6 +8,10 @@ Statuses of an asset in a run:
 ``no baseline``   nothing to compare with yet: fit and promote a baseline (skipped, not a
                   failure)
 ``up to date``    no new whole window since the watermark
+``not operating`` new windows arrived, but none ran long enough to monitor (each was too
+                  short to read or to fit: a calm turbine, a parked vehicle): not monitored,
+                  named with its windows; the watermark moves past them and the exit status
+                  stays 0 (the plant gave nothing to monitor, no part of the run failed)
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
 ``stale``         its newest telemetry is older than ``[alerts] stale_after`` before the
                   run's as-of time (a ``stale`` alert is raised): not monitored, exit status 1
@@ -16,7 +20,8 @@ Statuses of an asset in a run:
                   monitored, exit status 1; its note names the version and the fix
 
 Every status but ``ok`` and ``up to date`` means an asset that should be monitored was not:
-:class:`Coverage` counts them and the run's exit status is then 1.
+:class:`Coverage` counts and names them, and the run's exit status is then 1, except for
+``not operating``.
 """
 from __future__ import annotations
 
@@ -38,9 +43,13 @@ OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
     "ok", "failed", "no baseline", "up to date", "no telemetry")
 STALE = "stale"
 UNUSABLE_BASELINE = "unusable baseline"
-STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE)
+NOT_OPERATING = "not operating"
+STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE,
+            NOT_OPERATING)
 #: statuses of an asset that was monitored this run (checked against its baseline)
 MONITORED = (OK, UP_TO_DATE)
+#: statuses that leave the run's exit status 0: monitored, or nothing there to monitor
+SETTLED = (*MONITORED, NOT_OPERATING)
 
 
 @dataclass
@@ -185,9 +194,10 @@ class RunSummary:
 
     @property
     def exit_status(self) -> int:
-        """0 when every asset was processed (or had nothing to do), 1 when one that should be
-        monitored was not (failed, stale, no baseline, unusable baseline, no telemetry)."""
-        return EXIT_OK if self.coverage.complete else EXIT_FAILED
+        """0 when every asset was processed (or had nothing to do, or did not operate enough
+        to monitor), 1 when one that should be monitored was not (failed, stale, no
+        baseline, unusable baseline, no telemetry)."""
+        return EXIT_OK if all(a.status in SETTLED for a in self.assets) else EXIT_FAILED
 
     def counts(self) -> dict[str, int]:
         out = {status: 0 for status in STATUSES}
@@ -229,8 +239,9 @@ class Coverage:
         Assets that should be monitored (the discovered fleet and the listed assets).
     up_to_date : int
         Monitored: processed up to date against their baseline (``ok`` or ``up to date``).
-    stale, no_baseline, unusable_baseline, failed, no_telemetry : int
-        Not monitored, by reason.
+    stale, no_baseline, unusable_baseline, failed, no_telemetry, not_operating : int
+        Not monitored, by reason (``not_operating``: it ran too little to monitor, which
+        alone leaves the exit status 0).
     missed : tuple of str
         The assets not monitored, in the run's order.
     """
@@ -243,6 +254,7 @@ class Coverage:
     unusable_baseline: int
     failed: int
     no_telemetry: int
+    not_operating: int
     missed: tuple[str, ...]
 
     @classmethod
@@ -251,6 +263,7 @@ class Coverage:
             return sum(1 for a in assets if a.status == status)
         return cls(flow, len(assets), sum(1 for a in assets if a.status in MONITORED),
                    n(STALE), n(NO_BASELINE), n(UNUSABLE_BASELINE), n(FAILED), n(NO_TELEMETRY),
+                   n(NOT_OPERATING),
                    tuple(a.asset_id for a in assets if a.status not in MONITORED))
 
     @property
@@ -273,7 +286,8 @@ class Coverage:
         missing = [(self.failed, "failed"), (self.stale, "stale"),
                    (self.no_baseline, "without baseline"),
                    (self.unusable_baseline, "with an unusable baseline"),
-                   (self.no_telemetry, "without telemetry")]
+                   (self.no_telemetry, "without telemetry"),
+                   (self.not_operating, "not operating")]
         text = (f"{self.assets} asset{'' if self.assets == 1 else 's'}: "
                 f"{self.up_to_date} {done}")
         parts = [f"{count} {what}" for count, what in missing if count]

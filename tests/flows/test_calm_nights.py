@@ -47,3 +47,52 @@ def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_p
     out = capsys.readouterr()
     assert status == 0, out.err
     assert json.loads(out.out)["assets"][0]["windows"] == []
+
+
+@pytest.mark.slow
+def test_an_asset_whose_new_nights_all_ran_too_little_is_not_operating(harness, tmp_path,
+                                                                      capsys):
+    """Both new nights calm (one too short to fit, one too short to read): the asset is
+    ``not operating``, not ``up to date``; the coverage line names it as not monitored, the
+    exit status stays 0, and its watermark moves past the calm nights. Read again later as
+    late windows, the same calm nights are old news (``up to date``); the next night that
+    ran is analysed."""
+    from flows.cli import main
+    from graybox.telemetry import write_telemetry
+
+    root = tmp_path / "telemetry"
+    write_telemetry(root, "P-001", pump_days(START, 6, RAN))
+    config = tmp_path / "fleet.toml"
+    config.write_text(pump_config(root, tmp_path / "mlflow.db",
+                                  "grid = { intermittent = true, min_duration = \"3min\" }"))
+    assert main(["--config", str(config), "baseline", "fit", "--all", "--start",
+                 START.isoformat(), "--end", (START + pd.Timedelta(days=3)).isoformat(),
+                 "--promote", "--reason", "healthy days", "--json"]) == 0
+    capsys.readouterr()
+
+    def run(days: int) -> dict:
+        status = main(["--config", str(config), "run", "--as-of",
+                       (START + pd.Timedelta(days=days)).isoformat(), "--json"])
+        out = capsys.readouterr()
+        summary = json.loads(out.out)
+        assert status == summary["exit_status"] == 0, out.err
+        return summary
+
+    summary = run(5)
+    [asset] = summary["assets"]
+    assert asset["status"] == "not operating" and asset["windows"] == []
+    assert asset["watermark_after"] == (START + pd.Timedelta(days=5)).isoformat()
+    assert "too little operation to fit: 2026-03-04T00:00:00+00:00" in asset["note"]
+    assert "(shorter than the grid's min_duration): 2026-03-05T00:00:00+00:00" in asset["note"]
+    coverage = summary["coverage"]
+    assert (coverage["not_operating"], coverage["up_to_date"], coverage["missed"]) == (
+        1, 0, ["P-001"])
+    assert not coverage["complete"]
+
+    [asset] = run(5)["assets"]          # the calm nights again, within the look-back
+    assert asset["status"] == "up to date" and asset["windows"] == []
+
+    [asset] = run(6)["assets"]
+    assert asset["status"] == "ok"
+    assert [w["window_start"] for w in asset["windows"]] == [
+        (START + pd.Timedelta(days=5)).isoformat()]

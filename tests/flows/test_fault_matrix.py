@@ -23,8 +23,9 @@ from types import SimpleNamespace
 import pytest
 
 from flows.cli import main
-from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, OK, STALE, UNUSABLE_BASELINE,
-                           UP_TO_DATE, AssetResult, RunSummary, run_summary)
+from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK, STALE,
+                           UNUSABLE_BASELINE, UP_TO_DATE, AssetResult, RunSummary,
+                           run_summary)
 from flowtest_config import write_config
 from flows.run_lock import LOCK_WAIT_ENV, RunLock
 from flows.errors import RunLockTimeout
@@ -62,12 +63,19 @@ def test_coverage_counts_every_status_and_sets_the_exit_status():
     coverage = summary.to_dict()["coverage"]
     assert coverage == {"flow": "nightly", "assets": 7, "up_to_date": 2, "stale": 1,
                         "no_baseline": 1, "unusable_baseline": 1, "failed": 1,
-                        "no_telemetry": 1, "missed": ["A-1", "A-2", "A-3", "A-4", "A-5"],
+                        "no_telemetry": 1, "not_operating": 0,
+                        "missed": ["A-1", "A-2", "A-3", "A-4", "A-5"],
                         "complete": False}
     assert summary.coverage.line() == (
         "7 assets: 2 monitored and up to date; not monitored: 1 failed, 1 stale, "
         "1 without baseline, 1 with an unusable baseline, 1 without telemetry "
         "(A-1, A-2, A-3, A-4, A-5).")
+    # an asset that ran too little to monitor is named, and alone leaves the exit status 0
+    summary = _summary("nightly", [OK, NOT_OPERATING, UP_TO_DATE])
+    assert summary.exit_status == 0 and not summary.coverage.complete
+    assert summary.coverage.line() == (
+        "3 assets: 2 monitored and up to date; not monitored: 1 not operating (A-1).")
+    assert _summary("nightly", [NOT_OPERATING, STALE]).exit_status == 1
     # the summary's JSON round trip keeps what the coverage is computed from
     assert RunSummary.from_dict(json.loads(json.dumps(summary.to_dict()))).coverage == \
         summary.coverage
