@@ -15,6 +15,7 @@ import sys
 import time
 
 from benchmarks.zoo.families import discover
+from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from benchmarks.zoo.report import markdown, write_section
 from benchmarks.zoo.run import run_family
 
@@ -39,6 +40,9 @@ def main(argv=None) -> int:
     parser.add_argument("--faulty-per-cell", type=int, default=3,
                         help="faulty assets per fault kind and magnitude (default 3)")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--false-alarm-rate", type=float, default=DEFAULT_FALSE_ALARM_RATE,
+                        help="the baselines' calibration target per asset-night (default "
+                             f"the product's, {DEFAULT_FALSE_ALARM_RATE:g})")
     parser.add_argument("--workers", type=int, default=1,
                         help="families run in parallel processes (default 1)")
     parser.add_argument("--out", help="write the section into this markdown page")
@@ -49,7 +53,8 @@ def main(argv=None) -> int:
     if unknown:
         parser.error(f"unknown families {unknown}; known: {', '.join(families)}")
     arguments = dict(healthy_assets=args.healthy_assets, baseline_days=args.baseline_days,
-                     nights=args.nights, faulty_per_cell=args.faulty_per_cell, seed=args.seed)
+                     nights=args.nights, faulty_per_cell=args.faulty_per_cell, seed=args.seed,
+                     false_alarm_rate=args.false_alarm_rate)
     began = time.time()
     load = os.getloadavg()
     with concurrent.futures.ProcessPoolExecutor(max_workers=args.workers) as pool:

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 import graybox as gb
+from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
@@ -90,7 +91,7 @@ def asset_nights(vehicles: list[AssetPlan], faulty: list[AssetPlan], nights: int
 
 def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                nights: int = 10, faulty_per_cell: int = 3, seed: int = 1,
-               false_alarm_rate: float = 0.01, candidate_nights: int | None = None,
+               false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, candidate_nights: int | None = None,
                progress: Callable[[str], None] | None = None,
                frames: Mapping[str, pd.DataFrame] | None = None) -> dict:
     """Run one family; returns the figures and per-asset-night rows.
