@@ -16,6 +16,41 @@ START = pd.Timestamp("2026-03-01", tz="UTC")
 RAN = {3: 240.0, 4: 120.0}      # day -> seconds of operation, the others 3 h
 
 
+def _night(k: int) -> tuple[pd.Timestamp, pd.Timestamp]:
+    return START + pd.Timedelta(days=k), START + pd.Timedelta(days=k + 1)
+
+
+def _pending(watermark: int, recorded: int | None, calm: list[int], idle: str = "up to date"):
+    from flows.discovery import AssetRef
+    from flows.pipeline import PendingAsset
+    from flows.results import AssetResult
+
+    result = AssetResult("P-1", "pumps", "ok", watermark_before=_night(watermark)[0].isoformat())
+    return PendingAsset(AssetRef("P-1", "pumps"), result, model=None,
+                        committed_end=None if recorded is None else _night(recorded)[1],
+                        calm=[_night(k) for k in calm], idle_status=idle)
+
+
+def test_the_watermark_moves_past_calm_nights_but_never_past_a_failure():
+    from flows.pipeline import settle_calm
+
+    # a night recorded, then two calm ones: past the last calm night
+    assert _pending(3, 3, [4, 5]).watermark_end == _night(5)[1]
+    # calm nights read again before the watermark (late windows) do not move it
+    assert _pending(6, None, [4, 5]).watermark_end is None
+    assert _pending(6, 6, [4]).watermark_end == _night(6)[1]
+    failed = _pending(3, 3, [4, 5])
+    failed.fail(ValueError("the fit diverged"), _night(6)[0])
+    assert failed.watermark_end == _night(3)[1]
+    # all calm: not operating when a calm night is new, else the idle status
+    for watermark, calm, idle, status in ((3, [3, 4], "up to date", "not operating"),
+                                          (6, [4, 5], "up to date", "up to date"),
+                                          (3, [3, 4], "stale", "stale")):
+        asset = _pending(watermark, None, calm, idle)
+        settle_calm(asset)
+        assert asset.result.status == status, (watermark, calm, idle)
+
+
 @pytest.mark.slow
 def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_path, capsys):
     from flows.cli import main
