@@ -51,19 +51,28 @@ def test_the_watermark_moves_past_calm_nights_but_never_past_a_failure():
         assert asset.result.status == status, (watermark, calm, idle)
 
 
-@pytest.mark.slow
-def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_path, capsys):
+def _baselined_pump(tmp_path, days: int):
+    """The pump's ``days`` days written and its baseline on the first three promoted; the
+    fleet.toml's path."""
     from flows.cli import main
     from graybox.telemetry import write_telemetry
 
     root = tmp_path / "telemetry"
-    write_telemetry(root, "P-001", pump_days(START, 7, RAN))
+    write_telemetry(root, "P-001", pump_days(START, days, RAN))
     config = tmp_path / "fleet.toml"
     config.write_text(pump_config(root, tmp_path / "mlflow.db",
                                   "grid = { intermittent = true, min_duration = \"3min\" }"))
     assert main(["--config", str(config), "baseline", "fit", "--all", "--start",
                  START.isoformat(), "--end", (START + pd.Timedelta(days=3)).isoformat(),
                  "--promote", "--reason", "healthy days", "--json"]) == 0
+    return config
+
+
+@pytest.mark.slow
+def test_calm_nights_are_named_and_the_nights_after_them_analysed(harness, tmp_path, capsys):
+    from flows.cli import main
+
+    config = _baselined_pump(tmp_path, 7)
     capsys.readouterr()
     as_of = (START + pd.Timedelta(days=7)).isoformat()
     status = main(["--config", str(config), "run", "--as-of", as_of, "--json"])
@@ -93,16 +102,8 @@ def test_an_asset_whose_new_nights_all_ran_too_little_is_not_operating(harness, 
     late windows, the same calm nights are old news (``up to date``); the next night that
     ran is analysed."""
     from flows.cli import main
-    from graybox.telemetry import write_telemetry
 
-    root = tmp_path / "telemetry"
-    write_telemetry(root, "P-001", pump_days(START, 6, RAN))
-    config = tmp_path / "fleet.toml"
-    config.write_text(pump_config(root, tmp_path / "mlflow.db",
-                                  "grid = { intermittent = true, min_duration = \"3min\" }"))
-    assert main(["--config", str(config), "baseline", "fit", "--all", "--start",
-                 START.isoformat(), "--end", (START + pd.Timedelta(days=3)).isoformat(),
-                 "--promote", "--reason", "healthy days", "--json"]) == 0
+    config = _baselined_pump(tmp_path, 6)
     capsys.readouterr()
 
     def run(days: int) -> dict:
