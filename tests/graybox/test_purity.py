@@ -9,8 +9,8 @@ import graybox
 ROOT = pathlib.Path(graybox.__file__).resolve().parents[1]
 #: what the pipeline extra installs: graybox must import and fit without any of them
 PIPELINE_MODULES = ("mlflow", "prefect", "fastapi", "matplotlib", "rich")
-#: graybox modules that import an optional extra of their own (progpy)
-OPTIONAL_MODULES = ("graybox.models.progpy",)
+#: graybox modules that import an optional extra of their own (progpy, fmu)
+OPTIONAL_MODULES = ("graybox.models.progpy", "graybox.models.fmu")
 
 
 def test_import_graybox_loads_neither_mlflow_nor_prefect():
@@ -80,7 +80,7 @@ def test_pip_install_alone_brings_what_graybox_imports_and_no_pipeline_package()
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     core = {requirement_name(r) for r in project["dependencies"]}
     extras = project["optional-dependencies"]
-    optional = {requirement_name(r) for name in ("progpy",) for r in extras[name]}
+    optional = {requirement_name(r) for name in ("progpy", "fmu") for r in extras[name]}
     needed = third_party_imports(ROOT / "graybox")
     assert needed - core - optional == set()
     assert core.isdisjoint(PIPELINE_MODULES)
