@@ -145,9 +145,11 @@ class FMUModel(WhiteBoxModel, abstract=True):
                                  f"model exchange is supported: export it as FMI 2.0 for model "
                                  f"exchange")
         if description.modelExchange is None:
-            raise ModelSpecError(f"{where} is for co-simulation only (it integrates itself "
-                                 f"with its own solver); the white box needs the derivatives "
-                                 f"at any state: export it for model exchange")
+            which = (" (it is for co-simulation only: it integrates itself with its own solver)"
+                     if description.coSimulation is not None else "")
+            raise ModelSpecError(f"{where} is not for model exchange{which}; the white box "
+                                 f"needs the derivatives at any state: export it for model "
+                                 f"exchange")
         platforms = fmpy.supported_platforms(str(path))
         if fmpy.platform not in platforms:
             raise ModelSpecError(f"{where} has no binary for {fmpy.platform} (it has: "
@@ -155,6 +157,11 @@ class FMUModel(WhiteBoxModel, abstract=True):
                                  f"{fmpy.platform} binary")
         variables = description.modelVariables
         states = [unknown.variable.derivative for unknown in description.derivatives]
+        unlinked = [u.variable.name for u, s in zip(description.derivatives, states) if s is None]
+        if unlinked:
+            raise ModelSpecError(f"{where}: its <Derivatives> list {unlinked}, which are not the "
+                                 f"derivative of a state (no derivative attribute); the model "
+                                 f"description is malformed: export it again")
         if not states:
             raise ModelSpecError(f"{where} has no continuous states; a white box needs at "
                                  f"least one")
