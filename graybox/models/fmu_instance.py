@@ -145,20 +145,23 @@ class FMUInstance:
         component, n_states, n_inputs = self._component, x.shape[1], u.shape[1]
         set_states, set_real, get_real = self._set_states, self._set_real, self._get_real
         get_derivatives = self._get_derivatives
-        x_at, u_at, out_at = x.ctypes.data, u.ctypes.data, result.ctypes.data
-        x_step, u_step, out_step = 8 * n_states, 8 * n_inputs, 8 * result.shape[1]
         inputs, outputs = self._inputs.ctypes.data, self._outputs.ctypes.data
         n_outputs = len(self._outputs)
-        for k in range(first, len(rows)):
-            row = int(rows[k])
-            status = set_states(component, x_at + row * x_step, n_states)
+        todo = rows[first:]
+        # each row's addresses, as Python ints (ctypes takes them as pointers)
+        x_rows = (x.ctypes.data + todo * (8 * n_states)).tolist()
+        u_rows = (u.ctypes.data + todo * (8 * n_inputs)).tolist()
+        out_rows = (result.ctypes.data + todo * (8 * result.shape[1])).tolist()
+        for k, x_row, u_row, out_row in zip(range(first, len(rows)), x_rows, u_rows, out_rows):
+            status = set_states(component, x_row, n_states)
             if n_inputs:
-                status |= set_real(component, inputs, n_inputs, u_at + row * u_step)
+                status |= set_real(component, inputs, n_inputs, u_row)
             if derivatives:
-                status |= get_derivatives(component, out_at + row * out_step, n_states)
+                status |= get_derivatives(component, out_row, n_states)
             else:
-                status |= get_real(component, outputs, n_outputs, out_at + row * out_step)
+                status |= get_real(component, outputs, n_outputs, out_row)
             if status >= _DISCARD:   # statuses are 0-4: the OR is >= 2 iff one of them is
+                row = int(rows[k])
                 failed.append(row)
                 if status & _FATAL:
                     raise ModelSpecError(
