@@ -14,6 +14,7 @@ import json
 import os
 import pathlib
 import pickle
+import re
 import shutil
 import subprocess
 import sys
@@ -269,6 +270,26 @@ def test_a_worker_rebuilds_the_model_from_its_spec_by_importing_the_class(plant_
     for other in (again, unpickled, copy.deepcopy(model)):
         assert type(other) is type(model) and other.columns == model.columns
         np.testing.assert_array_equal(other.derivatives(x, u), model.derivatives(x, u))
+
+
+@needs_compiler
+def test_the_docs_example_loads_the_fmu_with_its_fleet_toml_settings(plant_fmu, tmp_path,
+                                                                    monkeypatch):
+    """docs/models.md's subclass and fleet.toml class, with the test FMU as the file."""
+    import tomllib
+
+    section = (pathlib.Path(gb.__file__).parents[1] / "docs" / "models.md").read_text() \
+        .split("## An FMU as the white box", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    table = tomllib.loads(re.search(r"```toml\n(.*?)```", section, re.S).group(1))
+    (tmp_path / "cooling.py").write_text(code)
+    shutil.copy(plant_fmu, tmp_path / "cooling_loop.fmu")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    loop = table["classes"]["loop"]
+    assert loop["model"] == "myplants.cooling:CoolingLoop"
+    model = load_model("cooling:CoolingLoop", loop["parameters"], loop["columns"])
+    assert model.parameters == {"tau": 25.0, "lag": 5.0}
+    assert model.required_columns == ("probe_temp", "power")
 
 
 # -- bad FMUs -----------------------------------------------------------------------------------
