@@ -182,7 +182,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
         cls.inputs = tuple(white_box_name(v.name) for v in inputs)
         cls.outputs = tuple(cls.states[state_references.index(v.valueReference)]
                             if v.valueReference in state_references else white_box_name(v.name)
-                            for v in outputs)
+                            for v in outputs) or cls.states   # none: every state measured
         cls._measured_rows = tuple(cls.states.index(o) for o in cls.outputs if o in cls.states)
         computed = [v for v in outputs if v.valueReference not in state_references]
         cls._computed_columns = tuple(i for i, o in enumerate(cls.outputs)

@@ -119,6 +119,28 @@ def test_the_fmus_variables_are_the_white_boxs(Plant):
     assert model.required_columns == ("probe_reading", "power")
 
 
+@needs_compiler
+def test_outputs_that_are_states_are_measured_and_no_outputs_measure_every_state(tmp_path):
+    # probe.T declared an output: that state is measured, the heater stays hidden
+    probe_out = DESCRIPTION.replace(
+        'name="probe.T" valueReference="2" causality="local"',
+        'name="probe.T" valueReference="2" causality="output"').replace(
+        '<Unknown index="6" dependencies="1 3"/>', '<Unknown index="3"/>\n'
+        '      <Unknown index="6" dependencies="1 3"/>')
+    model = fmu_class(build_fmu(tmp_path / "probe", probe_out))()
+    assert model.outputs == ("probe_T", "reading") and model.hidden_states == ("heater_T",)
+    x, u = random_rows(5, 4)
+    np.testing.assert_allclose(model.output(x, u),
+                               np.column_stack([x[:, 1], TwinPlant().output(x, u)[:, 0]]),
+                               rtol=1e-12)
+    # no outputs at all: the contract's default, every state measured
+    no_outputs = DESCRIPTION.replace('causality="output"', 'causality="local"').replace(
+        '<Outputs>\n      <Unknown index="6" dependencies="1 3"/>\n    </Outputs>\n', "")
+    model = fmu_class(build_fmu(tmp_path / "none", no_outputs))()
+    assert model.outputs == model.states and model.hidden_states == ()
+    np.testing.assert_array_equal(model.output(x, u), x)
+
+
 # -- known answers ------------------------------------------------------------------------------
 
 @needs_compiler
