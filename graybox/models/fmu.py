@@ -205,7 +205,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
     # -- instances ----------------------------------------------------------------------------
     def check_parameters(self) -> None:
         """Instantiate and initialise the FMU with these parameters: the FMU checks them."""
-        self._instance = FMUInstance(_import_fmpy().fmi2, self._interface,
+        self._instance = FMUInstance(_import_fmpy(), self._interface,
                                      self._parameter_values())
 
     def _parameter_values(self) -> tuple[float, ...]:
@@ -223,7 +223,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
         values = self._parameter_values()
         instance = self.__dict__.get("_instance")
         if instance is None or instance.parameters != values:
-            instance = FMUInstance(_import_fmpy().fmi2, self._interface, values)
+            instance = FMUInstance(_import_fmpy(), self._interface, values)
             self._instance = instance
         return instance
 

@@ -78,8 +78,8 @@ class FMUInstance:
 
     Parameters
     ----------
-    fmi2 : module
-        ``fmpy.fmi2``.
+    fmpy : module
+        ``fmpy``, with ``fmpy.fmi2`` imported.
     interface : FMUInterface
     parameters : tuple of float
         Values of ``interface.parameter_references``, set before initialisation.
@@ -91,10 +91,11 @@ class FMUInstance:
         derivatives at its own start state and start inputs are not finite.
     """
 
-    def __init__(self, fmi2, interface: FMUInterface, parameters: tuple[float, ...]):
+    def __init__(self, fmpy, interface: FMUInterface, parameters: tuple[float, ...]):
         self.interface = interface
         self.parameters = parameters
-        self._fmi2 = fmi2
+        self._fmi2 = fmpy.fmi2
+        self._call_failed = fmpy.fmi1.FMICallException   # FMPy's error of a failed FMI call
         self._lock = threading.Lock()
         self._messages: collections.deque = collections.deque(maxlen=_KEPT_MESSAGES)
         self._inputs = np.array(interface.input_references, dtype=np.uint32)
@@ -219,7 +220,7 @@ class FMUInstance:
         for step, name in steps:
             try:
                 step()
-            except self._fmi2.FMICallException as error:
+            except self._call_failed as error:
                 self._release()
                 raise ModelSpecError(
                     f"FMU {interface.path}: {name} failed (status "

@@ -358,6 +358,11 @@ def test_an_fmu_without_this_platforms_binary_or_with_nan_derivatives_is_refused
     with pytest.raises(ModelSpecError, match=r"its derivatives are \[0.0, nan\] at its own start "
                                              r"state \[0.0, 0.0\]"):
         Plant({"lag": 0.0})
+    # a parameter the FMU itself refuses (fmi2SetReal returns fmi2Error), with its message
+    with pytest.raises(ModelSpecError, match=r"fmi2SetReal of the parameters failed \(status "
+                                             r"error\) with the parameters \[-1.0, 5.0\]; the "
+                                             r"FMU logged: \[error\] tau must be > 0"):
+        Plant({"tau": -1.0})
     with pytest.raises(ModelSpecError, match="unknown parameter 'gain'"):
         Plant({"gain": 0.1})
     with pytest.raises(ModelSpecError, match=r"Missing.fmu: no file .*missing.fmu"):

@@ -6,10 +6,10 @@
        der(probe.T)  = (heater.T - probe.T) / lag
        reading       = probe.T + 0.2 * heater.T             (the only output)
 
-   Both states are hidden. tau is a tunable parameter (s), lag a fixed one (s), which this
-   FMU, like a strict exporter, refuses to change once initialised. It evaluates its equations
-   on every get, so any state, input and parameter set is seen at once. Like a Modelica
-   assert, a heater above 1000 K is an error (fmi2Error) of fmi2GetDerivatives. */
+   Both states are hidden. tau is a tunable parameter (s), > 0, lag a fixed one (s), which
+   this FMU, like a strict exporter, refuses to change once initialised. It evaluates its
+   equations on every get, so any state, input and parameter set is seen at once. Like a
+   Modelica assert, a heater above 1000 K is an error (fmi2Error) of fmi2GetDerivatives. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -108,6 +108,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             return refuse(p, "a derivative or output cannot be set");
         if (r == VR_LAG && p->mode != INSTANTIATED && p->mode != INITIALISING)
             return refuse(p, "lag is a fixed parameter: set it before initialisation");
+        if (r == VR_TAU && !(value[i] > 0.0)) return refuse(p, "tau must be > 0");
         p->value[r] = value[i];
     }
     return fmi2OK;
