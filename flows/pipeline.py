@@ -37,8 +37,8 @@ import pandas as pd
 
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
 from graybox.drift import Drift, compute_drift
-from graybox.exceptions import (GrayBoxError, InsufficientDataError, ShortWindowsError,
-                                TelemetryError)
+from graybox.exceptions import (GrayBoxError, InsufficientDataError, ModelChangedError,
+                                ShortWindowsError, TelemetryError)
 from graybox.signature_fit import MIN_BASELINE_WINDOWS, FitRequest, fit_signatures
 from graybox.models.base import WhiteBoxModel
 from graybox.signature import Signature
@@ -52,8 +52,8 @@ from flows.config import FleetConfig, VehicleClass
 from flows.discovery import AssetRef, trailing_nights, utc
 from flows.memory import MemoryBudget
 from flows.errors import TransientError
-from flows.results import (FAILED, NOT_OPERATING, STALE, AssetResult, WindowResult,
-                           describe_error, is_transient)
+from flows.results import (FAILED, NOT_OPERATING, STALE, UNUSABLE_BASELINE, AssetResult,
+                           WindowResult, describe_error, is_transient)
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry import FitRecord, FitSubmission, LoadedVersion, RegistryError
@@ -157,6 +157,12 @@ def candidate_job(config: FleetConfig, ref: AssetRef, result: AssetResult,
     try:
         model = reference_model(reference, configured_models(config, ref))
         grid = candidate_grid(config.classes[ref.vehicle_class].grid, reference)
+    except ModelChangedError as error:     # its white box was replaced since the fit
+        result.status = UNUSABLE_BASELINE
+        result.note = (f"version {reference.version}: {error}: fix: fleet-health baseline fit "
+                       f"{ref.asset_id} --start DATE --end DATE --promote --reason TEXT (a "
+                       f"healthy range)")
+        return AssetJob(ref, result)
     except Exception as error:  # noqa: BLE001 - one asset never stops the batch
         guard_asset_error(error, ref, "loading the white box of its reference")
         result.status, result.error = FAILED, describe_error(error)

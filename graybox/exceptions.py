@@ -14,6 +14,11 @@ class ModelSpecError(GrayBoxError):
     """A physics-model plugin is badly declared, cannot be loaded, or is badly configured."""
 
 
+class ModelChangedError(ModelSpecError):
+    """A stored record's white box is no longer the one it was fitted with: the class's
+    fingerprint (an FMU's GUID) differs from the record's."""
+
+
 class TelemetryError(GrayBoxError):
     """Telemetry that cannot be used, with where it was found.
 

@@ -208,6 +208,13 @@ class WhiteBoxModel:
         """The ``package.module:ClassName`` string that loads this model."""
         return f"{cls.__module__}:{cls.__qualname__}"
 
+    @classmethod
+    def fingerprint(cls) -> str | None:
+        """What identifies the model's equations beyond its spec, when a file outside the
+        code holds them (an FMU's GUID); recorded with every fit, and a record whose
+        fingerprint differs is refused. None (the default): the spec is the identity."""
+        return None
+
     @property
     def hidden_states(self) -> tuple[str, ...]:
         """States that are not outputs: estimated from the data, never read."""

@@ -202,6 +202,11 @@ class FMUModel(WhiteBoxModel, abstract=True):
             tuple(v.valueReference for v in parameters),
             tuple(_start(v, where) if v.start is not None else 0.0 for v in inputs))
 
+    @classmethod
+    def fingerprint(cls) -> str:
+        """The FMU's GUID: a re-exported or replaced FMU is another model."""
+        return f"fmi2 guid {cls._interface.guid}"
+
     # -- instances ----------------------------------------------------------------------------
     def check_parameters(self) -> None:
         """Instantiate and initialise the FMU with these parameters: the FMU checks them."""

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
-from typing import Collection, Mapping
+from typing import ClassVar, Collection, Mapping
 
 from graybox import record_json
-from graybox.exceptions import ModelSpecError
+from graybox.exceptions import ModelChangedError, ModelSpecError
 from graybox.frozen_map import FrozenMap
 from graybox.models.base import WhiteBoxModel, load_model
 from graybox.models.table import Table
@@ -31,6 +31,10 @@ class ModelSpec:
         The model's parameters (all of them when made by :meth:`from_model`).
     columns : FrozenMap of str to str
         Model variable -> telemetry column.
+    fingerprint : str or None
+        The model's :meth:`~graybox.models.base.WhiteBoxModel.fingerprint` when fitted (an
+        FMU's GUID); written only when present. :meth:`load` refuses a model whose
+        fingerprint is now another.
 
     Mappings given as dicts are copied into :class:`~graybox.frozen_map.FrozenMap`, so the
     record is hashable and later changes of the caller's dict do not reach it.
@@ -45,6 +49,9 @@ class ModelSpec:
     spec: str
     parameters: FrozenMap[str, float | Table] = FrozenMap()
     columns: FrozenMap[str, str] = FrozenMap()
+    fingerprint: str | None = None
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"fingerprint"})
 
     def __post_init__(self):
         for name in ("parameters", "columns"):
@@ -55,7 +62,7 @@ class ModelSpec:
     @classmethod
     def from_model(cls, model: WhiteBoxModel) -> "ModelSpec":
         """The record of a white box instance."""
-        return cls(model.spec(), model.parameters, model.columns)
+        return cls(model.spec(), model.parameters, model.columns, model.fingerprint())
 
     def load(self, allowed: Collection[str] | None = None) -> WhiteBoxModel:
         """The white box, built without importing a module the record alone chose.
@@ -71,6 +78,9 @@ class ModelSpec:
         ------
         graybox.exceptions.ModelSpecError
             If the spec is not allowed, or the white box cannot be built.
+        graybox.exceptions.ModelChangedError
+            If the record has a fingerprint and the model's is now another (an FMU replaced
+            since the fit): its parameters and calibration belong to the other model.
         """
         if allowed is not None:
             if self.spec not in allowed:
@@ -81,7 +91,13 @@ class ModelSpec:
             raise ModelSpecError(f"model spec {self.spec!r}: its module is not imported and a "
                                  f"stored record may not choose what is imported; import it "
                                  f"first or name the spec in allowed")
-        return load_model(self.spec, self.parameters, self.columns)
+        model = load_model(self.spec, self.parameters, self.columns)
+        now = model.fingerprint()
+        if self.fingerprint is not None and now != self.fingerprint:
+            raise ModelChangedError(f"model {self.spec!r} was fitted as {self.fingerprint!r} "
+                                    f"and is now {now!r} (its file was replaced or "
+                                    f"re-exported): fit a new baseline with the model as it is")
+        return model
 
     def to_dict(self) -> dict:
         """``{"spec", "parameters", "columns"}``, as :meth:`WhiteBoxModel.to_dict` writes."""

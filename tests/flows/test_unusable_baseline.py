@@ -144,6 +144,32 @@ def test_fault_stored_spec_naming_another_module_is_not_imported(workspace, tmp_
     assert ZEN not in capfd.readouterr().out
 
 
+def test_fault_a_baseline_fitted_on_another_model_file_is_refused(workspace, tmp_path):
+    """The stored record's fingerprint (an FMU's GUID) is not the configured model's now
+    (the file was replaced): the asset is an unusable baseline, named with both, not
+    compared with a model its parameters and calibration do not belong to."""
+    tampering = _tampering()
+    registry = workspace.registry()
+
+    def replaced(data):
+        data["model"]["fingerprint"] = "fmi2 guid {0000e810-0000-4a00-8276-176fa3c9128f}"
+    version = tampering.tampered_version(registry, "T-001", 1, tmp_path,
+                                         tampering.edit_json("signature.json", replaced))
+    tampering.move_alias(registry, "T-001", "baseline", version)
+
+    state, summary = _nightly(workspace, day(BASELINE_DAYS + 1), ["T-001", "T-005"])
+    assert state.is_failed() and summary["exit_status"] == 1
+    by_asset = {a["asset_id"]: a for a in summary["assets"]}
+    refused = by_asset["T-001"]
+    assert refused["status"] == "unusable baseline" and refused["windows"] == []
+    assert (f"version {version}: model 'graybox.models.gas_turbine:GasTurbineShaft' was fitted "
+            f"as 'fmi2 guid {{0000e810-0000-4a00-8276-176fa3c9128f}}' and is now None") \
+        in refused["note"]
+    assert "fleet-health baseline fit T-001 --start DATE --end DATE --promote" in refused["note"]
+    assert registry.watermark("T-001") is None
+    assert by_asset["T-005"]["status"] == "ok" and len(by_asset["T-005"]["windows"]) == 1
+
+
 def test_fault_reanalysis_against_an_uncalibrated_baseline(workspace, tmp_path, capsys, count):
     from flows.cli import main
     from registry.store import naming

@@ -382,3 +382,30 @@ def test_without_fmpy_an_fmu_model_says_how_to_install_it():
                             check=True, cwd=pathlib.Path(gb.__file__).parents[1])
     assert result.stdout.startswith("ModelSpecError FMU models need the fmpy package")
     assert "pip install 'fleet-health[fmu]'" in result.stdout
+
+
+@needs_compiler
+def test_a_record_remembers_its_fmus_guid_and_a_replaced_fmu_is_refused(plant_fmu,
+                                                                       monkeypatch):
+    from graybox.exceptions import ModelChangedError
+
+    recorded = fmu_class(plant_fmu, "RecordedPlant")    # importable by its spec
+    monkeypatch.setattr(sys.modules[__name__], "RecordedPlant", recorded, raising=False)
+    guid = fmpy.read_model_description(str(plant_fmu)).guid
+    record = ModelSpec.from_model(recorded())
+    assert record.fingerprint == f"fmi2 guid {guid}"
+    again = ModelSpec.from_dict(json.loads(json.dumps(record.to_dict())))
+    assert again == record and again.load().fingerprint() == record.fingerprint
+    # the class now reads a re-exported FMU (another GUID): the record's fit is not its
+    fitted = ModelSpec(record.spec, record.parameters, record.columns,
+                       "fmi2 guid {0000e810-0000-4a00-8276-176fa3c9128f}")
+    with pytest.raises(ModelChangedError, match="was fitted as .* replaced or re-exported"):
+        fitted.load()
+    # a record written before fingerprints existed loads as it did
+    older = {k: v for k, v in record.to_dict().items() if k != "fingerprint"}
+    assert ModelSpec.from_dict(older).load().fingerprint() == record.fingerprint
+
+
+def test_a_python_white_box_records_no_fingerprint():
+    record = ModelSpec.from_model(TwinPlant())
+    assert record.fingerprint is None and "fingerprint" not in record.to_dict()
