@@ -17,13 +17,13 @@ import shlex
 import subprocess
 import sys
 import time
+from dataclasses import replace
 
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES
-from benchmarks.diagnosis.episode import EVIDENCE
+from benchmarks.diagnosis.episode import EPISODE_NIGHTS, EVIDENCE
 from benchmarks.diagnosis.expected_zoo import ZOO
-from benchmarks.diagnosis.grid_run import SIZES, DiagnosisGrid, run_grid
+from benchmarks.diagnosis.grid_run import DETECTION, SIZES, DiagnosisGrid, run_grid
 from benchmarks.diagnosis.report import render
-from flows.config.settings import NightlySettings
 
 KINDS = tuple(DEFAULT_MAGNITUDES)
 
@@ -50,24 +50,28 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--sizes", type=_names(SIZES), default=("middle",), metavar="S,S",
                    help="the detection grid's magnitudes to run: small, middle, large "
                         "(default middle)")
-    p.add_argument("--model-errors", type=_floats, default=(0.0, 0.2), metavar="E,E",
-                   help="white-box errors (default 0,0.2); a white box off is tuned first")
+    errors = ",".join(f"{e:g}" for e in DETECTION.model_errors)
+    p.add_argument("--model-errors", type=_floats, default=DETECTION.model_errors, metavar="E,E",
+                   help=f"white-box errors (default {errors}); a white box off is tuned first")
     p.add_argument("--untuned", action="store_true",
                    help="do not tune a white box that is off (the known weakness, for comparison)")
-    p.add_argument("--seeds", type=int, default=1, help="seeds 1..N (default 1)")
-    p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
-    p.add_argument("--baseline-days", type=int, default=4)
-    p.add_argument("--pre-nights", type=int, default=2,
-                   help="healthy nights between the baseline and the onset (default 2)")
-    p.add_argument("--post-nights", type=int, default=3, help="nights from the onset (default 3)")
-    p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
+    p.add_argument("--seeds", type=int, default=len(DETECTION.seeds),
+                   help="seeds 1..N (default %(default)s)")
+    p.add_argument("--vehicles", type=int, default=DETECTION.vehicles,
+                   help="vehicles per seed (default %(default)s)")
+    p.add_argument("--baseline-days", type=int, default=DETECTION.baseline_days)
+    p.add_argument("--pre-nights", type=int, default=DETECTION.pre_nights,
+                   help="healthy nights between the baseline and the onset (default %(default)s)")
+    p.add_argument("--post-nights", type=int, default=DETECTION.post_nights,
+                   help="nights from the onset (default %(default)s)")
+    p.add_argument("--candidate-nights", type=int, default=DETECTION.candidate_nights,
                    help="nights a candidate is fitted and diagnosed on (default the product's "
                         "[nightly] candidate_nights: %(default)s)")
-    p.add_argument("--evidence", choices=EVIDENCE, default="candidate",
+    p.add_argument("--evidence", choices=EVIDENCE, default=EVIDENCE[0],
                    help="what an alarmed night is diagnosed on: its candidate's nights (default, "
                         "the product) or, an experiment the product does not run, every night "
                         "since its alert opened (since-alarm)")
-    p.add_argument("--episode-nights", type=int, default=4,
+    p.add_argument("--episode-nights", type=int, default=EPISODE_NIGHTS,
                    help="with --evidence since-alarm, the alert episode's nights at most "
                         "(default %(default)s; at least --candidate-nights)")
     p.add_argument("--zoo", type=_names(tuple(ZOO)), default=(), metavar="F,F",
@@ -94,12 +98,11 @@ def grid_from_args(args: argparse.Namespace) -> DiagnosisGrid:
                   if size in args.sizes]
         magnitudes[kind] = tuple(m for _, m in chosen)
         sizes.update({(kind, m): size for size, m in chosen})
-    return DiagnosisGrid(magnitudes=magnitudes, sizes=sizes,
-                         model_errors=tuple(args.model_errors),
-                         seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
-                         baseline_days=args.baseline_days, pre_nights=args.pre_nights,
-                         post_nights=args.post_nights, tune=not args.untuned,
-                         candidate_nights=args.candidate_nights, evidence=args.evidence,
+    detection = replace(DETECTION, magnitudes=magnitudes, model_errors=tuple(args.model_errors),
+                        seeds=tuple(range(1, args.seeds + 1)), vehicles=args.vehicles,
+                        baseline_days=args.baseline_days, pre_nights=args.pre_nights,
+                        post_nights=args.post_nights, candidate_nights=args.candidate_nights)
+    return DiagnosisGrid(detection, sizes, tune=not args.untuned, evidence=args.evidence,
                          episode_nights=args.episode_nights)
 
 

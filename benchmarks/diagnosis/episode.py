@@ -14,8 +14,11 @@ from typing import Container
 
 from benchmarks.detection.grid import trailing_nights
 
-#: the diagnosis' evidence: the candidate's nights (the product), or the alert episode's
+#: the diagnosis' evidence: the candidate's nights (the product, the default), or the alert
+#: episode's
 EVIDENCE = ("candidate", "since-alarm")
+#: the alert episode's nights at most, by default
+EPISODE_NIGHTS = 4
 
 
 def alert_opened(night: int, alarmed: Container[int], first: int) -> int:
@@ -32,7 +35,7 @@ def alert_opened(night: int, alarmed: Container[int], first: int) -> int:
 
 
 def diagnosed_nights(night: int, alarmed: Container[int], candidate_nights: int, first: int,
-                     evidence: str = "candidate", most: int = 4) -> range:
+                     evidence: str = EVIDENCE[0], most: int = EPISODE_NIGHTS) -> range:
     """The nights ``night``'s diagnosis reads.
 
     Parameters
@@ -50,7 +53,7 @@ def diagnosed_nights(night: int, alarmed: Container[int], candidate_nights: int,
         diagnoses. ``since-alarm``: an alarmed night's alert episode, from the span of the
         candidate that opened the alert (:func:`alert_opened`) to ``night``, its last
         ``most`` nights; a night that did not alarm reads its candidate's span.
-    most : int, default 4
+    most : int, default :data:`EPISODE_NIGHTS` (4)
         The episode's cap, in nights; at least ``candidate_nights``.
 
     Returns

@@ -32,14 +32,14 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import pandas as pd
 
 import graybox as gb
 from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
-from benchmarks.diagnosis.episode import diagnosed_nights
+from benchmarks.diagnosis.episode import EPISODE_NIGHTS, EVIDENCE, diagnosed_nights
 from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
 from graybox.diagnosis import diagnose
 from flows.config.settings import NightlySettings
@@ -53,63 +53,51 @@ SIZES = ("small", "middle", "large")
 KEEP = 5
 
 
+#: the detection grid a diagnosis run reduces, by default: :class:`Grid`'s but for two model
+#: errors, one seed, two healthy nights before the onset and candidates on the product's
+#: ``[nightly] candidate_nights`` (``python -m benchmarks.diagnosis`` sets the magnitudes)
+DETECTION = replace(Grid(), model_errors=(0.0, 0.2), seeds=(1,), pre_nights=2,
+                    candidate_nights=NightlySettings().candidate_nights)
+
+
 @dataclass(frozen=True)
 class DiagnosisGrid:
     """What one diagnosis run covers.
 
     Attributes
     ----------
-    magnitudes : dict of fault kind -> tuple of float
-        The magnitudes run per kind (a subset of the detection grid's).
+    detection : Grid
+        The fleet, its faults and nights, the white-box errors, the baselines' false-alarm
+        rate and the candidates' nights (the defaults: :data:`DETECTION`). Its magnitudes are
+        the ones run per kind, a subset of the detection grid's; its ``estimate`` is not read
+        (``tune`` is).
     sizes : dict of (kind, magnitude) -> str
         "small", "middle" or "large": the magnitude's place in the detection grid.
-    model_errors : tuple of float
-    seeds : tuple of int
-    vehicles : int
-    baseline_days, pre_nights, post_nights : int
-    sample_interval : float
-    false_alarm_rate : float
     tune : bool, default True
         Tune a white box that is off on the baseline days (False: the known weakness, kept
         for comparison).
-    candidate_nights : int, default the product's ``[nightly] candidate_nights``
-        Nights a candidate is fitted on, and diagnosed on when it alarms.
     evidence : {"candidate", "since-alarm"}, default "candidate"
         What an alarmed night is diagnosed on: its candidate's nights (the product), or its
         alert episode's (:func:`benchmarks.diagnosis.episode.diagnosed_nights`; an
         experiment).
-    episode_nights : int, default 4
+    episode_nights : int, default :data:`~benchmarks.diagnosis.episode.EPISODE_NIGHTS`
         The alert episode's cap, in nights (``since-alarm`` only).
     """
 
-    magnitudes: dict
+    detection: Grid
     sizes: dict
-    model_errors: tuple = (0.0, 0.2)
-    seeds: tuple = (1,)
-    vehicles: int = 8
-    baseline_days: int = 4
-    pre_nights: int = 2
-    post_nights: int = 3
-    sample_interval: float = 10.0
-    false_alarm_rate: float = 0.01
     tune: bool = True
-    candidate_nights: int = NightlySettings().candidate_nights
-    evidence: str = "candidate"
-    episode_nights: int = 4
-
-    def detection_grid(self) -> Grid:
-        return Grid(magnitudes=dict(self.magnitudes), model_errors=tuple(self.model_errors),
-                    seeds=tuple(self.seeds), vehicles=self.vehicles,
-                    baseline_days=self.baseline_days, pre_nights=self.pre_nights,
-                    post_nights=self.post_nights, sample_interval=self.sample_interval,
-                    false_alarm_rate=self.false_alarm_rate,
-                    candidate_nights=self.candidate_nights)
+    evidence: str = EVIDENCE[0]
+    episode_nights: int = EPISODE_NIGHTS
 
     def to_dict(self) -> dict:
-        data = asdict(self)
-        data["magnitudes"] = {k: list(v) for k, v in self.magnitudes.items()}
-        data["model_errors"], data["seeds"] = list(self.model_errors), list(self.seeds)
-        data["sizes"] = {f"{k}={m:g}": s for (k, m), s in self.sizes.items()}
+        """The settings as the ``--json`` record keeps them, in one flat mapping: the detection
+        grid's (but ``estimate``, not read), ``sizes`` keyed ``kind=magnitude``, ``tune``,
+        ``evidence`` and ``episode_nights``."""
+        data = self.detection.to_dict()
+        del data["estimate"]
+        data.update(sizes={f"{k}={m:g}": s for (k, m), s in self.sizes.items()}, tune=self.tune,
+                    evidence=self.evidence, episode_nights=self.episode_nights)
         return data
 
 
@@ -210,7 +198,7 @@ def _alarmed_nights(jobs: list, drifts: list, onset_day: int) -> dict[str, set[i
 
 def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tuple[list[dict], dict]:
     """Every scored asset-night of one seed, for every model error, and the clock."""
-    detection = grid.detection_grid()
+    detection = grid.detection
     clock = {"diagnose_seconds": 0.0, "diagnosed": 0}
     began = time.perf_counter()
     vehicles = simulate_seed(detection, seed)
@@ -219,7 +207,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
     say(f"seed {seed}: simulated, wrote and read {len(windows)} asset-days in "
         f"{clock['simulate_write_read_seconds']:.0f} s")
     rows = []
-    for error in grid.model_errors:
+    for error in detection.model_errors:
         # a white box that is off is tuned as the product tunes it: the baseline's fit
         # estimates TUNED on its days (FitRequest.estimate) and its candidates use the values
         tuned = TUNED if error and grid.tune else ()
@@ -227,12 +215,13 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         began = time.perf_counter()
         requests = [gb.FitRequest(models[v.vehicle],
                                   [windows[asset_id(v.seed, v.vehicle), d]
-                                   for d in range(grid.baseline_days)],
+                                   for d in range(detection.baseline_days)],
                                   asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
                                   estimate=tuned)
                     for v in vehicles]
         baselines = dict(zip([v.vehicle for v in vehicles],
-                             gb.fit_baselines(requests, false_alarm_rate=grid.false_alarm_rate)))
+                             gb.fit_baselines(requests,
+                                              false_alarm_rate=detection.false_alarm_rate)))
         tuning = {vehicle: result[0].tuning for vehicle, result in baselines.items()
                   if not isinstance(result, gb.GrayBoxError) and result[0].tuning is not None}
         clock[f"baseline_seconds_{error:g}"] = time.perf_counter() - began
@@ -320,7 +309,7 @@ def run_grid(grid: DiagnosisGrid, progress: Callable[[str], None] | None = None)
     """
     say = progress or (lambda line: None)
     rows, clocks = [], []
-    for seed in grid.seeds:
+    for seed in grid.detection.seeds:
         seed_rows, clock = run_seed(grid, seed, say)
         rows += seed_rows
         clocks.append(clock)
