@@ -39,13 +39,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
+from dataclasses import replace
 
 import numpy as np
 from scipy.signal import lfilter
 
 import graybox as gb
-from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_nights
-from benchmarks.diagnosis.grid_run import TUNED, _windows, white_box
+from benchmarks.detection.grid import asset_id, simulate_seed, trailing_nights
+from benchmarks.diagnosis.grid_run import DETECTION, TUNED, _windows, white_box
 from graybox.effective_samples import effective_sample_size
 from graybox.level_tier import start_stride
 from graybox.parameter_estimation import (ErrorSetup, operating_segments, prediction_errors,
@@ -166,10 +167,8 @@ def main(argv=None) -> None:
                              "alone)")
     args = parser.parse_args(argv)
     magnitudes = tuple(float(m) for m in args.magnitudes.split(","))
-    grid = Grid(magnitudes={"bias": magnitudes}, model_errors=(args.model_error,),
-                seeds=tuple(range(1, args.seeds + 1)), vehicles=8, baseline_days=4,
-                pre_nights=2, post_nights=3, sample_interval=10.0, false_alarm_rate=0.01,
-                candidate_nights=args.candidate_nights)
+    grid = replace(DETECTION, magnitudes={"bias": magnitudes}, model_errors=(args.model_error,),
+                   seeds=tuple(range(1, args.seeds + 1)), candidate_nights=args.candidate_nights)
     rng = np.random.default_rng(0)
     found = {m: [] for m in magnitudes}
     for seed in grid.seeds:
@@ -207,7 +206,7 @@ def main(argv=None) -> None:
                         "collinear": geometry["collinear"],
                         "delta_c": _delta(geometry["slopes"], m, faulty),
                         "delta_c_whitened": _delta(geometry["whitened"], m, whitened)})
-    print(f"seeds {list(grid.seeds)} x 8 vehicles x {grid.post_nights} nights, model error "
+    print(f"seeds {list(grid.seeds)} x {grid.vehicles} vehicles x {grid.post_nights} nights, model error "
           f"{args.model_error:g} (tuned on {list(TUNED)}); candidates on "
           f"{grid.candidate_nights} night(s)")
     for m, rows in found.items():
