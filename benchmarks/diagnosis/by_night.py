@@ -21,12 +21,7 @@ import pathlib
 import numpy as np
 
 from benchmarks.diagnosis import scores
-
-
-def _pct(hits: int | None, total: int) -> str:
-    if hits is None:
-        return "-"
-    return f"{hits}/{total} ({hits / total:.0%})" if total else "0/0"
+from benchmarks.diagnosis.report import hit_share
 
 
 def split(record: dict) -> dict:
@@ -48,7 +43,7 @@ def split(record: dict) -> dict:
 def _hits(cell: dict | None, field: str) -> str:
     if cell is None:
         return "0/0"
-    return _pct(cell[field], cell["detected"])
+    return hit_share(cell[field], cell["detected"])
 
 
 def table(records: list[dict], names: list[str]) -> list[str]:
@@ -163,7 +158,8 @@ def summary(records: list[dict], names: list[str]) -> list[str]:
             cost = scores.cost(mine)
             errors = sum("diagnosis_error" in r for r in mine)
             lines.append(
-                f"| {name} | {f['model_error']:.0%} | {_pct(f['with_cause'], f['healthy_nights'])}"
+                f"| {name} | {f['model_error']:.0%} | "
+                f"{hit_share(f['with_cause'], f['healthy_nights'])}"
                 f" | {f['false_alarms_with_cause']}/{f['false_alarms']} | {cost['diagnosed']} | "
                 f"{cost.get('cpu_median', float('nan')):.2f} / {cost.get('cpu_p90', float('nan')):.2f}"
                 f" / {cost.get('cpu_max', float('nan')):.2f} | {errors} |")

@@ -9,7 +9,12 @@ from benchmarks.diagnosis import scores
 TARGET = 0.8
 
 
-def _pct(hits, total) -> str:
+def hit_share(hits: int | None, total: int) -> str:
+    """A table cell ``hits/total (share)``: ``-`` when ``hits`` is None, ``0/0`` of none.
+
+    >>> hit_share(3, 4), hit_share(None, 4), hit_share(0, 0)
+    ('3/4 (75%)', '-', '0/0')
+    """
     if hits is None:
         return "-"
     return f"{hits}/{total} ({hits / total:.0%})" if total else "0/0"
@@ -33,8 +38,8 @@ def accuracy_table(cells: list[dict]) -> list[str]:
         lines.append(
             f"| {c['fault']} | {c['magnitude']:g} ({c['size']}) | {_error(c['model_error'])} | "
             f"{c['nights']} | {c['detected']} | {c['expected'] or '(none)'} | "
-            f"{_pct(c['top1'], c['detected'])} | {_pct(c['top3'], c['detected'])} | "
-            f"{_pct(c['top1_noise_rise_only'], c['detected'])} | "
+            f"{hit_share(c['top1'], c['detected'])} | {hit_share(c['top3'], c['detected'])} | "
+            f"{hit_share(c['top1_noise_rise_only'], c['detected'])} | "
             f"{c['no_cause']} | {c['most_first']} | {_num(c['implied_median'])} "
             f"(n={c['implied_n']}) | {_num(c['implied_abs_error'])} |")
     return lines
@@ -61,7 +66,7 @@ def headline(cells: list[dict]) -> str:
     for c in cells:
         if (c["size"] == "middle" and c["model_error"] == 0.2 and c["expected"]):
             share = c["top1"] / c["detected"] if c["detected"] else math.nan
-            parts.append(f"{c['fault']} {_pct(c['top1'], c['detected'])}"
+            parts.append(f"{c['fault']} {hit_share(c['top1'], c['detected'])}"
                          + ("" if not c["detected"] else (" (meets)" if share >= TARGET
                                                           else " (misses)")))
     return (f"Target (issue 19): top-1 >= {TARGET:.0%} for detected faults at the middle "
@@ -88,7 +93,7 @@ def scored(rows: list[dict], sample_interval: str) -> list[str]:
              "a cause | causes |", "|---|---|---|---|---|---|"]
     for f in scores.false_causes(rows):
         lines.append(f"| {_error(f['model_error'])} | {f['healthy_nights']} | "
-                     f"{_pct(f['with_cause'], f['healthy_nights'])} | {f['false_alarms']} | "
+                     f"{hit_share(f['with_cause'], f['healthy_nights'])} | {f['false_alarms']} | "
                      f"{f['false_alarms_with_cause']} | "
                      f"{', '.join(f'{k}: {v}' for k, v in f['causes'].items()) or '-'} |")
     if cost.get("diagnosed"):
