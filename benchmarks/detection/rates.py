@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.detection import metrics
+from benchmarks.detection.cells import markdown_table, percent
 from benchmarks.detection.classic import DETECTORS
 from benchmarks.detection.grid import KINDS, Grid, vehicle_seed
 
@@ -130,19 +131,6 @@ def noise_share(intervals, seed: int = 1, vehicles: int = 4, days: int = 2) -> p
 # ------------------------------------------------------------------------------------------
 # the report's section
 # ------------------------------------------------------------------------------------------
-def _pct(x: float) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f} %"
-
-
-def _pct1(x: float) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f} %"
-
-
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return "\n".join(lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
-
-
 def _seconds(s: float) -> str:
     return f"{s:g} s"
 
@@ -170,13 +158,13 @@ def goal(detection: pd.DataFrame, false_alarms: pd.DataFrame,
 
 def _detection_cell(c) -> str:
     low, high = metrics.clopper_pearson(int(c["detected"]), int(c["assets"]))
-    return (f"**{_pct(c['rate'])}** ({int(c['detected'])}/{int(c['assets'])}, "
-            f"CI {_pct(low)}–{_pct(high)}), AUC {c['auc']:.2f}")
+    return (f"**{percent(c['rate'])}** ({int(c['detected'])}/{int(c['assets'])}, "
+            f"CI {percent(low)}–{percent(high)}), AUC {c['auc']:.2f}")
 
 
 def _fa_cell(c) -> str:
-    return (f"{_pct1(c['rate'])} ({int(c['alarms'])}/{int(c['nights'])}, "
-            f"CI {_pct1(c['ci_low'])}–{_pct1(c['ci_high'])})")
+    return (f"{percent(c['rate'], 1)} ({int(c['alarms'])}/{int(c['nights'])}, "
+            f"CI {percent(c['ci_low'], 1)}–{percent(c['ci_high'], 1)})")
 
 
 def _graybox_table(detection, false_alarms, intervals, errors, magnitudes, goals) -> str:
@@ -198,7 +186,7 @@ def _graybox_table(detection, false_alarms, intervals, errors, magnitudes, goals
                 missed = [f"{_seconds(s)} ({100 * g.loc[(s,) + key, 'gap']:+.0f} pts)"
                           for s in intervals if not g.loc[(s,) + key, "met"]]
                 rows.append(row + [", ".join(missed) or "–"])
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _classic_table(detection, false_alarms, intervals, errors, magnitudes) -> str:
@@ -210,27 +198,28 @@ def _classic_table(detection, false_alarms, intervals, errors, magnitudes) -> st
         for det in DETECTORS:
             row = [f"{100 * error:.0f} %", metrics.LABELS[det]]
             for s in intervals:
-                rates = " / ".join(_pct(d.loc[(det, s, error) + c, "rate"]) for c in cells)
-                row.append(f"{rates}; FA {_pct1(fa.loc[(det, s, error), 'rate'])}")
+                rates = " / ".join(percent(d.loc[(det, s, error) + c, "rate"]) for c in cells)
+                row.append(f"{rates}; FA {percent(fa.loc[(det, s, error), 'rate'], 1)}")
             rows.append(row)
     names = " / ".join(f"{k} {m:g}" for k, m in cells)
-    return _table(["model error", "detector"] + [f"{_seconds(s)}: {names}; false alarms"
-                                                 for s in intervals], rows)
+    return markdown_table(["model error", "detector"]
+                          + [f"{_seconds(s)}: {names}; false alarms" for s in intervals], rows)
 
 
 def _noise_table(noise: pd.DataFrame, magnitude: float | None) -> str:
     rows = []
     for r in noise.itertuples():
         row = [_seconds(r.sample_interval), _seconds(r.analysis_interval),
-               f"{r.native_std:.3g} rad/s", _pct1(r.native_share), _pct1(r.analysis_share)]
+               f"{r.native_std:.3g} rad/s", percent(r.native_share, 1),
+               percent(r.analysis_share, 1)]
         if magnitude is not None:
-            row.append(_pct1(r.analysis_share * ((1 + magnitude) ** 2 - 1)))
+            row.append(percent(r.analysis_share * ((1 + magnitude) ** 2 - 1), 1))
         rows.append(row)
     header = ["sample interval", "analysis interval", "residual std",
               "sensor-noise share of the residual variance", "share at the analysis interval"]
     if magnitude is not None:
         header.append(f"residual variance change of noise x {1 + magnitude:g}")
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _reference_check(nights: pd.DataFrame, assets_dir: pathlib.Path,
@@ -286,8 +275,9 @@ def _structures(run: dict) -> str:
                          f"{ok.ar_order.median():.0f} ({ok.ar_order.min()}–{ok.ar_order.max()})",
                          f"{100 * (ok.diff_order > 0).mean():.0f} %",
                          f"{100 * ok.nonlinear_needed.mean():.0f} %"])
-    return _table(["sample interval", "model error", "baselines", "failed", "analysis interval",
-                   "AR order median (range)", "differenced", "network needed"], rows) if rows else ""
+    return markdown_table(["sample interval", "model error", "baselines", "failed",
+                           "analysis interval", "AR order median (range)", "differenced",
+                           "network needed"], rows) if rows else ""
 
 
 def section(assets_dir: pathlib.Path) -> str | None:

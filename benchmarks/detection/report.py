@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.detection import metrics
+from benchmarks.detection.cells import markdown_table, percent
 from benchmarks.detection.classic import DETECTORS
 from benchmarks.detection.grid import KINDS, UNITS, Grid
 
@@ -45,22 +46,8 @@ def summarize(table: pd.DataFrame, grid: Grid, run: dict) -> Results:
 # ------------------------------------------------------------------------------------------
 # formatting helpers
 # ------------------------------------------------------------------------------------------
-def _pct(x: float) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f} %"
-
-
-def _pct1(x: float) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f} %"
-
-
 def _num(x: float, digits: int = 2) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
-
-
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
 
 
 def _err(e: float) -> str:
@@ -205,15 +192,16 @@ def _fa_table(results: Results) -> str:
     header = ["detector", "target"] + [f"model error {_err(e)}" for e in results.grid.model_errors]
     rows = []
     for det in MAIN + metrics.GRAYBOX_TIERS:
-        row = [metrics.LABELS[det], _pct1(metrics.target_rate(det, results.grid.false_alarm_rate))]
+        target = metrics.target_rate(det, results.grid.false_alarm_rate)
+        row = [metrics.LABELS[det], percent(target, 1)]
         for error in results.grid.model_errors:
             r = fa.loc[(det, error)]
             flag = (" **⚠ significantly above target**" if r["significant"] else
                     " ⚠ above target (within the CI)" if r["exceeds"] else "")
-            row.append(f"{_pct1(r['rate'])} ({int(r['alarms'])}/{int(r['nights'])}, "
-                       f"CI {_pct1(r['ci_low'])}–{_pct1(r['ci_high'])}){flag}")
+            row.append(f"{percent(r['rate'], 1)} ({int(r['alarms'])}/{int(r['nights'])}, "
+                       f"CI {percent(r['ci_low'], 1)}–{percent(r['ci_high'], 1)}){flag}")
         rows.append(row)
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _main_table(results: Results, error: float, detectors=MAIN) -> str:
@@ -232,12 +220,12 @@ def _main_table(results: Results, error: float, detectors=MAIN) -> str:
             for det in detectors:
                 c = d.loc[(det,) + key]
                 delay = "" if math.isnan(c["median_delay"]) else f", d {c['median_delay']:.0f}"
-                cell = f"{_pct(c['rate'])}{delay}, AUC {_num(c['auc'])}"
+                cell = f"{percent(c['rate'])}{delay}, AUC {_num(c['auc'])}"
                 if det == metrics.GRAYBOX:
                     cell = f"**{cell}**"
                 row.append(cell)
             rows.append(row)
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _matched_table(results: Results) -> str:
@@ -249,8 +237,8 @@ def _matched_table(results: Results) -> str:
             for magnitude in sorted(results.grid.magnitudes.get(kind, ())):
                 key = (error, kind, float(magnitude))
                 rows.append([_err(error), KINDS[kind], f"{magnitude:g}"]
-                            + [_pct(d.loc[(x,) + key, "matched_rate"]) for x in MAIN])
-    return _table(header, rows)
+                            + [percent(d.loc[(x,) + key, "matched_rate"]) for x in MAIN])
+    return markdown_table(header, rows)
 
 
 def _tier_table(results: Results) -> str:
@@ -262,7 +250,8 @@ def _tier_table(results: Results) -> str:
     for error in results.grid.model_errors:
         row = [_err(error), "**healthy (false alarms)**", ""]
         for t in (metrics.GRAYBOX,) + metrics.GRAYBOX_TIERS:
-            row.append(f"{_pct1(fa.loc[(t, error), 'rate'])} (target {_pct1(fa.loc[(t, error), 'target'])})")
+            row.append(f"{percent(fa.loc[(t, error), 'rate'], 1)} "
+                       f"(target {percent(fa.loc[(t, error), 'target'], 1)})")
         rows.append(row)
         for kind in KINDS:
             for magnitude in sorted(results.grid.magnitudes.get(kind, ())):
@@ -270,9 +259,9 @@ def _tier_table(results: Results) -> str:
                 row = [_err(error), KINDS[kind], f"{magnitude:g}"]
                 for t in (metrics.GRAYBOX,) + metrics.GRAYBOX_TIERS:
                     c = d.loc[(t,) + key]
-                    row.append(f"{_pct(c['rate'])}, AUC {_num(c['auc'])}")
+                    row.append(f"{percent(c['rate'])}, AUC {_num(c['auc'])}")
                 rows.append(row)
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _structure_table(results: Results) -> str:
@@ -291,9 +280,10 @@ def _structure_table(results: Results) -> str:
                      f"{ok.embedding_dim.median():.0f}", f"{100 * ok.nonlinear_needed.mean():.0f} %",
                      " / ".join(_num(ok[f'epsilon_{t}'].median(), 4) for t in metrics.TIERS),
                      " / ".join(_num(ok[f'dof_{t}'].median(), 1) for t in metrics.TIERS)])
-    return _table(["model error", "baselines", "failed", "differencing (count)",
-                   "AR order median (range)", "embedding m", "network needed",
-                   "median epsilon lin / nonlin / noise", "median dof h lin / nonlin / noise"], rows)
+    return markdown_table(["model error", "baselines", "failed", "differencing (count)",
+                           "AR order median (range)", "embedding m", "network needed",
+                           "median epsilon lin / nonlin / noise",
+                           "median dof h lin / nonlin / noise"], rows)
 
 
 def _top_changes(results: Results) -> str:
@@ -314,7 +304,8 @@ def _top_changes(results: Results) -> str:
         counts = g["gb_top"].value_counts(normalize=True).head(3)
         rows.append([_err(error), "healthy (false alarms)", str(len(g)),
                      ", ".join(f"{k} {100 * v:.0f} %" for k, v in counts.items())])
-    return _table(["model error", "fault", "alarmed nights", "largest zeta/epsilon: tier:top parameter"], rows)
+    return markdown_table(["model error", "fault", "alarmed nights",
+                           "largest zeta/epsilon: tier:top parameter"], rows)
 
 
 def _healthy_ratio_quantiles(results: Results) -> str:
@@ -328,7 +319,7 @@ def _healthy_ratio_quantiles(results: Results) -> str:
             q = np.quantile(r, [0.5, 0.9, 0.99])
             rows.append([_err(error), metrics.LABELS[det], _num(q[0]), _num(q[1]), _num(q[2]),
                          _num(r.max())])
-    return _table(["model error", "statistic", "median", "90 %", "99 %", "max"], rows)
+    return markdown_table(["model error", "statistic", "median", "90 %", "99 %", "max"], rows)
 
 
 def _bias_table(results: Results) -> str:
@@ -339,11 +330,12 @@ def _bias_table(results: Results) -> str:
             key = (error, "bias", float(magnitude))
             best, best_rate = _best_classic(results, error, "bias", float(magnitude))
             level, gray = d.loc[("graybox.level",) + key], d.loc[(metrics.GRAYBOX,) + key]
-            rows.append([_err(error), f"{magnitude:g}", f"{metrics.LABELS[best]} {_pct(best_rate)}",
-                         _pct(level), f"**{_pct(gray)}**",
+            rows.append([_err(error), f"{magnitude:g}",
+                         f"{metrics.LABELS[best]} {percent(best_rate)}",
+                         percent(level), f"**{percent(gray)}**",
                          "**matched**" if gray >= best_rate else "below"])
-    return _table(["model error", "bias (rad/s)", "best classic (FA ≤ target)",
-                   "gray box: level tier", "gray box (any tier)", "vs best classic"], rows)
+    return markdown_table(["model error", "bias (rad/s)", "best classic (FA ≤ target)",
+                           "gray box: level tier", "gray box (any tier)", "vs best classic"], rows)
 
 
 def _verdict_lines(results: Results, head: pd.DataFrame) -> list[str]:
@@ -355,13 +347,15 @@ def _verdict_lines(results: Results, head: pd.DataFrame) -> list[str]:
         met = h[h.met]
         missed = h[~h.met]
         text = (f"- **Model error {_err(error)}**: gray-box false alarms "
-                f"{_pct1(gb_fa['rate'])} ({int(gb_fa['alarms'])}/{int(gb_fa['nights'])} healthy "
+                f"{percent(gb_fa['rate'], 1)} ({int(gb_fa['alarms'])}/{int(gb_fa['nights'])} "
+                "healthy "
                 f"asset-nights; target ≤ 1 %). In scope (redline ≤ 20 %): {len(h)} of "
                 f"{len(head[head.model_error == error])} (kind, magnitude) cells; target met in "
                 f"{len(met)}.")
         if len(missed):
             text += " Missed: " + "; ".join(
-                f"{r.kind} {r.magnitude:g} ({_pct(r.graybox_rate)})" for r in missed.itertuples()) + "."
+                f"{r.kind} {r.magnitude:g} ({percent(r.graybox_rate)})"
+                for r in missed.itertuples()) + "."
         lines.append(text)
     return lines
 
@@ -463,15 +457,17 @@ def write_report(results: Results, out: pathlib.Path, discussion: str | None = N
     for r in head.itertuples():
         best, best_rate = _best_classic(results, r.model_error, r.kind, r.magnitude)
         rows.append([_err(r.model_error), KINDS[r.kind], f"{r.magnitude:g}", str(r.assets),
-                     _pct(r.redline_rate) + ("" if r.in_scope else " (out of scope)"),
-                     f"**{_pct(r.graybox_rate)}**", _num(r.graybox_delay, 0), _num(r.graybox_auc),
-                     f"{metrics.LABELS[best]} {_pct(best_rate)}",
-                     _pct(r.graybox_matched), _pct1(r.graybox_false_alarms),
+                     percent(r.redline_rate) + ("" if r.in_scope else " (out of scope)"),
+                     f"**{percent(r.graybox_rate)}**", _num(r.graybox_delay, 0),
+                     _num(r.graybox_auc),
+                     f"{metrics.LABELS[best]} {percent(best_rate)}",
+                     percent(r.graybox_matched), percent(r.graybox_false_alarms, 1),
                      ("**met**" if r.met else ("not met" if r.in_scope else "n/a"))])
-    md.append(_table(["model error", "fault", "magnitude", "assets", "redline detects",
-                      "gray box detects (≤ 3 nights)", "median delay (nights)", "gray box AUC",
-                      "best classic (FA ≤ target)", "gray box at matched 1 % FA",
-                      "gray box FA / asset-night", "target"], rows) + "\n")
+    md.append(markdown_table(["model error", "fault", "magnitude", "assets", "redline detects",
+                              "gray box detects (≤ 3 nights)", "median delay (nights)",
+                              "gray box AUC", "best classic (FA ≤ target)",
+                              "gray box at matched 1 % FA", "gray box FA / asset-night",
+                              "target"], rows) + "\n")
     md.append("\n".join(_verdict_lines(results, head)) + "\n")
     overall = head[head.in_scope]
     md.append(f"\nOverall: target met in {int(overall.met.sum())} of {len(overall)} in-scope cells "
