@@ -20,6 +20,9 @@ from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid, fault_sum
 from flows.config.settings import NightlySettings
 
 DISCUSSION = pathlib.Path(__file__).with_name("discussion.md")
+#: the full grid, whose settings are the options' defaults (but ``--candidate-nights``: the
+#: product's)
+FULL = Grid()
 
 
 def _floats(text: str) -> tuple[float, ...]:
@@ -45,18 +48,21 @@ def parse_args(argv=None) -> argparse.Namespace:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true",
                    help="reduced grid: one seed, two vehicles per seed (a smoke run)")
-    p.add_argument("--seeds", type=int, default=None, help="number of seeds, 1..N (default 6; 1 with --quick)")
-    p.add_argument("--vehicles", type=int, default=None, help="vehicles per seed (default 8; 2 with --quick)")
-    p.add_argument("--model-errors", type=_floats, default=(0.0, 0.1, 0.2), metavar="E,E,...")
+    p.add_argument("--seeds", type=int, default=None,
+                   help=f"number of seeds, 1..N (default {len(FULL.seeds)}; 1 with --quick)")
+    p.add_argument("--vehicles", type=int, default=None,
+                   help=f"vehicles per seed (default {FULL.vehicles}; 2 with --quick)")
+    p.add_argument("--model-errors", type=_floats, default=FULL.model_errors, metavar="E,E,...")
     p.add_argument("--magnitudes", type=_magnitudes, default=None,
                    metavar="KIND=M,M,M;...", help="override magnitudes of some fault kinds")
-    p.add_argument("--sample-interval", type=float, default=10.0, help="seconds (default 10)")
-    p.add_argument("--baseline-days", type=int, default=4)
+    p.add_argument("--sample-interval", type=float, default=FULL.sample_interval,
+                   help=f"seconds (default {FULL.sample_interval:g})")
+    p.add_argument("--baseline-days", type=int, default=FULL.baseline_days)
     p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
                    metavar="N", help="gray-box candidates fitted on the night and the N - 1 before "
                    "it, as [nightly] candidate_nights (default: the product's default, %(default)s)")
     p.add_argument("--estimate", type=lambda text: tuple(n for n in text.split(",") if n),
-                   default=(), metavar="NAME,NAME,...",
+                   default=FULL.estimate, metavar="NAME,NAME,...",
                    help="white-box parameters each gray-box baseline tunes to its vehicle "
                         "first, as a class's estimate = [...] (default none)")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
@@ -72,8 +78,8 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def grid_from_args(args: argparse.Namespace) -> Grid:
-    seeds = args.seeds if args.seeds is not None else (1 if args.quick else 6)
-    vehicles = args.vehicles if args.vehicles is not None else (2 if args.quick else 8)
+    seeds = args.seeds if args.seeds is not None else (1 if args.quick else len(FULL.seeds))
+    vehicles = args.vehicles if args.vehicles is not None else (2 if args.quick else FULL.vehicles)
     return Grid(magnitudes=args.magnitudes or dict(DEFAULT_MAGNITUDES),
                 model_errors=tuple(args.model_errors), seeds=tuple(range(1, seeds + 1)),
                 vehicles=vehicles, baseline_days=args.baseline_days,
