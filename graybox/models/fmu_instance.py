@@ -33,6 +33,9 @@ _STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 _DISCARD, _FATAL = 2, 4
 #: FMU log messages kept for an error's text
 _KEPT_MESSAGES = 5
+#: FMPy's FMU2Model changes the process's working directory while it loads the library and
+#: changes it back: two loads at once in two threads could leave it changed for good
+_LOADING_LIBRARY = threading.Lock()
 # fmi2SetContinuousStates / fmi2GetDerivatives: (component, double*, size_t)
 _STATE_CALL = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t)
 # fmi2SetReal / fmi2GetReal: (component, unsigned int*, size_t, double*)
@@ -190,9 +193,11 @@ class FMUInstance:
         callbacks.allocateMemory = self._fmi2.defaultCallbacks.allocateMemory
         callbacks.freeMemory = self._fmi2.defaultCallbacks.freeMemory
         try:
-            fmu = self._fmi2.FMU2Model(guid=interface.guid, unzipDirectory=interface.unzipped,
-                                       modelIdentifier=interface.model_identifier,
-                                       instanceName="graybox")
+            with _LOADING_LIBRARY:
+                fmu = self._fmi2.FMU2Model(guid=interface.guid,
+                                           unzipDirectory=interface.unzipped,
+                                           modelIdentifier=interface.model_identifier,
+                                           instanceName="graybox")
         except Exception as error:   # FMPy raises Exception for a library it cannot load
             raise ModelSpecError(f"FMU {interface.path}: cannot load its binary: {error}; "
                                  f"export it for this platform") from None

@@ -409,3 +409,16 @@ def test_a_record_remembers_its_fmus_guid_and_a_replaced_fmu_is_refused(plant_fm
 def test_a_python_white_box_records_no_fingerprint():
     record = ModelSpec.from_model(TwinPlant())
     assert record.fingerprint is None and "fingerprint" not in record.to_dict()
+
+
+@needs_compiler
+def test_instances_made_in_many_threads_at_once_leave_the_working_directory_as_it_was(Plant):
+    """FMPy changes the working directory while it loads an FMU's library: loads at once in
+    several threads (a thread task runner) must not leave it changed."""
+    import concurrent.futures
+
+    before = os.getcwd()
+    with concurrent.futures.ThreadPoolExecutor(8) as pool:
+        models = list(pool.map(lambda k: Plant({"tau": 20.0 + k}), range(32)))
+        list(pool.map(lambda m: m.derivatives(np.zeros((4, 2)), np.ones((4, 1))), models))
+    assert os.getcwd() == before
