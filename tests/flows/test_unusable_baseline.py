@@ -39,6 +39,16 @@ def _versions(registry, asset):
     return [(v.version, v.aliases) for v in registry.history(asset)]
 
 
+def _signature_edited_baseline(registry, asset, tmp_path, edit) -> int:
+    """A copy of the asset's version 1 whose signature.json ``edit`` changed (manifest and
+    digest tag consistent), moved to the ``baseline`` alias; its version."""
+    tampering = _tampering()
+    version = tampering.tampered_version(registry, asset, 1, tmp_path,
+                                         tampering.edit_json("signature.json", edit))
+    tampering.move_alias(registry, asset, "baseline", version)
+    return version
+
+
 def _nightly(workspace, as_of, assets):
     from flows.nightly import nightly
 
@@ -119,15 +129,12 @@ def test_fault_one_tampered_asset_does_not_stop_the_fleet(workspace, tmp_path, c
 
 
 def test_fault_stored_spec_naming_another_module_is_not_imported(workspace, tmp_path, capfd):
-    tampering = _tampering()
     registry = workspace.registry()
     assert "this" not in sys.modules
 
     def zen(data):
         data["model"]["spec"] = "this:Zen"
-    version = tampering.tampered_version(registry, "T-001", 1, tmp_path,
-                                         tampering.edit_json("signature.json", zen))
-    tampering.move_alias(registry, "T-001", "baseline", version)
+    version = _signature_edited_baseline(registry, "T-001", tmp_path, zen)
 
     state, summary = _nightly(workspace, day(BASELINE_DAYS + 1), ["T-001", "T-005"])
     assert state.is_failed() and summary["exit_status"] == 1
@@ -148,14 +155,11 @@ def test_fault_a_baseline_fitted_on_another_model_file_is_refused(workspace, tmp
     """The stored record's fingerprint (an FMU's GUID) is not the configured model's now
     (the file was replaced): the asset is an unusable baseline, named with both, not
     compared with a model its parameters and calibration do not belong to."""
-    tampering = _tampering()
     registry = workspace.registry()
 
     def replaced(data):
         data["model"]["fingerprint"] = "fmi2 guid {0000e810-0000-4a00-8276-176fa3c9128f}"
-    version = tampering.tampered_version(registry, "T-001", 1, tmp_path,
-                                         tampering.edit_json("signature.json", replaced))
-    tampering.move_alias(registry, "T-001", "baseline", version)
+    version = _signature_edited_baseline(registry, "T-001", tmp_path, replaced)
 
     state, summary = _nightly(workspace, day(BASELINE_DAYS + 1), ["T-001", "T-005"])
     assert state.is_failed() and summary["exit_status"] == 1
