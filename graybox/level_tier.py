@@ -107,11 +107,6 @@ class LevelTier:
         window's sample farthest from the centre (:func:`extrapolation`). None otherwise.
     window_extents : tuple of tuple of float, optional
         A candidate's extent per telemetry window, where its baseline has drifting states.
-    offset_share : float, optional
-        A baseline's, where its channel's reading is quantized: the share of a constant
-        offset of the reading that the k-step error keeps (:func:`offset_share`; 1 for an
-        output that is not a state, ``1 - J^k`` for a measured state). None for candidates
-        and records stored before it (then the whole offset).
     resolution : float, optional
         A baseline's: the step its channel's reading is logged in
         (:func:`graybox.resolution.reading_resolution`, 0 when not quantized). A level
@@ -133,11 +128,10 @@ class LevelTier:
     drifting: tuple[str, ...] | None = None
     extent_reach: float | None = None
     window_extents: tuple[tuple[float, ...], ...] | None = None
-    offset_share: float | None = None
 
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({
         "operating_point", "reach", "operating", "window_points", "resolution", "drifting",
-        "extent_reach", "window_extents", "offset_share"})
+        "extent_reach", "window_extents"})
 
 
 def horizon_samples(sample_interval: float, seconds: float = LEVEL_HORIZON_SECONDS) -> int:
@@ -285,64 +279,6 @@ def segment_level_data(model: WhiteBoxModel, window: WindowStates, dt: float, k:
     return measured - predicted, predicted
 
 
-def offset_share(model: WhiteBoxModel, windows: Sequence[WindowStates], dt: float, k: int,
-                 channel: str, offset: float, integration: Integration | None = None) -> float:
-    """The share of a constant offset of ``channel``'s reading that its k-step error keeps.
-
-    An offset ``b`` of a reading (a sensor bias, or a steady reading's rounding) moves the
-    measured value by ``b``; where the channel is a measured state it also moves the
-    prediction's start, and the prediction carries ``J^k b`` of it (``J^k`` the k-step
-    sensitivity of the output to its own start), so the error keeps ``(1 - J^k) b``: all of
-    it for an output that is not a state or a horizon of several time constants, almost none
-    for an integrator over a horizon short against its time constant (a tank's level, 15
-    minutes ahead of a day-long time constant). Measured by predicting from the windows'
-    states with and without ``offset`` on the channel's state, at most
-    :data:`DRIFT_PROBES` starting points per window; the mean over them (a night's level is a
-    mean too), as a magnitude.
-
-    Parameters
-    ----------
-    model : WhiteBoxModel
-    windows : sequence of WindowStates
-    dt : float
-        Seconds between the samples predicted.
-    k : int
-        The horizon in samples.
-    channel : str
-        An output of ``model``.
-    offset : float
-        The offset (the reading's step): the size a nonlinear white box is probed at.
-    integration : Integration, optional
-
-    Returns
-    -------
-    float
-        1 for an output that is not a measured state, for ``offset`` 0 or no window longer
-        than ``k``.
-    """
-    if channel not in model.states or not offset:
-        return 1.0
-    state, output = model.states.index(channel), model.outputs.index(channel)
-    kept = []
-    for window in windows:
-        if len(window.states) <= k:
-            continue
-        stride = max(1, (len(window.states) - k) // DRIFT_PROBES)
-        shifted = window.states.copy()
-        shifted[:, state] += offset
-        after = window.u[k::stride]
-        plain = model.output(k_step_prediction(model, window.states, window.u, dt, k,
-                                               stride=stride, integration=integration), after)
-        moved = model.output(k_step_prediction(model, shifted, window.u, dt, k,
-                                               stride=stride, integration=integration), after)
-        kept.append(1.0 - (moved[:, output] - plain[:, output]) / offset)
-    if not kept:
-        return 1.0
-    share = np.concatenate(kept)
-    share = share[np.isfinite(share)]
-    return float(abs(share.mean())) if share.size else 1.0
-
-
 def drifting_states(model: WhiteBoxModel, windows: Sequence[WindowStates]
                     ) -> dict[str, tuple[int, ...]]:
     """Per output channel, the hidden states whose open-loop run drifts into its k-step
@@ -478,8 +414,7 @@ def level_data(model: WhiteBoxModel, windows: Sequence[WindowStates | pd.DataFra
 def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
               baseline: LevelTier | None = None, groups: np.ndarray | None = None,
               operating: Sequence[int] | None = None, resolution: float | None = None,
-              drifting: Sequence[str] | None = None,
-              offset_share: float | None = None) -> LevelTier:
+              drifting: Sequence[str] | None = None) -> LevelTier:
     """Regress the k-step errors on the centred operating features; keep the intercept.
 
     Parameters
@@ -504,9 +439,6 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
     drifting : sequence of str, optional
         A new baseline's hidden states whose changes are the last features (recorded; a
         candidate records none).
-    offset_share : float, optional
-        A new baseline's :func:`offset_share` of its channel (recorded; a candidate records
-        none).
 
     Returns
     -------
@@ -555,8 +487,7 @@ def fit_level(errors: np.ndarray, features: np.ndarray, horizon: int,
                      tuple(float(c) for c in features.mean(axis=0)), reach, operating, points,
                      None if baseline is not None or resolution is None else float(resolution),
                      None if baseline is not None or not drifting else tuple(drifting),
-                     extent_reach, extents,
-                     None if baseline is not None or offset_share is None else float(offset_share))
+                     extent_reach, extents)
 
 
 def extent(features: np.ndarray, center: Sequence[float], drifts: int) -> np.ndarray:

@@ -9,8 +9,8 @@ import numpy as np
 from graybox.analysis_rate import integrates, largest_rate, linearised_eigenvalues
 from graybox.exceptions import InsufficientDataError, StructureMismatchError
 from graybox.level_tier import (LevelTier, drifting_state_names, extrapolation, fit_level,
-                                level_horizon, offset_share, operating_features,
-                                pool_level_data, segment_level_data, start_stride)
+                                level_horizon, operating_features, pool_level_data,
+                                segment_level_data, start_stride)
 from graybox.resolution import reading_resolution
 from graybox.settings import GrayBoxSettings
 from graybox.state_estimation import WindowStates
@@ -87,13 +87,9 @@ class LevelTierKind(Tier):
                 # range (no controller sets it, and a sensor fault does not move it)
                 counted = operating + tuple(range(first_hidden, features.shape[1]))
                 drifting = None if reference is not None else drift[channel.name] or None
-                # how much of a steady reading's rounding the k-step error keeps (the floor)
-                share = None if not resolution else offset_share(
-                    model, asset.windows, interval, horizon, channel.name, resolution,
-                    integration)
                 channel.records[self.name] = fit_level(errors, features, horizon, reference,
                                                        np.asarray(owners)[segments],
-                                                       counted, resolution, drifting, share)
+                                                       counted, resolution, drifting)
             except InsufficientDataError as error:
                 raise InsufficientDataError(f"channel {channel.name!r}: level tier: "
                                             f"{error}") from None
@@ -156,20 +152,15 @@ class LevelTierKind(Tier):
     def epsilon_floor(self, candidate: ChannelSignature, baseline: ChannelSignature,
                       conditions: float = 0.0, alpha: float | None = None) -> float:
         """The zeta of a change of one step of the channel's reading (the baseline's
-        ``resolution``), as much of it as the level keeps, discounted as the change is. A
-        steady reading rounds to its step: each night's level is off by up to half a step
-        however many samples it averages, so two nights' levels may differ by a whole step
-        with nothing changed. The baseline's few days need not show it (five days that
-        rounded alike), and calibration then takes a hundredth of a degree for a fault. The
-        rounding is an offset of the reading, and where the channel is a measured state the
-        prediction's start carries it too: the level keeps ``(1 - J^k)`` of it (the
-        baseline's ``offset_share``, :func:`~graybox.level_tier.offset_share`; a record
-        stored before it keeps the whole step). 0 where the reading is not quantized."""
+        ``resolution``), discounted as the change is. A steady reading rounds to its step:
+        each night's level is off by up to half a step however many samples it averages, so
+        two nights' levels may differ by a whole step with nothing changed. The baseline's
+        few days need not show it (five days that rounded alike), and calibration then
+        takes a hundredth of a degree for a fault. 0 where the reading is not quantized."""
         step, spread = baseline.level.resolution, baseline.level.residual_std
         if not step or not spread:
             return 0.0
-        share = 1.0 if baseline.level.offset_share is None else baseline.level.offset_share
-        return (share * step / spread / self.discount(candidate, baseline, conditions)) ** 2
+        return (step / spread / self.discount(candidate, baseline, conditions)) ** 2
 
     def discount(self, candidate: ChannelSignature, baseline: ChannelSignature,
                  conditions: float = 0.0) -> float:

@@ -449,59 +449,6 @@ def test_a_level_change_within_one_step_of_a_quantized_reading_never_alarms():
         make_channel(), level=_level(0.4)),)).to_json()
 
 
-class _Tank(WhiteBoxModel):
-    """A tank's level ``h`` (measured) filled by ``inflow`` and drained through an outlet
-    (``drain`` per metre of level: a first-order lag of time constant ``1 / drain``); a
-    second output, the outlet's flow, reads the level but is no state."""
-
-    states = ("h",)
-    outputs = ("h", "outlet")
-    inputs = ("inflow",)
-    default_parameters = {"drain": 1.0 / 36000.0}
-
-    def derivatives(self, x, u):
-        return u[..., :1] - self.parameters["drain"] * x
-
-    def output(self, x, u):
-        return np.stack([x[..., 0], self.parameters["drain"] * x[..., 0]], axis=-1)
-
-
-def test_the_floor_counts_only_the_share_of_a_steady_readings_rounding_the_level_keeps():
-    # a level read to 1 cm every 15 minutes: a constant offset of the reading moves the
-    # prediction's start as much, and the 1-step error keeps only 1 - exp(-dt / tau) of it
-    # (a 10-h outlet lag: 2.5 %; 4 steps: 9.5 %; a pure integrator: none; 12 steps of a
-    # 15-min lag: all of it), while the outlet
-    # flow, an output that is no state, keeps all of it
-    from graybox.level_tier import offset_share
-    from graybox.state_estimation import WindowStates
-
-    dt, n = 900.0, 96
-    inflow = np.full((n, 1), 1e-4) * (1 + 0.3 * np.sin(np.arange(n) / 10.0))[:, None]
-    for drain, k, kept in ((1 / 36000.0, 1, 1 - np.exp(-dt / 36000.0)),
-                           (1 / 36000.0, 4, 1 - np.exp(-4 * dt / 36000.0)),
-                           (0.0, 1, 0.0), (1 / 900.0, 12, 1.0)):
-        model = _Tank({"drain": drain})
-        level = _free_run(model, 3.0, inflow, dt=dt)
-        window = WindowStates(model.output(level, inflow), inflow, level, {})
-        assert offset_share(model, [window], dt, k, "h", 0.01) == pytest.approx(kept, abs=1e-4)
-        assert offset_share(model, [window], dt, k, "outlet", 0.01) == 1.0
-    # the floor of a level read to 1 cm with a regression spread of 2.4 cm: (0.025 * 0.01 /
-    # 0.024)^2 where the level keeps 2.5 % of an offset, (0.01 / 0.024)^2 for a record
-    # stored before the share
-    kind = tier_kind("level")
-    reference = dataclasses.replace(_level(0.0, std=0.024), resolution=0.01)
-    old = make_signature((dataclasses.replace(make_channel(), level=reference),))
-    new = make_signature((dataclasses.replace(
-        make_channel(), level=dataclasses.replace(reference, offset_share=0.025)),))
-    night = make_signature((dataclasses.replace(make_channel(), level=_level(0.006)),))
-    assert kind.epsilon_floor(night.channels[0], old.channels[0]) == pytest.approx(
-        (0.01 / 0.024) ** 2)
-    assert kind.epsilon_floor(night.channels[0], new.channels[0]) == pytest.approx(
-        (0.025 * 0.01 / 0.024) ** 2)
-    assert Signature.from_json(new.to_json()) == new
-    assert "offset_share" not in old.to_json()
-
-
 class _Pack(WhiteBoxModel):
     """A charge ``q`` counted from the current (an integrator, hidden), an RC voltage ``v``
     (hidden, relaxing) and a measured temperature; the terminal voltage reads both."""
