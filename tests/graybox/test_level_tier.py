@@ -449,6 +449,57 @@ def test_a_level_change_within_one_step_of_a_quantized_reading_never_alarms():
         make_channel(), level=_level(0.4)),)).to_json()
 
 
+class _MeteredTank(WhiteBoxModel):
+    """A tank's level ``h`` (m, measured) between a metered inflow and a metered outflow
+    (m^3/h): ``area h' = inflow - outflow``."""
+
+    states = ("h",)
+    outputs = ("h",)
+    inputs = ("inflow", "outflow")
+    default_parameters = {"area": 360.0}
+
+    def derivatives(self, x, u):
+        return (u[..., :1] - u[..., 1:2]) / (3600.0 * self.parameters["area"])
+
+    def output(self, x, u):
+        return x[..., :1]
+
+
+def test_an_outflow_meter_reading_low_moves_the_level_by_the_tanks_mass_balance():
+    # a tank of 400 m^2 logged every 15 minutes, its white box's area 360 m^2 (10 % off):
+    # the baseline's slopes take out the area's error, which moves with the flows; an outflow
+    # meter reading 8 % low then moves a candidate's one-step level by 8 % of the mean
+    # outflow over one sample on the *true* area (the slopes keep the baseline's relation,
+    # nothing refits the meter's gain away): -0.08 * 150 * 0.25 / 400 = -0.75 cm
+    from graybox.state_estimation import WindowStates
+
+    dt, n = 900.0, 96
+    truth = _MeteredTank({"area": 400.0})
+    model = _MeteredTank()
+
+    def window(gain, seed):
+        rng = np.random.default_rng(seed)
+        hours = np.arange(n) * dt / 3600.0
+        outflow = 150.0 * (1 + 0.5 * np.sin(2 * np.pi * (hours - 7) / 24)) \
+            * (1 + 0.05 * rng.standard_normal(n))
+        inflow = np.where(np.sin(2 * np.pi * hours / 6 + seed) > 0, 300.0, 0.0)
+        level = _free_run(truth, 3.0, np.column_stack([inflow, outflow]), dt=dt)
+        u = np.column_stack([inflow, outflow * gain])
+        return WindowStates(level, u, level, {})
+
+    healthy = [window(1.0, day) for day in range(5)]
+    errors, features, _ = level_data(model, healthy, dt, 1, drift={})["h"]
+    baseline = fit_level(errors, features, 1)
+    for gain in (1.0, 0.92):
+        night = [window(gain, 11)]
+        errors, features, _ = level_data(model, night, dt, 1, drift={})["h"]
+        moved = fit_level(errors, features, 1, baseline).level - baseline.level
+        mean_outflow = night[0].u[1:, 1].mean() / gain
+        expected = -(1 - gain) * mean_outflow * dt / 3600.0 / 400.0
+        assert moved == pytest.approx(expected, abs=0.0002)  # 360 m^2 would give -0.83 cm
+    assert expected == pytest.approx(-0.0075, rel=0.1)
+
+
 class _Pack(WhiteBoxModel):
     """A charge ``q`` counted from the current (an integrator, hidden), an RC voltage ``v``
     (hidden, relaxing) and a measured temperature; the terminal voltage reads both."""
