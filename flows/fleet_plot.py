@@ -19,14 +19,15 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
 from flows.fleet_view import DEFAULT_TOP, MARKED, STALE, UNUSABLE_BASELINE, FleetView
-from flows.results import FAILED
+from flows.results import FAILED, NOT_OPERATING
 
 #: ratio bands (lower bounds) and their colours
 RATIO_BOUNDS = (0.0, 0.8, 1.0, 2.0, 5.0, 1e300)
 RATIO_COLORS = ("#a5d6a7", "#fff59d", "#fb8c00", "#e53935", "#7f0000")
 RATIO_LABELS = ("ratio < 0.8", "0.8 - 1", "1 - 2 (alarm)", "2 - 5 (major)", ">= 5 (critical)")
 MARK_STYLE = {FAILED: ("#000000", "F", "failed"), STALE: ("#9e9e9e", "S", "stale"),
-              UNUSABLE_BASELINE: ("#6a1b9a", "U", "unusable baseline")}
+              UNUSABLE_BASELINE: ("#6a1b9a", "U", "unusable baseline"),
+              NOT_OPERATING: ("#78909c", "N", "not operating")}
 LETTERS_UP_TO = 80          # rows above which the mark letters are left out
 
 

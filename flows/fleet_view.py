@@ -3,10 +3,12 @@
 A cell is an asset's worst zeta/epsilon ratio of a night (the largest over the tiers and
 channels of the windows starting that UTC day, from the registry), or None when no window
 was recorded; it may carry a mark from the nightly run's statuses: ``failed`` (on the
-night of the window that failed), ``stale`` or ``unusable baseline`` (on the run's night).
-Rows are sorted worst first: the assets flagged on the last night (a ratio above 1 or a
-mark), then those flagged on an earlier night, then the rest, each group by its worst
-ratio; :meth:`FleetView.fold` keeps the top rows and folds the rest into one band.
+night of the window that failed), ``stale``, ``unusable baseline`` or ``not operating`` (on
+the run's night). Rows are sorted worst first: the assets flagged on the last night (a ratio
+above 1 or a mark of :data:`FLAGGING`: ``not operating`` is drawn, so that a calm night is
+not mistaken for a missing one, but is not a problem), then those flagged on an earlier
+night, then the rest, each group by its worst ratio; :meth:`FleetView.fold` keeps the top
+rows and folds the rest into one band.
 
 The night of a run is the last UTC day ended by its ``as_of`` (:func:`night_of`). Each
 night's statuses (:func:`night_document`) are kept with the night's fleet-level run
@@ -26,7 +28,9 @@ from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK,
 
 STALE, UNUSABLE_BASELINE = "stale", "unusable baseline"   # flows.results statuses
 #: statuses drawn on the heat map (each distinctly)
-MARKED = (FAILED, STALE, UNUSABLE_BASELINE)
+MARKED = (FAILED, STALE, UNUSABLE_BASELINE, NOT_OPERATING)
+#: marks that flag their row (a problem), as an alarm does
+FLAGGING = (FAILED, STALE, UNUSABLE_BASELINE)
 DEFAULT_NIGHTS = 14
 DEFAULT_TOP = 40
 VIEW_FILE = "fleet_view.json"          #: the view, as an artifact of a night's fleet run
@@ -83,15 +87,16 @@ class AssetNights:
 
     @property
     def flagged(self) -> bool:
-        """An alarm (ratio above 1) or a mark on some night."""
+        """An alarm (ratio above 1) or a flagging mark on some night."""
         worst = self.worst
-        return (worst is not None and worst > 1.0) or any(self.marks)
+        return (worst is not None and worst > 1.0) or any(m in FLAGGING for m in self.marks)
 
     @property
     def flagged_last_night(self) -> bool:
-        """An alarm or a mark on the view's last night (a problem now)."""
+        """An alarm or a flagging mark on the view's last night (a problem now)."""
         last = self.ratios[-1] if self.ratios else None
-        return (last is not None and last > 1.0) or bool(self.marks and self.marks[-1])
+        return (last is not None and last > 1.0) or bool(self.marks
+                                                         and self.marks[-1] in FLAGGING)
 
     def sort_key(self) -> tuple:
         """Worst first: flagged on the last night, then flagged earlier, then the rest; each

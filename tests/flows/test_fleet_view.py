@@ -100,6 +100,27 @@ def test_a_failure_is_marked_on_the_night_of_its_window():
     assert marks[0].reason == "bad row"
 
 
+def test_a_night_that_did_not_operate_is_drawn_but_does_not_flag_its_row():
+    from flows.fleet_plot import MARK_STYLE, heatmap_png
+    from flows.results import AssetResult, RunSummary
+
+    summary = RunSummary("nightly", "2026-02-04T01:00:00+00:00", as_of="2026-02-04T00:00:00+00:00")
+    summary.assets = [AssetResult("W", "turbine", "not operating", note="too little operation"),
+                      AssetResult("V", "turbine", "ok")]
+    marks = summary_marks(summary, night_of(summary.as_of))
+    assert [(m.asset_id, m.night, m.status) for m in marks] == [
+        ("W", "2026-02-03", "not operating")]
+    r = NightRatio
+    view = build_view(NIGHTS, [r("W", "turbine", NIGHTS[0], 0.4), r("V", "turbine", NIGHTS[0], 0.2),
+                               r("X", "turbine", NIGHTS[0], 1.5)], marks)
+    by = {row.asset_id: row for row in view.rows}
+    assert by["W"].marks == (None, None, "not operating")
+    assert not by["W"].flagged and not by["W"].flagged_last_night
+    # a calm night is not a problem: the row is not sorted above an earlier alarm
+    assert [row.asset_id for row in view.rows] == ["X", "W", "V"]
+    assert _has_colour(_pixels(heatmap_png(view)), MARK_STYLE["not operating"][0])
+
+
 def _pixels(png: bytes) -> np.ndarray:
     from matplotlib.image import imread
 
