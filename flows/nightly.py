@@ -286,7 +286,7 @@ def _commit_watermarks(registry, group: list[PendingAsset], clock: StageClock | 
     (:meth:`registry.Registry.commit_watermarks`: one transaction on SQLite or PostgreSQL),
     each asset on its own: one whose watermark is kept is failed with the error; should the
     shared commit fail in another way than a passing one, each asset is committed alone."""
-    ends = {p.asset_id: p.watermark_end for p in group if p.watermark_end is not None}
+    ends = {p.asset_id: end for p in group if (end := p.watermark_end) is not None}
     committed = None
     if ends:
         try:
@@ -313,12 +313,12 @@ def _commit_watermarks(registry, group: list[PendingAsset], clock: StageClock | 
 
 
 def _commit_watermark(registry, pending: PendingAsset, clock: StageClock | None) -> None:
-    result = pending.result
-    if pending.watermark_end is not None:
+    result, end = pending.result, pending.watermark_end
+    if end is not None:
         try:
             with timed(clock, "registry"):
-                result.watermark_after = registry.commit_watermark(
-                    pending.asset_id, pending.watermark_end).isoformat()
+                result.watermark_after = registry.commit_watermark(pending.asset_id,
+                                                                   end).isoformat()
         except Exception as error:  # noqa: BLE001
             guard_asset_error(error, pending.ref, "advancing its watermark")
             pending.fail(error)

@@ -271,12 +271,18 @@ class PendingAsset:
         return self.ref.asset_id
 
     @property
+    def new_calm(self) -> list:
+        """The nights of :attr:`calm` past its watermark (not late windows read again)."""
+        before = self.result.watermark_before
+        return [(start, end) for start, end in self.calm
+                if before is None or start >= pd.Timestamp(before)]
+
+    @property
     def watermark_end(self) -> pd.Timestamp | None:
         """Where its watermark moves: the end of the last window recorded, or of a later
         night that ran too little to monitor (it was looked at and named; read again only
         within the look-back); never past a failure."""
-        before = self.result.watermark_before
-        past = [end for _, end in self.calm if before is None or end > pd.Timestamp(before)]
+        past = [end for _, end in self.new_calm]
         if self.result.failed or self.stop is not None or not past:
             return self.committed_end
         return max(past + ([] if self.committed_end is None else [self.committed_end]))
@@ -724,9 +730,7 @@ def settle_calm(asset: PendingAsset) -> None:
     too little (``asset.calm``): ``not operating`` when one of them is new (past its
     watermark), its idle status when all were read before (late windows looked at again),
     and ``stale`` stays stale."""
-    before = asset.result.watermark_before
-    new = before is None or any(start >= pd.Timestamp(before) for start, _ in asset.calm)
-    if new and asset.idle_status != STALE:
+    if asset.new_calm and asset.idle_status != STALE:
         asset.result.status = NOT_OPERATING
     else:
         asset.result.status = asset.idle_status or asset.result.status

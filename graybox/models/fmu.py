@@ -123,6 +123,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
     fmu_variables: ClassVar[dict[str, str]] = {}
     _interface: ClassVar[FMUInterface]
     _measured_rows: ClassVar[tuple[int, ...]] = ()
+    _measured_columns: ClassVar[tuple[int, ...]] = ()
     _computed_columns: ClassVar[tuple[int, ...]] = ()
 
     def __init_subclass__(cls, abstract: bool = False, **kwargs):
@@ -184,6 +185,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
                             if v.valueReference in state_references else white_box_name(v.name)
                             for v in outputs) or cls.states   # none: every state measured
         cls._measured_rows = tuple(cls.states.index(o) for o in cls.outputs if o in cls.states)
+        cls._measured_columns = tuple(i for i, o in enumerate(cls.outputs) if o in cls.states)
         computed = [v for v in outputs if v.valueReference not in state_references]
         cls._computed_columns = tuple(i for i, o in enumerate(cls.outputs)
                                       if o not in cls.states)
@@ -240,8 +242,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
         """The measured states as they are, the other outputs by ``fmi2GetReal``."""
         (flat_x, shape), (flat_u, _) = _rows(x, len(self.states)), _rows(u, len(self.inputs))
         y = np.empty((len(flat_x), len(self.outputs)))
-        measured = [i for i in range(len(self.outputs)) if i not in self._computed_columns]
-        y[:, measured] = flat_x[:, list(self._measured_rows)]
+        y[:, list(self._measured_columns)] = flat_x[:, list(self._measured_rows)]
         if self._computed_columns:
             y[:, list(self._computed_columns)] = self._live().outputs(flat_x, flat_u)
         return y.reshape(shape + (len(self.outputs),))
