@@ -56,9 +56,14 @@ HEAVY = {"ev_battery", "traction_drive", "cooling_loop", "servo_hydraulic"}
 #: Since the same day a baseline leaves such a day out (``Signature.left_out``): every
 #: baseline of the zoo's fleet fits; a calm night still fails, and is counted as such.
 MISSES = {"bus_longitudinal", "wind_turbine"}
+#: held-out families kept out of the reduced run only for the suite's time (its 10-minute
+#: limit): the district-heating substation (15 s; its fleet run is in docs/benchmarks.md,
+#: "A sixth blind family") would add about 7 s (its reduced fleet through `python -m
+#: benchmarks.zoo`: 7 s wall)
+OUTSIDE_THE_REDUCED_RUN = {"heat_substation"}
 #: the reduced zoo run: its families and its fleet (5 baseline days, the zoo protocol's own:
 #: day-to-day variation is estimated from them)
-REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES)
+REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES - OUTSIDE_THE_REDUCED_RUN)
 REDUCED_RUN = {"healthy_assets": 2, "baseline_days": 5, "nights": 2, "faulty_per_cell": 0,
                "seed": 3}
 #: a reduced-zoo family's fleet telemetry, simulated with its _one_batch (taken once)
@@ -226,7 +231,7 @@ def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
 
 @pytest.mark.slow
 def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
-    assert HEAVY <= set(FAMILIES) and MISSES <= set(FAMILIES)
+    assert HEAVY | MISSES | OUTSIDE_THE_REDUCED_RUN <= set(FAMILIES)
     results = []
     for name in REDUCED:
         _one_batch(name)

@@ -50,9 +50,9 @@ return as read. Parameters 10-20 % off.
 Faults and why these magnitudes (fixed from the physics before any detection run):
 
 * ``exchanger_fouling``: ``UA`` down by m (scale, sludge). 15 % is a season's scale on hard
-  water, about 1 K more on the primary return at mid load; 40 % is an exchanger due for
-  cleaning, 3-5 K more on the return (the utility's return-temperature penalty) and the
-  valve further open.
+  water, about 0.5 K more on the primary return at mid load; 40 % is an exchanger due for
+  cleaning, 2-3.5 K more on the return (the utility's return-temperature penalty) and 6-9 %
+  more primary flow for the same heat.
 * ``valve_stiction``: the stem's dead band widened by m % of stroke (a packing that grips),
   the stem jumping half of it when it breaks free. 1 % makes a slow small limit cycle; 4 % a
   hunting loop (the stem jumping about 2 % at a time, the primary flow by about 0.2 m^3/h,
