@@ -118,7 +118,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
 def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings:
     default = AlertSettings()
     check.keys("alerts", table, ("false_alarm_rate", "jsonl", "major_ratio", "critical_ratio",
-                                 "stale_after"))
+                                 "stale_after", "not_operating_after"))
     rate = check.number("alerts.false_alarm_rate",
                         table.get("false_alarm_rate", default.false_alarm_rate))
     if not 0 < rate < 1:
@@ -132,12 +132,21 @@ def _alerts(check: Checker, table: Mapping, base: pathlib.Path) -> AlertSettings
         SeverityScale(major, critical)
     except ValueError as error:
         raise check.error("alerts", str(error)) from None
-    stale = check.string("alerts.stale_after", table.get("stale_after", default.stale_after))
-    if stale.strip().lower() in ("off", "none"):
-        stale = None
-    else:
-        _positive_duration(check, "alerts.stale_after", stale, "'2D', '36h' or \"off\"")
-    return AlertSettings(rate, jsonl.resolve(), major, critical, stale)
+    stale = _duration_or_off(check, "alerts.stale_after",
+                             table.get("stale_after", default.stale_after), "'2D', '36h'")
+    calm = _duration_or_off(check, "alerts.not_operating_after",
+                            table.get("not_operating_after", default.not_operating_after),
+                            "'7D', '36h'")
+    return AlertSettings(rate, jsonl.resolve(), major, critical, stale, calm)
+
+
+def _duration_or_off(check: Checker, key: str, value, example: str) -> str | None:
+    """A positive duration key that ``"off"`` (or ``"none"``) turns off: None."""
+    text = check.string(key, value)
+    if text.strip().lower() in ("off", "none"):
+        return None
+    _positive_duration(check, key, text, f"{example} or \"off\"")
+    return text
 
 
 def _positive_duration(check: Checker, key: str, text: str, example: str,

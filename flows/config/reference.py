@@ -104,7 +104,13 @@ def sections() -> list[Section]:
                                    "critical_ratio`",
                  "stale_after": "an asset whose newest sample is older than the as-of time minus "
                                 "this gets the status `stale` and one `stale` alert; `\"off\"`: "
-                                "no check"}),
+                                "no check",
+                 "not_operating_after": "an asset `not operating` (its new nights all ran too "
+                                        "little to monitor) whose last monitored night (or "
+                                        "baseline) ended longer than this before the as-of "
+                                        "time is `dormant`: not settled, the run exits 1 "
+                                        "(docs/operations.md); `\"off\"`: `not operating` "
+                                        "never escalates"}),
         Section("[nightly]", "nightly", "How the nightly run cuts and runs its work.",
                 _fields(NightlySettings),
                 {"batch_size": "assets per Prefect task, fitted in one batched computation "

@@ -85,6 +85,9 @@ class AlertSettings:
     critical_ratio: float = SeverityScale.critical_ratio
     #: an asset whose newest telemetry is older than as-of minus this is stale (None: off)
     stale_after: str | None = "2D"
+    #: an asset not operating (every new night too calm to monitor) whose last operating
+    #: night ended more than this before as-of is dormant (None: off)
+    not_operating_after: str | None = "7D"
 
     @property
     def scale(self) -> SeverityScale:
@@ -94,6 +97,11 @@ class AlertSettings:
     @property
     def stale_after_delta(self) -> pd.Timedelta | None:
         return None if self.stale_after is None else pd.Timedelta(self.stale_after)
+
+    @property
+    def not_operating_after_delta(self) -> pd.Timedelta | None:
+        return (None if self.not_operating_after is None
+                else pd.Timedelta(self.not_operating_after))
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,7 @@ jsonl = "{alerts.jsonl}"               # every alert, one JSON object per line
 major_ratio = {alerts.major_ratio}                    # zeta/epsilon from which an alert is "major"
 critical_ratio = {alerts.critical_ratio}                 # ... and "critical" (above 1: "minor")
 stale_after = "{alerts.stale_after}"                 # no telemetry for this long: a "stale" alert ("off": none)
+not_operating_after = "{alerts.not_operating_after}"         # not operated for this long: "dormant", exit 1 ("off": never)
 
 [nightly]
 batch_size = {batch_size}                      # assets per Prefect task (one batched network fit)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import pathlib
 
+import pandas as pd
 import pytest
 
 from flows.config import ConfigError, load_config, render_config
@@ -88,6 +89,19 @@ assets = ["D-*"]
     assert config.class_of("D-7").name == "drive" and config.class_of("X-1") is None
 
 
+def test_not_operating_after_defaults_to_a_week_and_can_be_turned_off(tmp_path):
+    """Issue 18: how long an asset may be ``not operating`` before it is ``dormant``."""
+    alerts = load_config(write(tmp_path, MINIMAL)).alerts
+    assert alerts.not_operating_after_delta == pd.Timedelta(days=7)
+    for text, delta in (('"36h"', pd.Timedelta(hours=36)), ('"off"', None), ('"OFF"', None)):
+        config = load_config(write(tmp_path, f"[alerts]\nnot_operating_after = {text}\n"
+                                             + MINIMAL))
+        assert config.alerts.not_operating_after_delta == delta, text
+        assert config.alerts.stale_after_delta == pd.Timedelta(days=2)    # its own key
+    rendered = load_config(write(tmp_path, render_config()))
+    assert rendered.alerts.not_operating_after == "7D"
+
+
 @pytest.mark.parametrize("text, where", [
     (MINIMAL.replace('model = ', 'modle = '), "fleet.toml: classes.turbine.modle: unknown key"),
     (MINIMAL + 'settings = { max_ar_order = 10 }\n',
@@ -127,6 +141,12 @@ assets = ["D-*"]
     ("[alerts]\nfalse_alarm_rate = 1.5\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
     ("[alerts]\nfalse_alarm_rate = true\n" + MINIMAL, "fleet.toml: alerts.false_alarm_rate: "),
     ("[alerts]\nmajor_ratio = 9.0\n" + MINIMAL, "fleet.toml: alerts: need 1 <= major_ratio"),
+    ("[alerts]\nnot_operating_after = \"7\"\n" + MINIMAL,
+     "fleet.toml: alerts.not_operating_after: '7' is not a duration such as '7D', '36h' or "
+     "\"off\""),
+    ("[alerts]\nnot_operating_after = \"0D\"\n" + MINIMAL,
+     "fleet.toml: alerts.not_operating_after: '0D' must be a positive duration"),
+    ("[alerts]\nnot_operating_after = 7\n" + MINIMAL, "fleet.toml: alerts.not_operating_after: "),
     ("[nightly]\nbatch_size = 0\n" + MINIMAL, "fleet.toml: nightly.batch_size: "),
     ("[nightly]\nwindow = \"7h\"\n" + MINIMAL, "fleet.toml: nightly.window: "),
     ("[nightly]\nwindow = \"soon\"\n" + MINIMAL, "fleet.toml: nightly.window: "),
