@@ -13,9 +13,9 @@ Global options (before the command; ``run``, ``reanalyze``, ``alerts``, ``baseli
 ``-v``                  show Prefect's and the libraries' log lines
 
 Exit status: 0 all assets processed; 1 an asset that should be monitored was not (failed,
-stale, no baseline, unusable baseline, no telemetry: each named, with why) or the operation
-failed (``check``: a problem found); 2 bad usage or configuration; 3 Prefect's API server
-could not be started or reached (one line says what to do).
+stale, no baseline, unusable baseline, no telemetry, dormant: each named, with why) or the
+operation failed (``check``: a problem found); 2 bad usage or configuration; 3 Prefect's API
+server could not be started or reached (one line says what to do).
 """
 from __future__ import annotations
 
@@ -69,8 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="fleet-health",
         description="Gray-box fleet health: nightly residual models, drift and baselines.",
         epilog="Exit status: 0 all assets processed; 1 an asset that should be monitored was "
-               "not (failed, stale, no baseline, unusable baseline, no telemetry: each named, "
-               "with why), or check found a problem; 2 bad usage or configuration; 3 "
+               "not (failed, stale, no baseline, unusable baseline, no telemetry, dormant: "
+               "each named, with why), or check found a problem; 2 bad usage or configuration; 3 "
                "Prefect's API server could not be started or reached.")
     parser.add_argument(
         "--config", metavar="PATH",

@@ -4,8 +4,9 @@ A pure function of a :class:`flows.fleet_view.FleetView`: the worst ``top`` asse
 each, the rest folded into one band row (its cells the largest ratio among them), nights
 left to right. Colours follow the alert severities (below 0.8 green, up to 1 yellow, above
 1 orange, from 2 red, from 5 dark red: ``[alerts]`` defaults); a failed asset-night is
-black (``F``), stale grey (``S``), an unusable baseline purple (``U``); a night without a
-recorded window is hatched. Plain :class:`matplotlib.figure.Figure` on the Agg canvas, as
+black (``F``), stale grey (``S``), an unusable baseline purple (``U``), not operating
+blue-grey (``N``), dormant (not operating for longer than ``[alerts] not_operating_after``)
+dark blue (``D``); a night without a recorded window is hatched. Plain :class:`matplotlib.figure.Figure` on the Agg canvas, as
 in :mod:`registry.write.plots`.
 """
 from __future__ import annotations
@@ -19,7 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
 from flows.fleet_view import DEFAULT_TOP, MARKED, STALE, UNUSABLE_BASELINE, FleetView
-from flows.results import FAILED, NOT_OPERATING
+from flows.results import DORMANT, FAILED, NOT_OPERATING
 
 #: ratio bands (lower bounds) and their colours
 RATIO_BOUNDS = (0.0, 0.8, 1.0, 2.0, 5.0, 1e300)
@@ -27,7 +28,8 @@ RATIO_COLORS = ("#a5d6a7", "#fff59d", "#fb8c00", "#e53935", "#7f0000")
 RATIO_LABELS = ("ratio < 0.8", "0.8 - 1", "1 - 2 (alarm)", "2 - 5 (major)", ">= 5 (critical)")
 MARK_STYLE = {FAILED: ("#000000", "F", "failed"), STALE: ("#9e9e9e", "S", "stale"),
               UNUSABLE_BASELINE: ("#6a1b9a", "U", "unusable baseline"),
-              NOT_OPERATING: ("#78909c", "N", "not operating")}
+              NOT_OPERATING: ("#78909c", "N", "not operating"),
+              DORMANT: ("#0d47a1", "D", "dormant (not operating too long)")}
 LETTERS_UP_TO = 80          # rows above which the mark letters are left out
 
 

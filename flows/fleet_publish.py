@@ -59,7 +59,7 @@ def publish_fleet_view(summary: RunSummary, config, nights: int = DEFAULT_NIGHTS
     create_markdown_artifact(
         f"### The fleet at a glance, nights {view.nights[0]} to {view.nights[-1]}\n\n"
         f"{coverage or 'no assets'}; {flagged} of {len(view.rows)} assets flagged "
-        f"(an alarm, failed, stale or an unusable baseline).\n\n"
+        f"(an alarm, failed, stale, an unusable baseline or dormant).\n\n"
         f"![fleet heat map]({png_data_uri(png)})\n\n"
         f"The same picture is an artifact of MLflow run `{run_id}` "
         f"(experiment `fleet-health/fleet`).",

@@ -3,11 +3,12 @@
 A cell is an asset's worst zeta/epsilon ratio of a night (the largest over the tiers and
 channels of the windows starting that UTC day, from the registry), or None when no window
 was recorded; it may carry a mark from the nightly run's statuses: ``failed`` (on the
-night of the window that failed), ``stale``, ``unusable baseline`` or ``not operating`` (on
-the run's night). Rows are sorted worst first: the assets flagged on the last night (a ratio
-above 1 or a mark of :data:`FLAGGING`: ``not operating`` is drawn, so that a calm night is
-not mistaken for a missing one, but is not a problem), then those flagged on an earlier
-night, then the rest, each group by its worst ratio; :meth:`FleetView.fold` keeps the top
+night of the window that failed), ``stale``, ``unusable baseline``, ``not operating`` or
+``dormant`` (on the run's night). Rows are sorted worst first: the assets flagged on the last
+night (a ratio above 1 or a mark of :data:`FLAGGING`: ``not operating`` is drawn, so that a
+calm night is not mistaken for a missing one, but is not a problem; ``dormant``, not
+operating for longer than ``[alerts] not_operating_after``, is), then those flagged on an
+earlier night, then the rest, each group by its worst ratio; :meth:`FleetView.fold` keeps the top
 rows and folds the rest into one band.
 
 The night of a run is the last UTC day ended by its ``as_of`` (:func:`night_of`). Each
@@ -23,14 +24,14 @@ from typing import Iterable, Mapping, Sequence
 
 import pandas as pd
 
-from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK, UP_TO_DATE,
-                           RunSummary)
+from flows.results import (DORMANT, FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK,
+                           UP_TO_DATE, RunSummary)
 
 STALE, UNUSABLE_BASELINE = "stale", "unusable baseline"   # flows.results statuses
 #: statuses drawn on the heat map (each distinctly)
-MARKED = (FAILED, STALE, UNUSABLE_BASELINE, NOT_OPERATING)
+MARKED = (FAILED, STALE, UNUSABLE_BASELINE, NOT_OPERATING, DORMANT)
 #: marks that flag their row (a problem), as an alarm does
-FLAGGING = (FAILED, STALE, UNUSABLE_BASELINE)
+FLAGGING = (FAILED, STALE, UNUSABLE_BASELINE, DORMANT)
 DEFAULT_NIGHTS = 14
 DEFAULT_TOP = 40
 VIEW_FILE = "fleet_view.json"          #: the view, as an artifact of a night's fleet run
@@ -144,7 +145,8 @@ class FleetView:
     coverage : tuple of (str, int)
         Counts of the latest night with a nightly run: ``assets``, ``monitored`` (ok or up
         to date), ``stale``, ``failed``, ``without baseline``, ``unusable baseline``,
-        ``no telemetry`` (empty when no run recorded its statuses).
+        ``no telemetry``, ``not operating``, ``dormant`` (empty when no run recorded its
+        statuses; a night recorded before a count existed lacks it).
     coverage_night : str or None
         The night those counts are of.
     """
@@ -256,7 +258,8 @@ def coverage_counts(summary: RunSummary) -> dict[str, int]:
             "without baseline": counts.get(NO_BASELINE, 0),
             "unusable baseline": counts.get(UNUSABLE_BASELINE, 0),
             "no telemetry": counts.get(NO_TELEMETRY, 0),
-            "not operating": counts.get(NOT_OPERATING, 0)}
+            "not operating": counts.get(NOT_OPERATING, 0),
+            "dormant": counts.get(DORMANT, 0)}
 
 
 def night_document(summary: RunSummary) -> dict:

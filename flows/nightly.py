@@ -53,6 +53,12 @@ monitored: the run exits 1) and a ``stale`` alert (:func:`graybox.alert.stale_al
 result and the alerts file, one per (asset, newest sample), so it is not repeated nightly
 while no new data arrives.
 
+Dormancy: an asset whose new nights all ran too little to monitor is ``not operating`` (exit
+status 0, its watermark moved past them); when its last monitored night (or its baseline,
+when none since) ended longer than ``[alerts] not_operating_after`` before the as-of time
+(default 7 days, ``"off"`` to disable) it is ``dormant`` instead: not monitored, the run
+exits 1, and its note says since when and what to check (:mod:`flows.dormancy`).
+
 Failures: an asset whose telemetry is bad (:class:`graybox.exceptions.TelemetryError`) or
 whose fit fails stops at that window: the windows before it are committed, the watermark
 stays at the start of the bad window, the error (asset, file, row) is in the run summary,
@@ -72,15 +78,15 @@ The Prefect flow :func:`nightly` is thin: one task per batch of ``[nightly] batc
 assets (not per asset: thousands of task runs overwhelm a Prefect server), a table
 artifact of the night, the fleet heat map (:mod:`flows.fleet_publish`), and notification
 hooks. Its final state is Failed when an asset that should be monitored was not
-(failed, stale, without or with an unusable baseline, without telemetry; the message is the
-run's coverage line; the return value still holds the whole summary). Inside a batch, assets are read
-and fitted in groups within ``[nightly] memory_budget`` (:mod:`flows.memory`); the order
-above holds per group.
+(failed, stale, without or with an unusable baseline, without telemetry, dormant; the
+message is the run's coverage line; the return value still holds the whole summary). Inside
+a batch, assets are read and fitted in groups within ``[nightly] memory_budget``
+(:mod:`flows.memory`); the order above holds per group.
 """
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator, Sequence
 
 import pandas as pd
@@ -99,6 +105,7 @@ from flows.batching import guard_asset_error, run_over_fleet
 from flows.errors import TransientError
 from flows.config import DEFAULT_CONFIG, FleetConfig, load_config
 from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windows_in_dates
+from flows.dormancy import settle_dormant
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
@@ -256,17 +263,22 @@ def plan_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=No
     registry = registry or config.registry()
     as_of = utc(as_of)
     return BatchPlan([plan_asset(config, registry, ref, as_of, clock) for ref in refs],
-                     RecordThenAdvance(config, registry, clock))
+                     RecordThenAdvance(config, registry, clock, as_of=as_of))
 
 
 @dataclass
 class RecordThenAdvance(CommitPolicy):
     """The nightly commit of a group: 1. every candidate recorded (with its alerts), then
     2. each asset's watermark advanced to the end of its last recorded window (and the
-    changed-day marks of its windows cleared)."""
+    changed-day marks of its windows cleared). In between, an asset ``not operating`` for
+    longer than ``[alerts] not_operating_after`` before ``as_of`` becomes ``dormant``
+    (:func:`flows.dormancy.settle_dormant`)."""
+
+    as_of: pd.Timestamp = field(kw_only=True)
 
     def commit(self, group: list[PendingAsset]) -> Iterator[PendingAsset]:
         record_group(self.config, self.registry, group, reanalysis=False, clock=self.clock)
+        settle_dormant(self.config, self.registry, group, self.as_of, self.clock)
         _commit_watermarks(self.registry, group, self.clock)
         for pending in group:
             if pending.changed_days and pending.result.status != FAILED:

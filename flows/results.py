@@ -12,6 +12,10 @@ Statuses of an asset in a run:
                   short to read or to fit: a calm turbine, a parked vehicle): not monitored,
                   named with its windows; the watermark moves past them and the exit status
                   stays 0 (the plant gave nothing to monitor, no part of the run failed)
+``dormant``       ``not operating``, and its last monitored night (or its baseline, when none
+                  since) ended longer than ``[alerts] not_operating_after`` before the run's
+                  as-of time: not monitored, exit status 1; its note says since when, the
+                  limit, and what to check (out of service? the class's grid too strict?)
 ``no telemetry``  listed in fleet.toml or on the command line but no data in the store
 ``stale``         its newest telemetry is older than ``[alerts] stale_after`` before the
                   run's as-of time (a ``stale`` alert is raised): not monitored, exit status 1
@@ -21,7 +25,7 @@ Statuses of an asset in a run:
 
 Every status but ``ok`` and ``up to date`` means an asset that should be monitored was not:
 :class:`Coverage` counts and names them, and the run's exit status is then 1, except for
-``not operating``.
+``not operating`` (which escalates to ``dormant`` once it lasts).
 """
 from __future__ import annotations
 
@@ -44,8 +48,9 @@ OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY = (
 STALE = "stale"
 UNUSABLE_BASELINE = "unusable baseline"
 NOT_OPERATING = "not operating"
+DORMANT = "dormant"
 STATUSES = (OK, FAILED, NO_BASELINE, UP_TO_DATE, NO_TELEMETRY, STALE, UNUSABLE_BASELINE,
-            NOT_OPERATING)
+            NOT_OPERATING, DORMANT)
 #: statuses of an asset that was monitored this run (checked against its baseline)
 MONITORED = (OK, UP_TO_DATE)
 #: statuses that leave the run's exit status 0: monitored, or nothing there to monitor
@@ -196,7 +201,7 @@ class RunSummary:
     def exit_status(self) -> int:
         """0 when every asset was processed (or had nothing to do, or did not operate enough
         to monitor), 1 when one that should be monitored was not (failed, stale, no
-        baseline, unusable baseline, no telemetry)."""
+        baseline, unusable baseline, no telemetry, dormant)."""
         return EXIT_OK if all(a.status in SETTLED for a in self.assets) else EXIT_FAILED
 
     def counts(self) -> dict[str, int]:
@@ -239,9 +244,10 @@ class Coverage:
         Assets that should be monitored (the discovered fleet and the listed assets).
     up_to_date : int
         Monitored: processed up to date against their baseline (``ok`` or ``up to date``).
-    stale, no_baseline, unusable_baseline, failed, no_telemetry, not_operating : int
+    stale, no_baseline, unusable_baseline, failed, no_telemetry, not_operating, dormant : int
         Not monitored, by reason (``not_operating``: it ran too little to monitor, which
-        alone leaves the exit status 0).
+        alone leaves the exit status 0; ``dormant``: the same for longer than ``[alerts]
+        not_operating_after``, which does not).
     missed : tuple of str
         The assets not monitored, in the run's order.
     """
@@ -255,6 +261,7 @@ class Coverage:
     failed: int
     no_telemetry: int
     not_operating: int
+    dormant: int
     missed: tuple[str, ...]
 
     @classmethod
@@ -263,7 +270,7 @@ class Coverage:
             return sum(1 for a in assets if a.status == status)
         return cls(flow, len(assets), sum(1 for a in assets if a.status in MONITORED),
                    n(STALE), n(NO_BASELINE), n(UNUSABLE_BASELINE), n(FAILED), n(NO_TELEMETRY),
-                   n(NOT_OPERATING),
+                   n(NOT_OPERATING), n(DORMANT),
                    tuple(a.asset_id for a in assets if a.status not in MONITORED))
 
     @property
@@ -287,7 +294,7 @@ class Coverage:
                    (self.no_baseline, "without baseline"),
                    (self.unusable_baseline, "with an unusable baseline"),
                    (self.no_telemetry, "without telemetry"),
-                   (self.not_operating, "not operating")]
+                   (self.not_operating, "not operating"), (self.dormant, "dormant")]
         text = (f"{self.assets} asset{'' if self.assets == 1 else 's'}: "
                 f"{self.up_to_date} {done}")
         parts = [f"{count} {what}" for count, what in missing if count]

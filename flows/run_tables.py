@@ -9,7 +9,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from flows.errors import AssetsNotMonitored
-from flows.results import FAILED, NOT_OPERATING, UNUSABLE_BASELINE, RunSummary
+from flows.results import DORMANT, FAILED, NOT_OPERATING, UNUSABLE_BASELINE, RunSummary
 from graybox.alert import Alert
 from graybox.alert_diagnosis import NO_SINGLE_CAUSE
 
@@ -122,7 +122,7 @@ def fleet_table(summary: RunSummary, title: str | None = None):
                          justify="right" if column in ("windows", "alarmed", "max ratio")
                          else "left")
     styles = {"ok": "green", FAILED: "bold red", "no baseline": "yellow",
-              NOT_OPERATING: "yellow", UNUSABLE_BASELINE: "bold red"}
+              NOT_OPERATING: "yellow", DORMANT: "bold red", UNUSABLE_BASELINE: "bold red"}
     for row in rows:
         status = row["status"]
         style = styles.get(status)

@@ -96,6 +96,7 @@ def test_run_json_alerts_and_baseline_list(workspace, fleet, capsys, tmp_path):
     assert summary["coverage"] == {
         "flow": "nightly", "assets": 6, "up_to_date": 5, "stale": 0, "no_baseline": 1,
         "unusable_baseline": 0, "failed": 0, "no_telemetry": 0, "not_operating": 0,
+        "dormant": 0,
         "missed": ["T-009"],
         "complete": False}
     statuses = {a["asset_id"]: a["status"] for a in summary["assets"]}

@@ -23,8 +23,8 @@ from types import SimpleNamespace
 import pytest
 
 from flows.cli import main
-from flows.results import (FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK, STALE,
-                           UNUSABLE_BASELINE, UP_TO_DATE, AssetResult, RunSummary,
+from flows.results import (DORMANT, FAILED, NO_BASELINE, NO_TELEMETRY, NOT_OPERATING, OK,
+                           STALE, UNUSABLE_BASELINE, UP_TO_DATE, AssetResult, RunSummary,
                            run_summary)
 from flowtest_config import write_config
 from flows.run_lock import LOCK_WAIT_ENV, RunLock
@@ -54,7 +54,7 @@ def test_coverage_counts_every_status_and_sets_the_exit_status():
     complete = _summary("nightly", [OK, UP_TO_DATE, OK])
     assert complete.coverage.complete and complete.exit_status == 0
     assert complete.coverage.line() == "3 assets: 3 monitored and up to date."
-    for missing in (FAILED, STALE, NO_BASELINE, UNUSABLE_BASELINE, NO_TELEMETRY):
+    for missing in (FAILED, STALE, NO_BASELINE, UNUSABLE_BASELINE, NO_TELEMETRY, DORMANT):
         summary = _summary("nightly", [OK, missing])
         assert summary.exit_status == 1, missing
         assert summary.coverage.missed == ("A-1",)
@@ -63,7 +63,7 @@ def test_coverage_counts_every_status_and_sets_the_exit_status():
     coverage = summary.to_dict()["coverage"]
     assert coverage == {"flow": "nightly", "assets": 7, "up_to_date": 2, "stale": 1,
                         "no_baseline": 1, "unusable_baseline": 1, "failed": 1,
-                        "no_telemetry": 1, "not_operating": 0,
+                        "no_telemetry": 1, "not_operating": 0, "dormant": 0,
                         "missed": ["A-1", "A-2", "A-3", "A-4", "A-5"],
                         "complete": False}
     assert summary.coverage.line() == (
@@ -76,6 +76,12 @@ def test_coverage_counts_every_status_and_sets_the_exit_status():
     assert summary.coverage.line() == (
         "3 assets: 2 monitored and up to date; not monitored: 1 not operating (A-1).")
     assert _summary("nightly", [NOT_OPERATING, STALE]).exit_status == 1
+    # not operating for longer than [alerts] not_operating_after: dormant, not settled
+    summary = _summary("nightly", [OK, NOT_OPERATING, DORMANT])
+    assert summary.exit_status == 1 and summary.coverage.dormant == 1
+    assert summary.coverage.line() == (
+        "3 assets: 1 monitored and up to date; not monitored: 1 not operating, 1 dormant "
+        "(A-1, A-2).")
     # the summary's JSON round trip keeps what the coverage is computed from
     assert RunSummary.from_dict(json.loads(json.dumps(summary.to_dict()))).coverage == \
         summary.coverage

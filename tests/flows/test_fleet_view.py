@@ -121,6 +121,28 @@ def test_a_night_that_did_not_operate_is_drawn_but_does_not_flag_its_row():
     assert _has_colour(_pixels(heatmap_png(view)), MARK_STYLE["not operating"][0])
 
 
+def test_a_dormant_night_is_drawn_and_flags_its_row():
+    """Not operating for longer than [alerts] not_operating_after is a problem: its own
+    mark, and its row sorted with the alarms of the last night."""
+    from flows.fleet_plot import MARK_STYLE, heatmap_png
+    from flows.fleet_view import coverage_counts
+    from flows.results import AssetResult, RunSummary
+
+    summary = RunSummary("nightly", "2026-02-04T01:00:00+00:00", as_of="2026-02-04T00:00:00+00:00")
+    summary.assets = [AssetResult("W", "turbine", "dormant", note="dormant: not operating"),
+                      AssetResult("V", "turbine", "ok")]
+    marks = summary_marks(summary, night_of(summary.as_of))
+    assert [(m.asset_id, m.night, m.status) for m in marks] == [("W", "2026-02-03", "dormant")]
+    assert coverage_counts(summary)["dormant"] == 1
+    r = NightRatio
+    view = build_view(NIGHTS, [r("W", "turbine", NIGHTS[0], 0.4), r("V", "turbine", NIGHTS[0], 0.2),
+                               r("X", "turbine", NIGHTS[0], 1.5)], marks)
+    assert [row.asset_id for row in view.rows] == ["W", "X", "V"]
+    assert view.rows[0].flagged_last_night
+    assert MARK_STYLE["dormant"][0] != MARK_STYLE["not operating"][0]
+    assert _has_colour(_pixels(heatmap_png(view)), MARK_STYLE["dormant"][0])
+
+
 def _pixels(png: bytes) -> np.ndarray:
     from matplotlib.image import imread
 
