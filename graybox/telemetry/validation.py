@@ -20,6 +20,9 @@ _NAT = np.iinfo(np.int64).min
 #: a coarse reading changes in at least this share of its steps, and its smallest change
 #: makes up at least this share of its changes (:func:`_steady_runs`)
 COARSE_SHARE = 0.1
+#: a run held within this share of the channel's largest magnitude of 0 is at the channel's
+#: zero (a meter's offset at rest; :func:`_at_rest`)
+REST_SHARE = 0.01
 
 
 def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy(),
@@ -465,12 +468,19 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
 
 def _at_rest(v: np.ndarray, starts: np.ndarray, ends: np.ndarray, others_move: np.ndarray
              ) -> np.ndarray:
-    """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where the run holds
-    exactly 0 while another measured channel moves: a part of the plant at rest (a stopped
-    pump's flow and power while the tank it fills drains), not a frozen sensor, which holds
-    its last reading. Where every measured channel holds, the machine is off (declare its
-    ``running`` channel), and the run stays a stuck sensor."""
-    rest = v[starts] == 0.0
+    """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where the run holds at
+    the channel's zero while another measured channel moves: a part of the plant at rest (a
+    stopped pump's flow and power while the tank it fills drains; a closed valve's leak,
+    which a meter reads as 0.01 m^3/h), not a frozen sensor, which holds its last reading.
+    The zero is 0, or for a channel that never changes sign (a flow, a power) a value within
+    :data:`REST_SHARE` of its largest magnitude (a meter's zero offset); a signed reading
+    (a position about 0) is at rest only at 0, and a sensor that fails to the end of its
+    range (a broken wire's -50 C) is far from it. Where every measured channel holds, the
+    machine is off (declare its ``running`` channel), and the run stays a stuck sensor."""
+    finite = v[np.isfinite(v)]
+    one_signed = finite.size and (finite.min() >= 0.0 or finite.max() <= 0.0)
+    near = REST_SHARE * np.abs(finite).max() if one_signed else 0.0
+    rest = np.abs(v[starts]) <= near
     if not rest.any() or not len(others_move):
         return np.zeros(len(starts), dtype=bool)
     moved = np.concatenate([[0], np.cumsum(others_move.any(axis=0))])  # steps moved before i

@@ -90,6 +90,20 @@ def test_a_pump_at_rest_reads_zero_while_the_tank_moves_but_not_when_all_stop():
     assert error.row == 0 and "at 0.0" in error.message
 
 
+def test_a_closed_valve_whose_meter_reads_its_zero_offset_is_at_rest_but_not_a_sensor_frozen_elsewhere():
+    frame = scada_day()
+    closed = (np.arange(DAY) >= 40) & (np.arange(DAY) < 56)   # 4 hours, the pumps switch inside
+    # the valve's meter reads its leak, 0.01 (not exactly 0), while the tank moves
+    frame["flow"] = np.where(closed, 0.01, 5.0 + 0.1 * (np.arange(DAY) % 7))
+    validate(frame, "A-1", inputs=["pumps", "outflow"])   # 16 rows at 0.01 of 5.6: at rest
+    # the same hold at a quarter of the range is a frozen sensor
+    frozen = frame.assign(flow=np.where(closed, 1.4, frame["flow"]))
+    assert stuck_error(frozen, inputs=["pumps", "outflow"]).row == 40
+    # and a signed reading (a position about 0) is at rest only at exactly 0
+    signed = frame.assign(flow=np.where(closed, 0.01, frame["flow"] - 5.3))
+    assert stuck_error(signed, inputs=["pumps", "outflow"]).channel == "flow"
+
+
 def power_day(run: slice) -> pd.DataFrame:
     """A pump's power logged to 0.5 kW: 50.5 kW while the pump runs (rows ``run``), 0 when
     not, a moving level and outflow."""
