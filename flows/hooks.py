@@ -4,7 +4,9 @@ Every fleet-health flow has :func:`notify_hook` as its ``on_completion``, ``on_f
 ``on_crashed`` hook. When ``fleet.toml`` names a block (``[notifications] block =
 "slack-webhook/fleet-health"``; any Prefect notification block: Slack, Microsoft Teams,
 e-mail, PagerDuty, a custom webhook), the hook sends a short message when a run raised
-alerts, had failed assets, or crashed, and nothing when all was quiet. Without a block it
+alerts, had failed assets, left assets unmonitored for a reason that fails the run (no
+baseline, an unusable baseline, stale telemetry, dormant: every status outside
+:data:`flows.results.SETTLED`), or crashed, and nothing when all was quiet. Without a block it
 does nothing. Create the block once, e.g.::
 
     from prefect.blocks.notifications import SlackWebhook
@@ -19,7 +21,7 @@ import logging
 from prefect.blocks.core import Block
 
 from flows.config import DEFAULT_CONFIG, load_config
-from flows.results import run_summary
+from flows.results import FAILED, SETTLED, run_summary
 
 logger = logging.getLogger(__name__)
 
@@ -45,8 +47,10 @@ def compose_message(flow_name: str, summary: dict | None, state_name: str,
         return (f"fleet-health: {flow_name} {state_name.lower()}",
                 f"The {flow_name} flow run ended {state_name}: {state_message or 'no message'}")
     alerts = summary.get("alerts") or []
-    failed = [a for a in summary.get("assets", []) if a.get("status") == "failed"]
-    if not alerts and not failed:
+    assets = summary.get("assets", [])
+    failed = [a for a in assets if a.get("status") == FAILED]
+    unmonitored = [a for a in assets if a.get("status") not in (*SETTLED, FAILED)]
+    if not alerts and not failed and not unmonitored:
         return None
     lines = []
     if alerts:
@@ -61,7 +65,14 @@ def compose_message(flow_name: str, summary: dict | None, state_name: str,
         for asset in failed[:10]:
             reason = (asset.get("error") or {}).get("message") or ""
             lines.append(f"  {asset['asset_id']}: {reason}")
-    subject = f"fleet-health {flow_name}: {len(alerts)} alert(s), {len(failed)} failure(s)"
+    if unmonitored:
+        lines.append(f"{len(unmonitored)} asset(s) not monitored:")
+        for asset in unmonitored[:10]:
+            note = asset.get("note") or ""
+            lines.append(f"  {asset['asset_id']} ({asset['status']})" + (f": {note}" if note
+                                                                       else ""))
+    subject = f"fleet-health {flow_name}: {len(alerts)} alert(s), {len(failed)} failure(s)" + (
+        f", {len(unmonitored)} not monitored" if unmonitored else "")
     return subject, "\n".join(lines)
 
 

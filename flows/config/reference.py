@@ -153,8 +153,9 @@ def sections() -> list[Section]:
                 _fields(ScheduleSettings),
                 {"cron": "5-field cron expression of the nightly run",
                  "timezone": "the IANA time zone the cron is read in"}),
-        Section("[notifications]", "notifications", "Messages on nights with alerts, failures "
-                                                    "or a crash.",
+        Section("[notifications]", "notifications", "Messages on nights with alerts, failures, "
+                                                    "assets left unmonitored (no baseline, "
+                                                    "stale, dormant, ...) or a crash.",
                 _fields(NotificationSettings),
                 {"block": "a Prefect notification block slug `<block-type>/<name>`, e.g. "
                           "`\"slack-webhook/fleet-health\"` (`flows/hooks.py`); none: no "

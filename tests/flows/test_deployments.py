@@ -91,6 +91,19 @@ def test_notification_message():
     assert "T-3: asset 'T-3', file f, row 9: NaN" in body
     subject, body = compose_message("nightly", None, "Crashed", "killed")
     assert "crashed" in subject and "killed" in body
+    # an asset left unmonitored for a reason that fails the run is said, one that did not
+    # operate (nothing to monitor) is not
+    calm = {"alerts": [], "assets": [{"asset_id": "T-4", "status": "not operating"}]}
+    assert compose_message("nightly", calm, "Completed", None) is None
+    dormant = {"alerts": [], "assets": [
+        {"asset_id": "T-4", "status": "not operating"},
+        {"asset_id": "T-5", "status": "dormant", "note": "not operating for 9.0 days"},
+        {"asset_id": "T-6", "status": "no baseline"}]}
+    subject, body = compose_message("nightly", dormant, "Failed", "2 assets not monitored")
+    assert subject == "fleet-health nightly: 0 alert(s), 0 failure(s), 2 not monitored"
+    assert body.splitlines() == ["2 asset(s) not monitored:",
+                                 "  T-5 (dormant): not operating for 9.0 days",
+                                 "  T-6 (no baseline)"]
 
 
 def test_notify_hook_sends_to_the_configured_block(tmp_path, monkeypatch):
