@@ -16,6 +16,7 @@ import sys
 import threading
 import time
 
+from benchmarks.comma_floats import comma_floats
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid, fault_summary
 from flows.config.settings import NightlySettings
 
@@ -23,10 +24,6 @@ DISCUSSION = pathlib.Path(__file__).with_name("discussion.md")
 #: the full grid, whose settings are the options' defaults (but ``--candidate-nights``: the
 #: product's)
 FULL = Grid()
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    return tuple(float(x) for x in text.split(",") if x.strip())
 
 
 def _magnitudes(text: str) -> dict:
@@ -39,7 +36,7 @@ def _magnitudes(text: str) -> dict:
         kind = kind.strip()
         if kind not in KINDS:
             raise argparse.ArgumentTypeError(f"unknown fault kind {kind!r}; known: {list(KINDS)}")
-        out[kind] = _floats(values)
+        out[kind] = comma_floats(values)
     return out
 
 
@@ -52,7 +49,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help=f"number of seeds, 1..N (default {len(FULL.seeds)}; 1 with --quick)")
     p.add_argument("--vehicles", type=int, default=None,
                    help=f"vehicles per seed (default {FULL.vehicles}; 2 with --quick)")
-    p.add_argument("--model-errors", type=_floats, default=FULL.model_errors, metavar="E,E,...")
+    p.add_argument("--model-errors", type=comma_floats, default=FULL.model_errors,
+                   metavar="E,E,...")
     p.add_argument("--magnitudes", type=_magnitudes, default=None,
                    metavar="KIND=M,M,M;...", help="override magnitudes of some fault kinds")
     p.add_argument("--sample-interval", type=float, default=FULL.sample_interval,

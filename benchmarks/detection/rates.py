@@ -27,6 +27,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from benchmarks.comma_floats import comma_floats
 from benchmarks.detection import metrics
 from benchmarks.detection.cells import markdown_table, percent
 from benchmarks.detection.classic import DETECTORS
@@ -345,18 +346,14 @@ def section(assets_dir: pathlib.Path) -> str | None:
 # ------------------------------------------------------------------------------------------
 # command line
 # ------------------------------------------------------------------------------------------
-def _floats(text: str) -> tuple[float, ...]:
-    return tuple(float(x) for x in text.split(",") if x.strip())
-
-
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m benchmarks.detection.rates", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--sample-intervals", type=_floats, default=INTERVALS, metavar="S,S,...",
+    p.add_argument("--sample-intervals", type=comma_floats, default=INTERVALS, metavar="S,S,...",
                    help="seconds (default 1,10,60)")
     p.add_argument("--seeds", type=int, default=6, help="number of seeds, 1..N (default 6)")
     p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
-    p.add_argument("--model-errors", type=_floats, default=(0.0, 0.2), metavar="E,E,...")
+    p.add_argument("--model-errors", type=comma_floats, default=(0.0, 0.2), metavar="E,E,...")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs/benchmarks.md"),

@@ -19,6 +19,7 @@ import sys
 import time
 from dataclasses import replace
 
+from benchmarks.comma_floats import comma_floats
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES
 from benchmarks.diagnosis.episode import EPISODE_NIGHTS, EVIDENCE
 from benchmarks.diagnosis.expected_zoo import ZOO
@@ -26,10 +27,6 @@ from benchmarks.diagnosis.grid_run import DETECTION, SIZES, DiagnosisGrid, run_g
 from benchmarks.diagnosis.report import render
 
 KINDS = tuple(DEFAULT_MAGNITUDES)
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    return tuple(float(x) for x in text.split(",") if x.strip())
 
 
 def _names(known: tuple[str, ...]):
@@ -51,7 +48,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="the detection grid's magnitudes to run: small, middle, large "
                         "(default middle)")
     errors = ",".join(f"{e:g}" for e in DETECTION.model_errors)
-    p.add_argument("--model-errors", type=_floats, default=DETECTION.model_errors, metavar="E,E",
+    p.add_argument("--model-errors", type=comma_floats, default=DETECTION.model_errors,
+                   metavar="E,E",
                    help=f"white-box errors (default {errors}); a white box off is tuned first")
     p.add_argument("--untuned", action="store_true",
                    help="do not tune a white box that is off (the known weakness, for comparison)")
