@@ -31,12 +31,17 @@ from benchmarks.comma_floats import comma_floats
 from benchmarks.detection import metrics
 from benchmarks.detection.cells import markdown_table, percent
 from benchmarks.detection.classic import DETECTORS
-from benchmarks.detection.grid import KINDS, Grid, vehicle_seed
+from benchmarks.detection.grid import (
+    DEFAULT_MAGNITUDES,
+    KINDS,
+    Grid,
+    vehicle_seed,
+)
 
 #: the middle magnitudes of (a)-(c) (``grid.DEFAULT_MAGNITUDES``)
-MAGNITUDES = {"friction": (0.2,), "nonlinear": (0.1,), "noise": (0.1,)}
+MAGNITUDES = {kind: DEFAULT_MAGNITUDES[kind][1:2] for kind in ("friction", "nonlinear", "noise")}
 INTERVALS = (1.0, 10.0, 60.0)
-REFERENCE = 10.0        # the interval the main grid runs at; the goal is relative to it
+REFERENCE = Grid().sample_interval   # the interval the main grid runs at; the goal is relative to it
 TOLERANCE = 0.05        # detection within 5 points of the 10-s figure
 FILES = {"nights": "detection_rates_nights.csv", "detection": "detection_rates_summary.csv",
          "false_alarms": "detection_rates_false_alarms.csv", "noise": "detection_rates_noise.csv",
@@ -347,12 +352,15 @@ def section(assets_dir: pathlib.Path) -> str | None:
 # command line
 # ------------------------------------------------------------------------------------------
 def parse_args(argv=None) -> argparse.Namespace:
+    defaults = Grid()
     p = argparse.ArgumentParser(prog="python -m benchmarks.detection.rates", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--sample-intervals", type=comma_floats, default=INTERVALS, metavar="S,S,...",
-                   help="seconds (default 1,10,60)")
-    p.add_argument("--seeds", type=int, default=6, help="number of seeds, 1..N (default 6)")
-    p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
+                   help=f"seconds (default {','.join(f'{s:g}' for s in INTERVALS)})")
+    p.add_argument("--seeds", type=int, default=len(defaults.seeds),
+                   help="number of seeds, 1..N (default %(default)s)")
+    p.add_argument("--vehicles", type=int, default=defaults.vehicles,
+                   help="vehicles per seed (default %(default)s)")
     p.add_argument("--model-errors", type=comma_floats, default=(0.0, 0.2), metavar="E,E,...")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--threads", type=int, default=1)

@@ -14,6 +14,7 @@ import pathlib
 import sys
 import time
 
+from benchmarks.comma_floats import comma_floats
 from benchmarks.detection import metrics
 from benchmarks.detection.classic import DETECTORS
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid
@@ -21,12 +22,15 @@ from benchmarks.detection.run import run_grid
 
 
 def parse_args(argv=None) -> argparse.Namespace:
+    defaults = Grid()
     p = argparse.ArgumentParser(prog="python -m benchmarks.detection.subset", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--kinds", default="bias", help="comma-separated fault kinds (default bias)")
     p.add_argument("--seeds", type=int, default=3, help="seeds 1..N (default 3)")
-    p.add_argument("--vehicles", type=int, default=8, help="vehicles per seed (default 8)")
-    p.add_argument("--model-errors", default="0,0.1,0.2", metavar="E,E,...")
+    p.add_argument("--vehicles", type=int, default=defaults.vehicles,
+                   help="vehicles per seed (default %(default)s)")
+    p.add_argument("--model-errors", type=comma_floats, default=defaults.model_errors,
+                   metavar="E,E,...")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--csv", type=pathlib.Path, default=None, help="write the raw rows here")
     args = p.parse_args(argv)
@@ -35,7 +39,6 @@ def parse_args(argv=None) -> argparse.Namespace:
     if unknown:
         p.error(f"unknown fault kind(s) {unknown}; known: {list(KINDS)}")
     args.kinds = kinds
-    args.model_errors = tuple(float(x) for x in args.model_errors.split(","))
     return args
 
 

@@ -19,14 +19,16 @@ import time
 
 import pandas as pd
 
-from benchmarks.detection.grid import Grid, asset_id, simulate_seed
+from benchmarks.detection.grid import DEFAULT_MAGNITUDES, Grid, asset_id, simulate_seed
 from benchmarks.detection.metrics import TIERS, clopper_pearson
 from benchmarks.detection.run import CHANNEL, white_box
 
-MAGNITUDES = {"friction": (0.1, 0.2), "nonlinear": (0.05, 0.1), "noise": (0.05, 0.1)}
+#: the smallest and middle magnitudes of (a)-(c) (``grid.DEFAULT_MAGNITUDES``)
+MAGNITUDES = {kind: DEFAULT_MAGNITUDES[kind][:2] for kind in ("friction", "nonlinear", "noise")}
 
 
-def run(model_error: float, seeds: tuple[int, ...], vehicles: int = 8) -> pd.DataFrame:
+def run(model_error: float, seeds: tuple[int, ...],
+        vehicles: int = Grid().vehicles) -> pd.DataFrame:
     import torch
 
     from graybox import FitRequest, GrayBoxSettings, compute_drift, fit_baselines, fit_signatures
@@ -88,7 +90,7 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model-error", type=float, default=0.2)
     p.add_argument("--seeds", default="1,2,3")
-    p.add_argument("--vehicles", type=int, default=8)
+    p.add_argument("--vehicles", type=int, default=Grid().vehicles)
     p.add_argument("--csv", default=None, help="also write the raw rows here")
     args = p.parse_args(argv)
     start = time.perf_counter()
