@@ -18,11 +18,9 @@ import time
 
 from benchmarks.comma_floats import comma_floats
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid, fault_summary
-from flows.config.settings import NightlySettings
 
 DISCUSSION = pathlib.Path(__file__).with_name("discussion.md")
-#: the full grid, whose settings are the options' defaults (but ``--candidate-nights``: the
-#: product's)
+#: the full grid, whose settings are the options' defaults
 FULL = Grid()
 
 
@@ -56,7 +54,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--sample-interval", type=float, default=FULL.sample_interval,
                    help=f"seconds (default {FULL.sample_interval:g})")
     p.add_argument("--baseline-days", type=int, default=FULL.baseline_days)
-    p.add_argument("--candidate-nights", type=int, default=NightlySettings().candidate_nights,
+    p.add_argument("--candidate-nights", type=int, default=FULL.candidate_nights,
                    metavar="N", help="gray-box candidates fitted on the night and the N - 1 before "
                    "it, as [nightly] candidate_nights (default: the product's default, %(default)s)")
     p.add_argument("--estimate", type=lambda text: tuple(n for n in text.split(",") if n),

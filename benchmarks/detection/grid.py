@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pandas as pd
 
+from flows.config.settings import NightlySettings
 from graybox.simulation import SECONDS_PER_DAY, Fault, FleetSpec, VehicleSpec, simulate_fleet
 
 #: fault kinds of the issue, with the labels used in the report
@@ -33,6 +34,10 @@ DEFAULT_MAGNITUDES = {
     "noise": (0.05, 0.1, 0.3),
     "bias": (0.1, 0.5, 2.0),
 }
+
+#: the candidates' nights of a run recorded before :class:`Grid` had ``candidate_nights``:
+#: the night alone
+UNRECORDED_CANDIDATE_NIGHTS = 1
 
 
 @dataclass(frozen=True)
@@ -61,7 +66,7 @@ class Grid:
     candidate_nights : int
         The gray box's candidate of a night is fitted on it and the ``N - 1`` nights before it,
         never before the end of the baseline, as ``[nightly] candidate_nights = N`` does in the
-        product (the classic detectors always see one night).
+        product (the classic detectors always see one night). Default the product's.
     estimate : tuple of str
         White-box parameters each gray-box baseline tunes to its vehicle first, as a class's
         ``estimate = [...]`` does in the product (default none).
@@ -76,7 +81,7 @@ class Grid:
     post_nights: int = 3
     sample_interval: float = 10.0
     false_alarm_rate: float = 0.01
-    candidate_nights: int = 1
+    candidate_nights: int = NightlySettings().candidate_nights
     estimate: tuple = ()
 
     @property

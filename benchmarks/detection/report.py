@@ -13,7 +13,7 @@ import pandas as pd
 from benchmarks.detection import metrics
 from benchmarks.detection.cells import markdown_table, percent
 from benchmarks.detection.classic import DETECTORS
-from benchmarks.detection.grid import KINDS, UNITS, Grid
+from benchmarks.detection.grid import KINDS, UNITS, UNRECORDED_CANDIDATE_NIGHTS, Grid
 
 MAIN = DETECTORS + (metrics.GRAYBOX,)
 TARGET_KINDS = ("friction", "nonlinear", "noise")
@@ -379,6 +379,7 @@ def load_results(assets_dir: pathlib.Path) -> Results:
     grid_data["model_errors"] = tuple(grid_data["model_errors"])
     grid_data["seeds"] = tuple(grid_data["seeds"])
     grid_data["estimate"] = tuple(grid_data.get("estimate", ()))
+    grid_data.setdefault("candidate_nights", UNRECORDED_CANDIDATE_NIGHTS)
     table = pd.read_csv(assets_dir / "detection_nights.csv")
     for column in ("model_error", "magnitude", "onset"):
         table[column] = table[column].astype(float)

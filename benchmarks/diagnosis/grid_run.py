@@ -42,7 +42,6 @@ from benchmarks.detection.grid import Grid, asset_id, simulate_seed, trailing_ni
 from benchmarks.diagnosis.episode import EPISODE_NIGHTS, EVIDENCE, diagnosed_nights
 from benchmarks.diagnosis.expected import CHANNEL, expected_hypothesis, implied_magnitude
 from graybox.diagnosis import diagnose
-from flows.config.settings import NightlySettings
 from graybox.telemetry.writing import write_telemetry
 
 #: the parameters tuned on the baseline days when the white box is off (an identifiable set)
@@ -53,11 +52,10 @@ SIZES = ("small", "middle", "large")
 KEEP = 5
 
 
-#: the detection grid a diagnosis run reduces, by default: :class:`Grid`'s but for two model
-#: errors, one seed, two healthy nights before the onset and candidates on the product's
-#: ``[nightly] candidate_nights`` (``python -m benchmarks.diagnosis`` sets the magnitudes)
-DETECTION = replace(Grid(), model_errors=(0.0, 0.2), seeds=(1,), pre_nights=2,
-                    candidate_nights=NightlySettings().candidate_nights)
+#: the detection grid a diagnosis run reduces, by default: :class:`Grid`'s (candidates on the
+#: product's ``[nightly] candidate_nights``) but for two model errors, one seed and two healthy
+#: nights before the onset (``python -m benchmarks.diagnosis`` sets the magnitudes)
+DETECTION = replace(Grid(), model_errors=(0.0, 0.2), seeds=(1,), pre_nights=2)
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from benchmarks.detection.grid import UNRECORDED_CANDIDATE_NIGHTS
 from benchmarks.diagnosis import scores
 
 TARGET = 0.8
@@ -120,7 +121,7 @@ def render(result: dict | None, command: str, wall_seconds: float, load: tuple[s
                       f"{grid['baseline_days']} days, {grid['pre_nights']} healthy nights before "
                       f"the onset, {grid['post_nights']} nights from it; "
                       f"{grid['sample_interval']:g} s samples; candidates fitted and diagnosed "
-                      f"on {grid.get('candidate_nights', 1)} night(s)"
+                      f"on {grid.get('candidate_nights', UNRECORDED_CANDIDATE_NIGHTS)} night(s)"
                       + _episode(grid) + ". White box tuned on the "
                       f"baseline days when off: {result['tuned'] or 'no (untuned)'}.", "",
                   headline(cells), "",

@@ -53,7 +53,6 @@ from graybox.parameter_estimation import (ErrorSetup, operating_segments, predic
                                           with_parameters)
 from graybox.state_estimation import window_arrays
 from graybox.telemetry.window import window_periods
-from flows.config.settings import NightlySettings
 
 PARAMETERS = ("compressor_linear", "turbine_gain", "compressor_quadratic", "inertia")
 #: Monte-Carlo draws per night
@@ -161,7 +160,7 @@ def main(argv=None) -> None:
                         help="bias sizes, rad/s (the grid's middle and large: 0.5,2)")
     parser.add_argument("--model-error", type=float, default=0.2)
     parser.add_argument("--candidate-nights", type=int,
-                        default=NightlySettings().candidate_nights,
+                        default=DETECTION.candidate_nights,
                         help="nights a candidate spans, as the diagnosis reads them (default "
                              "the product's [nightly] candidate_nights: %(default)s; 1: a night "
                              "alone)")
