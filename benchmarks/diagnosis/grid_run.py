@@ -107,6 +107,45 @@ def white_box(model_error: float):
     return GasTurbineShaft(white_box_parameters(model_error), columns={CHANNEL: "shaft_speed"})
 
 
+def fit_vehicle_baselines(detection: Grid, vehicles, windows: dict, model_error: float,
+                          tune: bool = True) -> tuple[dict, dict]:
+    """Each vehicle's white box and baseline, as the product fits them.
+
+    Parameters
+    ----------
+    detection : Grid
+        The baseline days and the false-alarm rate the baselines are calibrated to.
+    vehicles : list of VehicleData
+        One seed's fleet (:func:`benchmarks.detection.grid.simulate_seed`).
+    windows : dict
+        ``(asset, day) -> TelemetryWindow`` (:func:`_windows`); each baseline is fitted on its
+        healthy asset's baseline days.
+    model_error : float
+        The white box's error (:func:`white_box`); when it is not 0 and ``tune``, the
+        baseline's fit first estimates :data:`TUNED` (``FitRequest.estimate``, recorded as
+        ``Signature.tuning``, which its candidates and ``diagnose`` use).
+    tune : bool, default True
+        False: a white box that is off is not tuned (the known weakness).
+
+    Returns
+    -------
+    models : dict of int -> WhiteBoxModel
+        Each vehicle's white box (its number ``VehicleData.vehicle`` as the key).
+    baselines : dict of int -> (Signature, Calibration) or GrayBoxError
+        :func:`graybox.fit_baselines`' result per vehicle.
+    """
+    estimate = TUNED if model_error and tune else ()
+    models = {v.vehicle: white_box(model_error) for v in vehicles}
+    requests = [gb.FitRequest(models[v.vehicle],
+                              [windows[asset_id(v.seed, v.vehicle), d]
+                               for d in range(detection.baseline_days)],
+                              asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
+                              estimate=estimate)
+                for v in vehicles]
+    results = gb.fit_baselines(requests, false_alarm_rate=detection.false_alarm_rate)
+    return models, dict(zip([v.vehicle for v in vehicles], results))
+
+
 def _read_days(root: str, asset: str, frames: list[pd.DataFrame], first_day: int, model,
                into: dict) -> None:
     """Write an asset's day frames in the store layout and read each back as its window."""
@@ -208,18 +247,8 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
     for error in detection.model_errors:
         # a white box that is off is tuned as the product tunes it: the baseline's fit
         # estimates TUNED on its days (FitRequest.estimate) and its candidates use the values
-        tuned = TUNED if error and grid.tune else ()
-        models = {v.vehicle: white_box(error) for v in vehicles}
         began = time.perf_counter()
-        requests = [gb.FitRequest(models[v.vehicle],
-                                  [windows[asset_id(v.seed, v.vehicle), d]
-                                   for d in range(detection.baseline_days)],
-                                  asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
-                                  estimate=tuned)
-                    for v in vehicles]
-        baselines = dict(zip([v.vehicle for v in vehicles],
-                             gb.fit_baselines(requests,
-                                              false_alarm_rate=detection.false_alarm_rate)))
+        models, baselines = fit_vehicle_baselines(detection, vehicles, windows, error, grid.tune)
         tuning = {vehicle: result[0].tuning for vehicle, result in baselines.items()
                   if not isinstance(result, gb.GrayBoxError) and result[0].tuning is not None}
         clock[f"baseline_seconds_{error:g}"] = time.perf_counter() - began
@@ -246,7 +275,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
         began = time.perf_counter()
         candidates = gb.fit_signatures([job[-1] for job in jobs])
         clock[f"candidate_seconds_{error:g}"] = time.perf_counter() - began
-        say(f"seed {seed}, model error {error:g}: {len(requests)} baselines ({len(tuning)} "
+        say(f"seed {seed}, model error {error:g}: {len(baselines)} baselines ({len(tuning)} "
             f"white boxes tuned) in {clock[f'baseline_seconds_{error:g}']:.0f} s, "
             f"{len(jobs)} nights in "
             f"{clock[f'candidate_seconds_{error:g}']:.0f} s; diagnosing")

@@ -46,7 +46,8 @@ from scipy.signal import lfilter
 
 import graybox as gb
 from benchmarks.detection.grid import asset_id, simulate_seed, trailing_nights
-from benchmarks.diagnosis.grid_run import DETECTION, TUNED, _windows, white_box
+from benchmarks.diagnosis.grid_run import (DETECTION, TUNED, _windows, fit_vehicle_baselines,
+                                           white_box)
 from graybox.effective_samples import effective_sample_size
 from graybox.level_tier import start_stride
 from graybox.parameter_estimation import (ErrorSetup, operating_segments, prediction_errors,
@@ -173,14 +174,9 @@ def main(argv=None) -> None:
     for seed in grid.seeds:
         vehicles = simulate_seed(grid, seed)
         windows = _windows(grid, vehicles, white_box(0.0))
-        requests = [gb.FitRequest(white_box(args.model_error),
-                                  [windows[asset_id(v.seed, v.vehicle), d]
-                                   for d in range(grid.baseline_days)],
-                                  asset_id=asset_id(v.seed, v.vehicle), seed=v.vehicle,
-                                  estimate=TUNED if args.model_error else ())
-                    for v in vehicles]
-        baselines = gb.fit_baselines(requests, false_alarm_rate=grid.false_alarm_rate)
-        for v, result in zip(vehicles, baselines):
+        _, baselines = fit_vehicle_baselines(grid, vehicles, windows, args.model_error)
+        for v in vehicles:
+            result = baselines[v.vehicle]
             if isinstance(result, gb.GrayBoxError):
                 continue
             twin = asset_id(v.seed, v.vehicle)
