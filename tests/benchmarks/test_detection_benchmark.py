@@ -6,6 +6,8 @@ default import mode needs distinct basenames.)
 """
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -225,6 +227,12 @@ def test_report_files(reduced, tmp_path):
     pd.testing.assert_frame_equal(again.detection, results.detection, check_exact=False)
     pd.testing.assert_frame_equal(again.false_alarms, results.false_alarms, check_exact=False)
     assert again.grid == results.grid
+    # a record written before the grid had candidate_nights ran the night alone
+    record = tmp_path / "bench" / "detection_run.json"
+    data = json.loads(record.read_text())
+    del data["grid"]["candidate_nights"]
+    record.write_text(json.dumps(data))
+    assert load_results(tmp_path / "bench").grid.candidate_nights == 1
 
 
 def test_command_line_grid():
@@ -233,6 +241,23 @@ def test_command_line_grid():
     full = grid_from_args(parse_args(["--seeds", "3", "--magnitudes", "noise=0.2,0.4"]))
     assert full.seeds == (1, 2, 3) and full.magnitudes["noise"] == (0.2, 0.4)
     assert full.magnitudes["friction"] == Grid().magnitudes["friction"]
+
+
+def test_the_side_runs_read_the_grid_defaults_and_the_product_candidate_nights():
+    from benchmarks.detection import rates, subset
+    from flows.config.settings import NightlySettings
+
+    defaults = Grid()
+    assert defaults.candidate_nights == NightlySettings().candidate_nights
+    assert grid_from_args(parse_args([])).candidate_nights == defaults.candidate_nights
+    args = rates.parse_args([])
+    assert (args.seeds, args.vehicles) == (len(defaults.seeds), defaults.vehicles)
+    # the published sampling-interval section fitted each candidate on its night alone
+    assert rates.base_grid(args).candidate_nights == rates.CANDIDATE_NIGHTS == 1
+    assert rates.REFERENCE == defaults.sample_interval
+    args = subset.parse_args(["--model-errors", "0,0.2,"])
+    assert args.model_errors == (0.0, 0.2) and args.vehicles == defaults.vehicles
+    assert subset.parse_args([]).model_errors == defaults.model_errors
 
 
 # ------------------------------------------------------------------------------------------

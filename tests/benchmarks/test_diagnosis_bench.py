@@ -2,6 +2,8 @@
 the exact white box, one night from the onset. The night alarms, the diagnosis ranks the
 speed sensor's bias first with about the injected size, and the scores and the markdown
 section say so."""
+import re
+
 import pytest
 
 from benchmarks.diagnosis import scores
@@ -78,6 +80,8 @@ def test_the_command_writes_the_section_and_a_record_it_renders_again(tmp_path):
                  "--json", str(record)]) == 0
     section = out.read_text()
     assert "| bias | 2 (large) | 0% | 1 | 1 | bias omega | 1/1 (100%) |" in section
+    load = r"`\d\d:\d\d:\d\d load average: \d+\.\d\d, \d+\.\d\d, \d+\.\d\d`"
+    assert re.search(f"load before: {load}; after: {load}\\.", section)
     data = json.loads(record.read_text())
     assert [r["first"] for r in data["grid"]["rows"] if r["fault"] == "bias"] == ["omega sensor bias"]
     again = tmp_path / "again.md"
