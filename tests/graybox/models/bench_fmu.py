@@ -4,11 +4,11 @@ Not collected by pytest (no ``test_`` prefix); run it by hand from the repositor
 
     .venv/bin/python tests/graybox/models/bench_fmu.py [--repeat 5]
 
-It builds test_fmu.py's FMU (plant.c, with the system's ``cc``) in a temporary directory and
+It builds plant_fmu.py's FMU (plant.c, with the system's ``cc``) in a temporary directory and
 prints the best wall time of ``derivatives`` and ``output`` on 86,400 random rows (one day
 at 1 Hz) over ``--repeat`` calls, then the wall time of a baseline (``fit_baselines`` with the
-defaults on test_fmu.py's three 1,800-s windows) and of one with ``tau`` estimated, each for
-the FMU and for the Python plant.
+defaults on three 1,800-s windows simulated by plant_fmu.py) and of one with ``tau``
+estimated, each for the FMU and for the Python plant.
 """
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 
 import graybox as gb  # noqa: E402
+import plant_fmu  # noqa: E402
 import test_fmu  # noqa: E402
 
 
@@ -39,8 +40,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     repeat = parser.parse_args().repeat
     with tempfile.TemporaryDirectory() as directory:
-        plant = test_fmu.fmu_class(test_fmu.build_fmu(pathlib.Path(directory)))
-        models = {"FMU": plant, "Python": test_fmu.TwinPlant}
+        plant = test_fmu.fmu_class(plant_fmu.build_fmu(pathlib.Path(directory)))
+        models = {"FMU": plant, "Python": plant_fmu.TwinPlant}
         x, u = test_fmu.random_rows(86_400, 0)
         for name, cls in models.items():
             model = cls()
@@ -48,7 +49,7 @@ def main() -> None:
                 seconds = best_time(lambda: getattr(model, method)(x, u), repeat)
                 print(f"{name:6s} {method:11s} 86,400 rows: {seconds:.3f} s "
                       f"({seconds / 86_400 * 1e6:.2f} us a row)")
-        windows = [test_fmu._simulate(1800, seed, start, 0.01, tau=26.0)[0]
+        windows = [plant_fmu.simulate(1800, seed, start, 0.01, tau=26.0)[0]
                    for seed, start in enumerate(([4.0, 3.0], [8.0, 6.0], [2.0, 5.0]))]
         for estimate in ((), ("tau",)):
             for name, cls in models.items():

@@ -1,7 +1,6 @@
 """An FMU as a white box (graybox.models.fmu), on a small FMI 2.0 model-exchange FMU that the
-tests build: fmu_plant/plant.c (a heater and a probe, both hidden, one input, one computed
-output, a tunable and a fixed parameter) compiled with the system's C compiler against the
-FMI 2.0 headers FMPy ships, zipped with fmu_plant/modelDescription.xml.
+tests build (plant_fmu.py: fmu_plant/plant.c compiled with the system's C compiler and
+zipped with fmu_plant/modelDescription.xml).
 
 Known answers: the FMU computes what the same plant written as a Python white box computes;
 a parameter override moves the derivatives as the formula says; simulated with measurement
@@ -18,10 +17,8 @@ import re
 import shutil
 import subprocess
 import sys
-import zipfile
 
 import numpy as np
-import pandas as pd
 import pytest
 
 import fmpy   # the test extra installs it: its absence is a failure, not a skip
@@ -30,56 +27,10 @@ import graybox as gb
 from graybox.exceptions import ModelSpecError
 from graybox.integration import Integration
 from graybox.models import ModelSpec, load_model
-from graybox.models.base import WhiteBoxModel
 from graybox.models.fmu import FMUModel
 from graybox.residual import residual_frame
 from graybox.state_estimation import estimate_states, window_arrays
-
-SOURCES = pathlib.Path(__file__).parent / "fmu_plant"
-DESCRIPTION = (SOURCES / "modelDescription.xml").read_text()
-COMPILER = shutil.which("cc")
-needs_compiler = pytest.mark.skipif(COMPILER is None, reason="no C compiler (cc) to build the "
-                                                             "test FMU")
-DT = 1.0
-
-
-class TwinPlant(WhiteBoxModel):
-    """The FMU's plant written in Python (plant.c's equations)."""
-
-    states = ("heater_T", "probe_T")
-    inputs = ("power",)
-    outputs = ("reading",)
-    default_parameters = {"tau": 20.0, "lag": 5.0}
-
-    def derivatives(self, x, u):
-        p = self.parameters
-        heater, probe = x[..., 0], x[..., 1]
-        return np.stack([(0.05 * u[..., 0] - heater) / p["tau"], (heater - probe) / p["lag"]],
-                        axis=-1)
-
-    def output(self, x, u):
-        return x[..., 1:2] + 0.2 * x[..., 0:1]
-
-    def matrices(self):
-        """``A``, ``B``, ``C`` of the linear plant."""
-        p = self.parameters
-        a = np.array([[-1 / p["tau"], 0.0], [1 / p["lag"], -1 / p["lag"]]])
-        return a, np.array([[0.05 / p["tau"]], [0.0]]), np.array([[0.2, 1.0]])
-
-
-def build_fmu(directory: pathlib.Path, description: str = DESCRIPTION,
-              binary: str = "binaries/linux64/plant.so") -> pathlib.Path:
-    """plant.c compiled and zipped with ``description`` as ``directory/plant.fmu``."""
-    directory.mkdir(parents=True, exist_ok=True)
-    library = directory / "plant.so"
-    headers = pathlib.Path(fmpy.__file__).parent / "c-code"
-    subprocess.run([COMPILER, "-shared", "-fPIC", "-O2", "-I", str(headers), "-o", str(library),
-                    str(SOURCES / "plant.c"), "-lm"], check=True)
-    path = directory / "plant.fmu"
-    with zipfile.ZipFile(path, "w") as archive:
-        archive.writestr("modelDescription.xml", description)
-        archive.write(library, binary)
-    return path
+from plant_fmu import DESCRIPTION, DT, TwinPlant, build_fmu, needs_compiler, simulate
 
 
 def fmu_class(path: pathlib.Path, name: str = "Plant") -> type[FMUModel]:
@@ -202,35 +153,12 @@ def test_a_parameter_override_moves_the_derivatives_as_the_formula_says(Plant):
         changed.derivatives(x, u)
 
 
-def _simulate(n: int, seed: int, start, noise: float, tau: float = 20.0):
-    """The plant's exact response to held power levels with ramps, the power linear between
-    samples (the augmented system ``[x, u, delta u]`` through the matrix exponential), and
-    its reading with white measurement noise; no process noise."""
-    from scipy.linalg import expm
-
-    a, b, c = TwinPlant({"tau": tau}).matrices()
-    augmented = np.zeros((4, 4))
-    augmented[:2, :2], augmented[:2, 2:3], augmented[2, 3] = a, b, 1.0 / DT
-    step = expm(augmented * DT)[:2]
-    rng = np.random.default_rng(seed)
-    levels = np.repeat(rng.uniform(0.0, 200.0, n // 90 + 1), 90)[:n]
-    power = np.convolve(levels, np.ones(15) / 15, mode="same")
-    x = np.empty((n, 2))
-    x[0] = start
-    for k in range(1, n):
-        x[k] = step @ np.array([*x[k - 1], power[k - 1], power[k] - power[k - 1]])
-    index = pd.date_range("2026-01-01", periods=n, freq="1s", tz="UTC") + pd.Timedelta(days=seed)
-    frame = pd.DataFrame({"reading": (x @ c.T)[:, 0] + rng.normal(0.0, noise, n),
-                          "power": power}, index=index)
-    return frame, x
-
-
 @needs_compiler
 def test_a_baseline_fits_with_the_defaults_and_the_output_residual_is_the_measurement_noise(
         Plant):
     noise = 0.01
     starts = ([4.0, 3.0], [8.0, 6.0], [2.0, 5.0])
-    days = [_simulate(1800, seed, start, noise) for seed, start in enumerate(starts)]
+    days = [simulate(1800, seed, start, noise) for seed, start in enumerate(starts)]
     model = Plant()
     [fitted] = gb.fit_baselines([gb.FitRequest(model, [frame for frame, _ in days],
                                                asset_id="F-1", seed=0)])
