@@ -356,14 +356,38 @@ def import_spec(spec: str, what: str = "model spec") -> object:
     return found
 
 
+def model_class(spec: str) -> type[WhiteBoxModel]:
+    """The concrete white-box class ``spec`` names: ``package.module:ClassName`` (the module
+    is imported) or ``fmu:<path>``, an FMU file (its class is made,
+    :mod:`graybox.models.fmu_file`).
+
+    Raises
+    ------
+    ModelSpecError
+        As :func:`load_model`.
+    """
+    from graybox.models import fmu_file   # FMPy is imported only for an FMU's spec
+
+    if fmu_file.is_fmu_spec(spec):
+        return fmu_file.file_model_class(spec)
+    cls = import_spec(spec)
+    class_name = spec.split(":")[1]
+    if not (isinstance(cls, type) and issubclass(cls, WhiteBoxModel)):
+        raise ModelSpecError(f"model spec {spec!r}: {class_name} is not a WhiteBoxModel subclass")
+    if cls._abstract:
+        raise ModelSpecError(f"model spec {spec!r}: {class_name} is an abstract model base")
+    return cls
+
+
 def load_model(spec: str, parameters: Mapping[str, float] | None = None,
                columns: Mapping[str, str] | None = None) -> WhiteBoxModel:
-    """Import and instantiate a physics model named ``package.module:ClassName``.
+    """Import and instantiate a physics model named ``package.module:ClassName``, or the FMU
+    file named ``fmu:<path>`` (absolute, ``~/...``, or relative to the working directory).
 
     Parameters
     ----------
     spec : str
-        For example ``"graybox.models:GasTurbineShaft"``.
+        For example ``"graybox.models:GasTurbineShaft"`` or ``"fmu:/plants/pump.fmu"``.
     parameters : mapping, optional
         Overrides of the model's ``default_parameters``.
     columns : mapping, optional
@@ -377,12 +401,7 @@ def load_model(spec: str, parameters: Mapping[str, float] | None = None,
     ------
     ModelSpecError
         If the spec is malformed, the module or class does not exist, the class is not a
-        concrete :class:`WhiteBoxModel`, or a parameter or column is unknown or invalid.
+        concrete :class:`WhiteBoxModel`, an FMU file is missing or unusable (or FMPy is not
+        installed), or a parameter or column is unknown or invalid.
     """
-    cls = import_spec(spec)
-    class_name = spec.split(":")[1]
-    if not (isinstance(cls, type) and issubclass(cls, WhiteBoxModel)):
-        raise ModelSpecError(f"model spec {spec!r}: {class_name} is not a WhiteBoxModel subclass")
-    if cls._abstract:
-        raise ModelSpecError(f"model spec {spec!r}: {class_name} is an abstract model base")
-    return cls(parameters=parameters, columns=columns)
+    return model_class(spec)(parameters=parameters, columns=columns)

@@ -70,7 +70,8 @@ _INSTALL = "install it with: pip install 'fleet-health[fmu]'"
 _NOT_WORD = re.compile(r"\W")
 
 
-def _import_fmpy():
+def import_fmpy():
+    """``fmpy`` with ``fmpy.fmi2`` imported, or a ModelSpecError naming the extra to install."""
     try:
         fmpy = importlib.import_module("fmpy")
         importlib.import_module("fmpy.fmi2")
@@ -133,9 +134,9 @@ class FMUModel(WhiteBoxModel, abstract=True):
 
     @classmethod
     def _declare_from_fmu(cls) -> None:
-        fmpy = _import_fmpy()
+        fmpy = import_fmpy()
         path = _resolve(cls)
-        where = f"FMU {path} ({cls.__qualname__}.fmu)"
+        where = cls._where(path)
         try:
             description = fmpy.read_model_description(str(path))
         except Exception as error:  # noqa: BLE001 - FMPy raises Exception, ValidationError, ...
@@ -205,6 +206,11 @@ class FMUModel(WhiteBoxModel, abstract=True):
             tuple(_start(v, where) if v.start is not None else 0.0 for v in inputs))
 
     @classmethod
+    def _where(cls, path: pathlib.Path) -> str:
+        """How the errors of class creation name the FMU."""
+        return f"FMU {path} ({cls.__qualname__}.fmu)"
+
+    @classmethod
     def fingerprint(cls) -> str:
         """The FMU's GUID: a re-exported or replaced FMU is another model."""
         return f"fmi2 guid {cls._interface.guid}"
@@ -212,7 +218,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
     # -- instances ----------------------------------------------------------------------------
     def check_parameters(self) -> None:
         """Instantiate and initialise the FMU with these parameters: the FMU checks them."""
-        self._instance = FMUInstance(_import_fmpy(), self._interface,
+        self._instance = FMUInstance(import_fmpy(), self._interface,
                                      self._parameter_values())
 
     def _parameter_values(self) -> tuple[float, ...]:
@@ -230,7 +236,7 @@ class FMUModel(WhiteBoxModel, abstract=True):
         values = self._parameter_values()
         instance = self.__dict__.get("_instance")
         if instance is None or instance.parameters != values:
-            instance = FMUInstance(_import_fmpy(), self._interface, values)
+            instance = FMUInstance(import_fmpy(), self._interface, values)
             self._instance = instance
         return instance
 

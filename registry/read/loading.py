@@ -216,7 +216,8 @@ def load_pyfunc(backend: Backend, asset_id: str, version: int | str | None = Non
     """The version as an MLflow pyfunc model, loaded only after its artifacts are verified.
 
     ``models``: the model specs the version may name; without it, the signature's model
-    module must already be imported (a stored record never chooses what is imported).
+    module must already be imported, or its FMU file loaded (a stored record never chooses
+    what is imported).
 
     Returns
     -------
@@ -224,17 +225,17 @@ def load_pyfunc(backend: Backend, asset_id: str, version: int | str | None = Non
         ``predict(telemetry_frame)`` returns zeta per tier and channel (see
         :class:`registry.pyfunc.SignatureModel`).
     """
-    import importlib
-
     import mlflow.pyfunc
+
+    from graybox.models.base import model_class
 
     mv = resolve(backend, asset_id, version)
     with tempfile.TemporaryDirectory(prefix="fleet-health-pyfunc-") as scratch:
         root = pathlib.Path(scratch)
         loaded = load(backend, asset_id, mv, keep=root, models=models)
         if models is not None:
-            # the caller trusts these: the model's module may be imported now
-            importlib.import_module(loaded.signature.model.spec.partition(":")[0])
+            # the caller trusts these: the model's module may be imported (its FMU loaded) now
+            model_class(loaded.signature.model.spec)
         local = next(p.parent for p in root.rglob("MLmodel"))
         # the model reads everything it needs in its constructor; the copy can go afterwards
         return mlflow.pyfunc.load_model(str(local))

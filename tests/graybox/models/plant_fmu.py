@@ -21,6 +21,7 @@ from graybox.models.base import WhiteBoxModel
 
 SOURCES = pathlib.Path(__file__).parent / "fmu_plant"
 DESCRIPTION = (SOURCES / "modelDescription.xml").read_text()
+GUID = "{8c4e810f-3df3-4a00-8276-176fa3c9128f}"   # plant.c's and DESCRIPTION's
 COMPILER = shutil.which("cc")
 needs_compiler = pytest.mark.skipif(COMPILER is None, reason="no C compiler (cc) to build the "
                                                              "test FMU")
@@ -52,13 +53,19 @@ class TwinPlant(WhiteBoxModel):
 
 
 def build_fmu(directory: pathlib.Path, description: str = DESCRIPTION,
-              binary: str = "binaries/linux64/plant.so") -> pathlib.Path:
-    """plant.c compiled and zipped with ``description`` as ``directory/plant.fmu``."""
+              binary: str = "binaries/linux64/plant.so",
+              guid: str | None = None) -> pathlib.Path:
+    """plant.c compiled and zipped with ``description`` as ``directory/plant.fmu``;
+    ``guid``: a re-export under another GUID (the binary's and the description's)."""
     directory.mkdir(parents=True, exist_ok=True)
     library = directory / "plant.so"
     headers = pathlib.Path(fmpy.__file__).parent / "c-code"
-    subprocess.run([COMPILER, "-shared", "-fPIC", "-O2", "-I", str(headers), "-o", str(library),
-                    str(SOURCES / "plant.c"), "-lm"], check=True)
+    defines = []
+    if guid is not None:
+        description = description.replace(GUID, guid)
+        defines = [f'-DGUID="{guid}"']
+    subprocess.run([COMPILER, "-shared", "-fPIC", "-O2", *defines, "-I", str(headers), "-o",
+                    str(library), str(SOURCES / "plant.c"), "-lm"], check=True)
     path = directory / "plant.fmu"
     with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("modelDescription.xml", description)

@@ -16,7 +16,9 @@
 
 #include "fmi2Functions.h"
 
+#ifndef GUID   /* -DGUID=... builds a re-export: the same equations under another GUID */
 #define GUID "{8c4e810f-3df3-4a00-8276-176fa3c9128f}"
+#endif
 #define GAIN 0.05
 
 enum { VR_HEATER, VR_DER_HEATER, VR_PROBE, VR_DER_PROBE, VR_POWER, VR_READING, VR_TAU, VR_LAG,
