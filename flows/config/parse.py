@@ -24,6 +24,7 @@ from flows.memory import parse_bytes
 from graybox.estimator import GrayBoxSettings
 from graybox.exceptions import ModelSpecError
 from graybox.models import load_model
+from graybox.models.fmu_file import PREFIX, file_model_class, fmu_path, fmu_spec, is_fmu_spec
 from graybox.nonlinear_tier import FitSettings
 from graybox.severity import SeverityScale
 from graybox.telemetry import GridPolicy
@@ -108,7 +109,7 @@ def parse_config(data: Mapping[str, Any], path: pathlib.Path) -> FleetConfig:
     classes_table = check.table("classes", data.get("classes"), required=True)
     if not classes_table:
         raise check.error("classes", "define at least one vehicle class, e.g. [classes.turbine]")
-    classes = {name: _vehicle_class(check, name, check.table(f"classes.{name}", table))
+    classes = {name: _vehicle_class(check, name, check.table(f"classes.{name}", table), base)
                for name, table in classes_table.items()}
     return FleetConfig(path=path, telemetry_root=root.resolve(), tracking_uri=uri,
                        classes=classes, alerts=alerts, nightly=nightly, schedule=schedule,
@@ -255,7 +256,8 @@ def _schedule(check: Checker, table: Mapping) -> ScheduleSettings:
     return ScheduleSettings(cron, timezone)
 
 
-def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
+def _vehicle_class(check: Checker, name: str, table: Mapping,
+                   base: pathlib.Path) -> VehicleClass:
     key = f"classes.{name}"
     if _CLASS_NAME.fullmatch(name) is None or name in (".", ".."):
         raise check.error(key, "a vehicle class name must match [A-Za-z0-9_.-]{1,64}")
@@ -263,8 +265,11 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
                             "estimate"))
     if "model" not in table:
         raise check.error(f"{key}.model", "missing: name the physics model, e.g. "
-                                          "\"graybox.models:GasTurbineShaft\"")
+                                          "\"graybox.models:GasTurbineShaft\", or an FMU "
+                                          "file, \"fmu:models/plant.fmu\"")
     model = check.string(f"{key}.model", table["model"])
+    if is_fmu_spec(model):
+        model = _fmu_file(check, f"{key}.model", model, base)
     parameters = check.table(f"{key}.parameters", table.get("parameters", {}))
     for pname, value in parameters.items():
         if not isinstance(value, Mapping):   # a table is checked by the model below
@@ -317,6 +322,24 @@ def _vehicle_class(check: Checker, name: str, table: Mapping) -> VehicleClass:
     grid = _grid(check, f"{key}.grid", check.table(f"{key}.grid", table.get("grid", {})))
     return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
                         grid, estimate)
+
+
+def _fmu_file(check: Checker, key: str, model: str, base: pathlib.Path) -> str:
+    """``model = "fmu:<path>"``: the spec with the path absolute (a relative one is read
+    from fleet.toml's directory), once the file is found to be an FMU this process can use
+    (errors name the file and what to do)."""
+    try:
+        spec = fmu_spec(model, base)
+        path = fmu_path(spec)
+        if not path.exists():
+            written = model[len(PREFIX):].strip()
+            relative = "" if os.path.isabs(os.path.expanduser(written)) else \
+                f" ({written!r} is read from the directory of {check.file_name})"
+            raise ModelSpecError(f"FMU {path}: no such file{relative}")
+        file_model_class(spec)
+    except ModelSpecError as error:
+        raise check.error(key, str(error)) from None
+    return spec
 
 
 def _estimate(check: Checker, key: str, names, model) -> tuple[str, ...]:

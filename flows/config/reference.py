@@ -165,7 +165,9 @@ def sections() -> list[Section]:
                 "`fleet`) and its MLflow experiment is `fleet-health/<name>`. At least one "
                 "class is required.",
                 vehicle,
-                {"model": "the physics model, `package.module:ClassName`; must load with "
+                {"model": "the physics model, `package.module:ClassName`, or an FMU file "
+                          "(FMI 2.0 model exchange), `\"fmu:<path>\"` (relative to this file's "
+                          "directory, absolute or `~/...`; docs/models.md); must load with "
                           "`parameters` and `columns`",
                  "parameters": "overrides of the model's `default_parameters`",
                  "assets": "asset ids or glob patterns (`fnmatch`); an asset may match one "

@@ -38,7 +38,8 @@ class VehicleClass:
     ----------
     name : str
     model : str
-        ``package.module:ClassName`` of the physics model.
+        ``package.module:ClassName`` of the physics model, or ``fmu:`` and the absolute path
+        of an FMU file (fleet.toml's relative path resolved against its directory).
     parameters : dict
         Overrides of the model's ``default_parameters``.
     assets : tuple of str
