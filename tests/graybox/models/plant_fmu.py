@@ -73,22 +73,31 @@ def build_fmu(directory: pathlib.Path, description: str = DESCRIPTION,
     return path
 
 
-def simulate(n: int, seed: int, start, noise: float, tau: float = 20.0):
+def simulate(n: int, seed: int, start, noise: float, tau: float = 20.0,
+             changed: tuple[int, float] | None = None):
     """The plant's exact response to held power levels with ramps, the power linear between
     samples (the augmented system ``[x, u, delta u]`` through the matrix exponential), and
-    its reading with white measurement noise; no process noise."""
+    its reading with white measurement noise; no process noise. ``changed``: ``(k, tau)``,
+    the heater's time constant from sample ``k`` on (a fault)."""
     from scipy.linalg import expm
 
-    a, b, c = TwinPlant({"tau": tau}).matrices()
-    augmented = np.zeros((4, 4))
-    augmented[:2, :2], augmented[:2, 2:3], augmented[2, 3] = a, b, 1.0 / DT
-    step = expm(augmented * DT)[:2]
+    def step_of(time_constant: float) -> np.ndarray:
+        a, b, _ = TwinPlant({"tau": time_constant}).matrices()
+        augmented = np.zeros((4, 4))
+        augmented[:2, :2], augmented[:2, 2:3], augmented[2, 3] = a, b, 1.0 / DT
+        return expm(augmented * DT)[:2]
+
+    c = TwinPlant().matrices()[2]
+    before = step_of(tau)
+    after = before if changed is None else step_of(changed[1])
+    change_at = n if changed is None else changed[0]
     rng = np.random.default_rng(seed)
     levels = np.repeat(rng.uniform(0.0, 200.0, n // 90 + 1), 90)[:n]
     power = np.convolve(levels, np.ones(15) / 15, mode="same")
     x = np.empty((n, 2))
     x[0] = start
     for k in range(1, n):
+        step = before if k <= change_at else after
         x[k] = step @ np.array([*x[k - 1], power[k - 1], power[k] - power[k - 1]])
     index = pd.date_range("2026-01-01", periods=n, freq="1s", tz="UTC") + pd.Timedelta(days=seed)
     frame = pd.DataFrame({"reading": (x @ c.T)[:, 0] + rng.normal(0.0, noise, n),
