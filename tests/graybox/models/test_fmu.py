@@ -221,23 +221,34 @@ def test_a_worker_rebuilds_the_model_from_its_spec_by_importing_the_class(plant_
 
 
 @needs_compiler
-def test_the_docs_example_loads_the_fmu_with_its_fleet_toml_settings(plant_fmu, tmp_path,
-                                                                    monkeypatch):
-    """docs/models.md's subclass and fleet.toml class, with the test FMU as the file."""
+def test_the_docs_examples_load_the_fmu_with_their_fleet_toml_settings(plant_fmu, tmp_path,
+                                                                      monkeypatch):
+    """docs/models.md's fleet.toml class naming the file, and its subclass, with the test FMU
+    as the file."""
     import tomllib
+
+    from graybox.models.fmu_file import fmu_spec
 
     section = (pathlib.Path(gb.__file__).parents[1] / "docs" / "models.md").read_text() \
         .split("## An FMU as the white box", 1)[1]
     code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
     table = tomllib.loads(re.search(r"```toml\n(.*?)```", section, re.S).group(1))
+    loop = table["classes"]["loop"]
+    assert loop["model"] == "fmu:models/cooling_loop.fmu"
+    (tmp_path / "models").mkdir()
+    shutil.copy(plant_fmu, tmp_path / "models" / "cooling_loop.fmu")
+    # fleet.toml in tmp_path: its relative path is read from there
+    by_file = load_model(fmu_spec(loop["model"], tmp_path), loop["parameters"], loop["columns"])
+    # the subclass, named as the page says
+    assert 'model = "myplants.cooling:CoolingLoop"' in section
     (tmp_path / "cooling.py").write_text(code)
     shutil.copy(plant_fmu, tmp_path / "cooling_loop.fmu")
     monkeypatch.syspath_prepend(str(tmp_path))
-    loop = table["classes"]["loop"]
-    assert loop["model"] == "myplants.cooling:CoolingLoop"
-    model = load_model("cooling:CoolingLoop", loop["parameters"], loop["columns"])
-    assert model.parameters == {"tau": 25.0, "lag": 5.0}
-    assert model.required_columns == ("probe_temp", "power")
+    by_class = load_model("cooling:CoolingLoop", loop["parameters"], loop["columns"])
+    for model in (by_file, by_class):
+        assert model.parameters == {"tau": 25.0, "lag": 5.0}
+        assert model.required_columns == ("probe_temp", "power")
+        assert model.fmu_variables["heater_T"] == "heater.T"
 
 
 # -- bad FMUs -----------------------------------------------------------------------------------
