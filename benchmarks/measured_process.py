@@ -12,7 +12,6 @@ import subprocess
 import time
 from dataclasses import asdict, dataclass, field
 
-from benchmarks.load_average import load_average
 
 SAMPLE_SECONDS = 0.25
 
@@ -77,7 +76,7 @@ def run_measured(command: list[str], cwd, env: dict, log_dir, name: str) -> Meas
                 wall = time.perf_counter() - start
                 break
             tree_peak = max(tree_peak, tree_resident_bytes(child.pid))
-            load.append(load_average()[0])
+            load.append(os.getloadavg()[0])
             time.sleep(SAMPLE_SECONDS)
     child.returncode = os.waitstatus_to_exitcode(status)   # keep Popen from waiting again
     user, system, max_rss = usage.ru_utime, usage.ru_stime, usage.ru_maxrss

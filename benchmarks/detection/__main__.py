@@ -18,7 +18,6 @@ import time
 
 from benchmarks.comma_floats import comma_floats
 from benchmarks.detection.grid import DEFAULT_MAGNITUDES, KINDS, Grid, fault_summary
-from benchmarks.load_average import load_average
 
 DISCUSSION = pathlib.Path(__file__).with_name("discussion.md")
 #: the full grid, whose settings are the options' defaults
@@ -88,13 +87,13 @@ class LoadMonitor:
     """Samples the 1-minute load average while the benchmark runs."""
 
     def __init__(self, every: float = 10.0):
-        self.samples = [load_average()[0]]
+        self.samples = [os.getloadavg()[0]]
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, args=(every,), daemon=True)
 
     def _run(self, every):
         while not self._stop.wait(every):
-            self.samples.append(load_average()[0])
+            self.samples.append(os.getloadavg()[0])
 
     def __enter__(self):
         self._thread.start()
@@ -103,7 +102,7 @@ class LoadMonitor:
     def __exit__(self, *exc):
         self._stop.set()
         self._thread.join()
-        self.samples.append(load_average()[0])
+        self.samples.append(os.getloadavg()[0])
 
     def note(self, processes: int) -> str:
         cpus = os.cpu_count() or 1

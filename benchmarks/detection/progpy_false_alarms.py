@@ -41,7 +41,6 @@ from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
 from benchmarks.detection.metrics import rate
-from benchmarks.load_average import load_average
 from flows.config.settings import NightlySettings
 
 SPEC = "graybox.models.progpy:CentrifugalPump"
@@ -267,7 +266,7 @@ def main(argv=None) -> int:
     began, when = time.perf_counter(), pd.Timestamp.now(tz="UTC")
     result = run(args.assets, args.baseline_windows, args.nights, args.window_hours, args.seed,
                  intermittent=args.intermittent, candidate_windows=args.candidate_windows)
-    load = ", ".join(f"{x:.1f}" for x in load_average())
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     notes = (f"\n- Measured {when:%Y-%m-%d %H:%M} UTC on {os.cpu_count()} CPUs: wall time "
              f"{time.perf_counter() - began:.0f} s, load average (1, 5, 15 min) at the end "
              f"{load}.")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import pathlib
 import shlex
 import sys
@@ -24,7 +25,6 @@ from benchmarks.diagnosis.episode import EPISODE_NIGHTS, EVIDENCE
 from benchmarks.diagnosis.expected_zoo import ZOO
 from benchmarks.diagnosis.grid_run import DETECTION, SIZES, DiagnosisGrid, run_grid
 from benchmarks.diagnosis.report import render
-from benchmarks.load_average import load_average
 
 KINDS = tuple(DEFAULT_MAGNITUDES)
 
@@ -108,7 +108,7 @@ def _load_now() -> str:
     """The clock and the load averages as ``uptime`` words them (``12:55:50 load average:
     2.02, 1.70, 1.69``), the part of its line the section quotes."""
     return (time.strftime("%H:%M:%S") + " load average: "
-            + ", ".join(f"{x:.2f}" for x in load_average()))
+            + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 
 def _finite(value):

@@ -10,10 +10,10 @@ from __future__ import annotations
 import argparse
 import concurrent.futures
 import json
+import os
 import sys
 import time
 
-from benchmarks.load_average import load_average
 from benchmarks.zoo.families import discover
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
 from benchmarks.zoo.report import markdown, write_section
@@ -56,10 +56,10 @@ def main(argv=None) -> int:
                      nights=args.nights, faulty_per_cell=args.faulty_per_cell, seed=args.seed,
                      false_alarm_rate=args.false_alarm_rate)
     began = time.time()
-    load = load_average()
+    load = os.getloadavg()
     with concurrent.futures.ProcessPoolExecutor(max_workers=args.workers) as pool:
         results = list(pool.map(_run, names, [arguments] * len(names)))
-    load_after = load_average()
+    load_after = os.getloadavg()
     command = "python -m benchmarks.zoo " + " ".join(argv if argv is not None else sys.argv[1:])
     notes = (f"Wall time {time.time() - began:.0f} s on 2 cores with {args.workers} worker "
              f"process(es); load average {load[0]:.1f} before, {load_after[0]:.1f} (1 min) and "

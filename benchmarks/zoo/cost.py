@@ -14,6 +14,7 @@ shared machine moves less), the stages' wall and CPU seconds
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -25,7 +26,6 @@ from graybox.stage_clock import StageClock
 from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
-from benchmarks.load_average import load_average
 from benchmarks.zoo.families import discover
 from benchmarks.zoo.run import START, plan_fleet
 from flows.config.settings import NightlySettings
@@ -100,9 +100,9 @@ def main(argv=None) -> int:
     families = discover()
     if args.family not in families:
         parser.error(f"--family must be one of {sorted(families)}")
-    load = load_average()[0]
+    load = os.getloadavg()[0]
     result = measure(families[args.family], args.assets, args.baseline_days, args.nights)
-    result["load_before"], result["load_after"] = load, load_average()[0]
+    result["load_before"], result["load_after"] = load, os.getloadavg()[0]
     print(f"| {result['family']} | {result['states']} | {result['sample_interval']:g} s | "
           f"{result['analysis_interval']:g} s | {result['networks_needed']} of "
           f"{result['channels']} | {result['s_per_baseline_day']:.2f} s | "

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import collections
 import json
+import os
 import sys
 import time
 
@@ -31,7 +32,6 @@ import numpy as np
 import graybox as gb
 from graybox.diagnosis import diagnose
 
-from benchmarks.load_average import load_average
 from benchmarks.zoo.families import family_option
 from benchmarks.zoo.run import HORIZON, START, asset_nights, plan_fleet, write_and_read
 
@@ -137,7 +137,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", help="write the rows and the summary here")
     args = parser.parse_args(argv)
-    began, load = time.time(), load_average()[0]
+    began, load = time.time(), os.getloadavg()[0]
     rows = probe_family(families[args.family], args.healthy_assets, args.nights, args.seed,
                         say=lambda line: print(line, file=sys.stderr, flush=True))
     result = summary(rows)

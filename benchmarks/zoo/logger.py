@@ -15,6 +15,7 @@ and the cost.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -22,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from benchmarks.load_average import load_average
 from benchmarks.zoo.families import discover
 from benchmarks.zoo.family import Family
 from benchmarks.zoo.run import run_family
@@ -108,7 +108,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args(argv)
     families = discover()
-    load = load_average()[0]
+    load = os.getloadavg()[0]
     print(HEADER, flush=True)
     for spec in args.specs:
         name, _, text = spec.partition(":")
@@ -121,7 +121,7 @@ def main(argv=None) -> int:
                             faulty_per_cell=args.faulty_per_cell, seed=args.seed,
                             progress=lambda line: print(line, file=sys.stderr, flush=True))
         print(row(spec, result, time.perf_counter() - began), flush=True)
-    print(f"\n1-minute load {load:.1f} before, {load_average()[0]:.1f} after")
+    print(f"\n1-minute load {load:.1f} before, {os.getloadavg()[0]:.1f} after")
     return 0
 
 
