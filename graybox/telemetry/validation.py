@@ -20,6 +20,10 @@ _NAT = np.iinfo(np.int64).min
 #: a coarse reading changes in at least this share of its steps, and its smallest change
 #: makes up at least this share of its changes (:func:`_steady_runs`)
 COARSE_SHARE = 0.1
+#: a reading is on a grid (a sensor's resolution) if at least this share of its changes are
+#: whole multiples of its smallest change, each within :data:`GRID_TOLERANCE` of a multiple
+GRID_SHARE = 0.9
+GRID_TOLERANCE = 0.05
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
@@ -442,6 +446,10 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
     the edge of the window or of an operating period (``paused``, per step; not both ends). A frozen sensor freezes and recovers whenever it does and
     then jumps to wherever the process went: at a sensor's noise its smallest change is rare,
     and a setpoint held all day does not explain a run that neither starts nor ends with it.
+    A reading on a grid (:func:`_on_a_grid`) also holds by chance where the process stands
+    still between two of its steps (a room logged to 0.1 C with 0.05 C of noise holds 10
+    minutes about once a year of 30-s samples): a run that sits among its neighbours'
+    readings and is entered and left from them (:func:`_among_its_neighbours`) is steady.
     """
     n = len(v)
     changes = np.abs(np.diff(v))
@@ -457,6 +465,10 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
         step = 1.01 * moved.min()
         begins |= ~first & (entry <= step)
         closes |= ~last & (leave <= step)
+        if _on_a_grid(moved):
+            still = _among_its_neighbours(v, starts, ends) & ~first & ~last
+            begins |= still
+            closes |= still
     for u in inputs:
         changed = np.concatenate([[True], u[1:] != u[:-1]])  # u[i] differs from u[i - 1]
         last_change = np.maximum.accumulate(np.where(changed, np.arange(n), 0))
@@ -464,6 +476,36 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
         begins |= holds & ~first & changed[starts]
         closes |= holds & ~last & changed[np.minimum(ends + 1, n - 1)]
     return begins & closes & ~(first & last)
+
+
+def _on_a_grid(moved: np.ndarray) -> bool:
+    """True where the changes ``moved`` (all non-zero) are, but for :data:`GRID_SHARE`, whole
+    multiples of the smallest: a reading rounded to a sensor's resolution, whose exact
+    repeats are its noise falling within one step. A reading logged at full precision
+    changes by amounts unrelated to its smallest change, and its exact repeat is a frozen
+    sensor whatever the process does."""
+    ratio = moved / moved.min()
+    on_grid = np.abs(ratio - np.round(ratio)) <= GRID_TOLERANCE
+    return bool(np.count_nonzero(on_grid) >= GRID_SHARE * moved.size)
+
+
+def _among_its_neighbours(v: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Per run of equal samples ``v[starts[r]] .. v[ends[r]]`` (neither at an edge of
+    ``v``): True where the readings as many samples before and after the run as it is long
+    share a range (the process stood still across it), and the run's value, the reading
+    that entered it and the one that left it all lie in that shared range. A sensor frozen
+    while the process moves holds a value its later readings have left, or leaves the hold
+    to one its earlier readings never took."""
+    out = np.zeros(len(starts), dtype=bool)
+    for r, (s, e) in enumerate(zip(starts, ends)):
+        if s == 0 or e == len(v) - 1:
+            continue
+        width = e - s + 1
+        before, after = v[max(s - width, 0):s], v[e + 1:e + 1 + width]
+        low = max(np.nanmin(before), np.nanmin(after))
+        high = min(np.nanmax(before), np.nanmax(after))
+        out[r] = low <= min(v[s], v[s - 1], v[e + 1]) and max(v[s], v[s - 1], v[e + 1]) <= high
+    return out
 
 
 def _at_rest(v: np.ndarray, starts: np.ndarray, ends: np.ndarray, others_move: np.ndarray

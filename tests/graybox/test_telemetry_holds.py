@@ -163,3 +163,40 @@ def test_a_single_held_row_is_bridged_at_any_rate_and_two_are_not():
     assert [len(p) for p in window.periods()] == [30, DAY - 32]
     intermittent = to_grid(hold(scada_day(), 30, 1), "A-1", GridPolicy(intermittent=True))
     assert intermittent.n_periods == 1
+
+
+def room_day(resolution: float | None) -> pd.DataFrame:
+    """A room's temperature every 30 s with 0.05 C of sensor noise, rounded to
+    ``resolution`` (None: logged at full precision), beside a moving supply temperature; the
+    room warms from 20.6 to 21.6 C over samples 300 to 350 and stands still after."""
+    rng = np.random.default_rng(3)
+    n = 2880
+    k = np.arange(n)
+    room = 20.6 + np.clip((k - 300) / 50.0, 0.0, 1.0) + rng.normal(0.0, 0.05, n)
+    if resolution is not None:
+        room = np.round(room / resolution) * resolution
+    return pd.DataFrame({"timestamp": T0 + pd.to_timedelta(k * 30.0, unit="s"),
+                         "room": room,
+                         "supply": 35.0 + 5.0 * np.sin(k / 50.0) + rng.normal(0, 0.05, n)})
+
+
+def test_a_reading_on_a_grid_that_holds_by_chance_where_the_process_stands_still_is_not_stuck():
+    # the heat pump of the zoo's seventh blind family: a room logged to 0.1 C holds one
+    # value for 10 minutes (20 samples) once in a few hundred days while it stands still,
+    # entered and left by readings its neighbours also take (here 21.5 and 21.8)
+    frame = room_day(0.1)
+    frame.loc[1040:1059, "room"] = 21.6
+    frame.loc[1039, "room"], frame.loc[1060, "room"] = 21.5, 21.8
+    frame.loc[1020, "room"], frame.loc[1075, "room"] = 21.8, 21.5
+    validate(frame, "A-1")
+    # the same sensor frozen while the room warms: the hold (20.6 C) is a value the room's
+    # later readings have left
+    warming = room_day(0.1)
+    warming.loc[300:319, "room"] = 20.6
+    error = stuck_error(warming)   # from 300, or from 299 where the noise read 20.6 too
+    assert error.channel == "room" and error.row == 300 - (warming.loc[299, "room"] == 20.6)
+    # at full precision an exact repeat is a frozen sensor even where the room stands still
+    precise = room_day(None)
+    precise.loc[1040:1059, "room"] = precise.loc[1039, "room"]
+    error = stuck_error(precise)
+    assert error.channel == "room" and error.row == 1039   # row 1039's reading, held
