@@ -24,6 +24,10 @@ COARSE_SHARE = 0.1
 #: whole multiples of its smallest change, each within :data:`GRID_TOLERANCE` of a multiple
 GRID_SHARE = 0.9
 GRID_TOLERANCE = 0.05
+#: a reading on a grid repeats by chance where its step-to-step change is at most this many
+#: steps, and its readings beside a run scatter at most this many times that change
+#: (:func:`_among_its_neighbours`)
+STILL_SCATTER = 1.5
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
@@ -449,7 +453,8 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
     A reading on a grid (:func:`_on_a_grid`) also holds by chance where the process stands
     still between two of its steps (a room logged to 0.1 C with 0.05 C of noise holds 10
     minutes about once a year of 30-s samples): a run that sits among its neighbours'
-    readings and is entered and left from them (:func:`_among_its_neighbours`) is steady.
+    readings where they scatter no more than a step (:func:`_among_its_neighbours`) is
+    steady.
     """
     n = len(v)
     changes = np.abs(np.diff(v))
@@ -466,7 +471,7 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
         begins |= ~first & (entry <= step)
         closes |= ~last & (leave <= step)
         if _on_a_grid(moved):
-            still = _among_its_neighbours(v, starts, ends) & ~first & ~last
+            still = _among_its_neighbours(v, starts, ends, moved.min()) & ~first & ~last
             begins |= still
             closes |= still
     for u in inputs:
@@ -489,22 +494,30 @@ def _on_a_grid(moved: np.ndarray) -> bool:
     return bool(np.count_nonzero(on_grid) >= GRID_SHARE * moved.size)
 
 
-def _among_its_neighbours(v: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+def _among_its_neighbours(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                          resolution: float) -> np.ndarray:
     """Per run of equal samples ``v[starts[r]] .. v[ends[r]]`` (neither at an edge of
-    ``v``): True where the readings as many samples before and after the run as it is long
-    share a range (the process stood still across it), and the run's value, the reading
-    that entered it and the one that left it all lie in that shared range. A sensor frozen
-    while the process moves holds a value its later readings have left, or leaves the hold
-    to one its earlier readings never took."""
+    ``v``) of a reading on a grid of ``resolution``: True where the run is the sensor's noise
+    falling within one step while the process stood still. The channel's step-to-step change
+    (its root mean square over ``v``: noise and the process's motion) is at most
+    :data:`STILL_SCATTER` steps, so that its readings repeat by chance at all; the readings
+    as many samples before the run as it is long, and as many after, each scatter by at most
+    :data:`STILL_SCATTER` times that change; and the run's value lies within the range of
+    each. A sensor frozen while the process moves holds a value its later (or earlier)
+    readings do not take, one frozen amid an excursion sits among readings that scatter by
+    more, and a reading whose noise spans many steps repeats only when frozen."""
+    steps = np.diff(v)
+    scatter = np.sqrt(np.nanmean(steps * steps))
     out = np.zeros(len(starts), dtype=bool)
+    if scatter > STILL_SCATTER * resolution:
+        return out
     for r, (s, e) in enumerate(zip(starts, ends)):
         if s == 0 or e == len(v) - 1:
             continue
         width = e - s + 1
-        before, after = v[max(s - width, 0):s], v[e + 1:e + 1 + width]
-        low = max(np.nanmin(before), np.nanmin(after))
-        high = min(np.nanmax(before), np.nanmax(after))
-        out[r] = low <= min(v[s], v[s - 1], v[e + 1]) and max(v[s], v[s - 1], v[e + 1]) <= high
+        sides = (v[max(s - width, 0):s], v[e + 1:e + 1 + width])
+        out[r] = all(np.nanmin(side) <= v[s] <= np.nanmax(side)
+                     and np.nanstd(side) <= STILL_SCATTER * scatter for side in sides)
     return out
 
 

@@ -195,6 +195,10 @@ def test_a_reading_on_a_grid_that_holds_by_chance_where_the_process_stands_still
     warming.loc[300:319, "room"] = 20.6
     error = stuck_error(warming)   # from 300, or from 299 where the noise read 20.6 too
     assert error.channel == "room" and error.row == 300 - (warming.loc[299, "room"] == 20.6)
+    # logged to 0.01 C its noise spans five steps: 20 equal readings are a frozen sensor
+    fine = room_day(0.01)
+    fine.loc[1040:1059, "room"] = 21.6
+    assert stuck_error(fine).row == 1040
     # at full precision an exact repeat is a frozen sensor even where the room stands still
     precise = room_day(None)
     precise.loc[1040:1059, "room"] = precise.loc[1039, "room"]
