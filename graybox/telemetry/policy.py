@@ -117,7 +117,9 @@ class GridPolicy:
         passed as ``inputs`` to :func:`validate` are never checked. Not stuck: a run at
         exactly 0 while another sensor moves (a part at rest), and a run whose both ends the
         plant explains (an input that holds through it changes there, or a coarse reading
-        moves there by its resolution); rows a logger held are dropped before the check
+        moves there by its resolution), and a reading on a grid whose noise is about its
+        resolution repeating where the process stands still (docs/configuration.md,
+        "Channel roles"); rows a logger held are dropped before the check
         (:mod:`graybox.telemetry.holds`).
     min_duration : duration, default "1h"
         A window covering less time (grid points times ``dt``) is an error (kind
