@@ -118,7 +118,7 @@ def fit_vehicle_baselines(detection: Grid, vehicles, windows: dict, model_error:
     vehicles : list of VehicleData
         One seed's fleet (:func:`benchmarks.detection.grid.simulate_seed`).
     windows : dict
-        ``(asset, day) -> TelemetryWindow`` (:func:`_windows`); each baseline is fitted on its
+        ``(asset, day) -> TelemetryWindow`` (:func:`read_windows`); each baseline is fitted on its
         healthy asset's baseline days.
     model_error : float
         The white box's error (:func:`white_box`); when it is not 0 and ``tune``, the
@@ -157,7 +157,7 @@ def _read_days(root: str, asset: str, frames: list[pd.DataFrame], first_day: int
             inputs=model.input_columns)
 
 
-def _windows(grid: Grid, vehicles, model) -> dict:
+def read_windows(grid: Grid, vehicles, model) -> dict:
     """``(asset, day) -> TelemetryWindow``: every day of the healthy assets, the days from the
     onset on of the faulty ones."""
     windows = {}
@@ -239,7 +239,7 @@ def run_seed(grid: DiagnosisGrid, seed: int, say: Callable[[str], None]) -> tupl
     clock = {"diagnose_seconds": 0.0, "diagnosed": 0}
     began = time.perf_counter()
     vehicles = simulate_seed(detection, seed)
-    windows = _windows(detection, vehicles, white_box(0.0))
+    windows = read_windows(detection, vehicles, white_box(0.0))
     clock["simulate_write_read_seconds"] = time.perf_counter() - began
     say(f"seed {seed}: simulated, wrote and read {len(windows)} asset-days in "
         f"{clock['simulate_write_read_seconds']:.0f} s")

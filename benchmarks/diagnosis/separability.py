@@ -46,7 +46,7 @@ from scipy.signal import lfilter
 
 import graybox as gb
 from benchmarks.detection.grid import asset_id, simulate_seed, trailing_nights
-from benchmarks.diagnosis.grid_run import (DETECTION, TUNED, _windows, fit_vehicle_baselines,
+from benchmarks.diagnosis.grid_run import (DETECTION, TUNED, fit_vehicle_baselines, read_windows,
                                            white_box)
 from graybox.effective_samples import effective_sample_size
 from graybox.level_tier import start_stride
@@ -173,7 +173,7 @@ def main(argv=None) -> None:
     found = {m: [] for m in magnitudes}
     for seed in grid.seeds:
         vehicles = simulate_seed(grid, seed)
-        windows = _windows(grid, vehicles, white_box(0.0))
+        windows = read_windows(grid, vehicles, white_box(0.0))
         _, baselines = fit_vehicle_baselines(grid, vehicles, windows, args.model_error)
         for v in vehicles:
             result = baselines[v.vehicle]
