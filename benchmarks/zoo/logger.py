@@ -1,4 +1,4 @@
-"""The zoo through other loggers: slower sampling, timestamp jitter, dropped rows.
+"""The zoo through other loggers: slower sampling, timestamp jitter, dropped rows, glitches.
 
 ``python -m benchmarks.zoo.logger thermal_room:every=5 hydraulic_level:jitter=0.2,drop=0.02``
 
@@ -6,7 +6,10 @@ A user's logger is rarely the simulator's: it samples more slowly (a building lo
 15 minutes), its timestamps wander around the nominal step, and rows go missing. Each spec is
 a family and how its telemetry is logged: ``every=k`` keeps every k-th sample (the sample
 interval times k), ``jitter=f`` moves each timestamp by up to ``f`` sample intervals (uniform,
-to the millisecond), ``drop=p`` drops each row with probability ``p``. The family then runs
+to the millisecond), ``drop=p`` drops each row with probability ``p``, ``spike=p`` replaces each
+reading of a channel with more than ten distinct values, with probability ``p``, by a glitch:
+the reading plus or minus 3 to 8 times the channel's standard deviation over the asset's
+simulated days (an interference spike, a garbled transmission). The family then runs
 exactly as in ``python -m benchmarks.zoo`` (:func:`benchmarks.zoo.run.run_family`, the
 product's defaults), on a smaller fleet by default. One markdown row per spec: failures (reads,
 baselines, nights, with the first reason), healthy alarms, faults found, the analysis interval
@@ -35,16 +38,18 @@ class Logger:
     every: int = 1
     jitter: float = 0.0
     drop: float = 0.0
+    spike: float = 0.0
 
     @classmethod
     def parse(cls, text: str) -> "Logger":
         """``"every=5,jitter=0.2"`` (empty: the simulator's own logging)."""
         fields = dict(item.split("=", 1) for item in text.split(",") if item)
-        unknown = set(fields) - {"every", "jitter", "drop"}
+        unknown = set(fields) - {"every", "jitter", "drop", "spike"}
         if unknown:
-            raise ValueError(f"unknown logger settings {sorted(unknown)}: every, jitter, drop")
+            raise ValueError(
+                f"unknown logger settings {sorted(unknown)}: every, jitter, drop, spike")
         return cls(int(fields.get("every", 1)), float(fields.get("jitter", 0.0)),
-                   float(fields.get("drop", 0.0)))
+                   float(fields.get("drop", 0.0)), float(fields.get("spike", 0.0)))
 
 
 class LoggedFamily:
@@ -70,6 +75,17 @@ class LoggedFamily:
         frame = frame.iloc[::self.logger.every]
         if self.logger.drop:
             frame = frame[rng.random(len(frame)) >= self.logger.drop]
+        if self.logger.spike:
+            frame = frame.copy()
+            for column in frame.columns:
+                values = frame[column].to_numpy()
+                if np.unique(values).size <= 10:
+                    continue
+                hit = rng.random(len(values)) < self.logger.spike
+                size = rng.uniform(3.0, 8.0, hit.sum()) * rng.choice([-1.0, 1.0], hit.sum())
+                values = values.copy()
+                values[hit] += size * values.std()
+                frame[column] = values
         if self.logger.jitter:
             shift = rng.uniform(-1, 1, len(frame)) * self.logger.jitter * self.sample_interval
             frame = frame.set_axis((frame.index + pd.to_timedelta(shift, unit="s")).round("ms")

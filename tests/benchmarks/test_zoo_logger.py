@@ -12,6 +12,7 @@ from benchmarks.zoo.run import START, plan_fleet
 
 def test_logger_settings_parse_and_refuse_unknown_ones():
     assert Logger.parse("every=5,jitter=0.2,drop=0.02") == Logger(5, 0.2, 0.02)
+    assert Logger.parse("spike=0.001") == Logger(spike=0.001)
     assert Logger.parse("") == Logger()
     with pytest.raises(ValueError, match="unknown logger settings"):
         Logger.parse("rate=5")
@@ -30,6 +31,23 @@ def test_the_logger_keeps_every_kth_sample_moves_and_drops_rows():
     shift = (frame.index - nominal).total_seconds()
     assert np.abs(shift).max() <= 0.2 * 120 + 1e-3 and np.abs(shift).max() > 12.0
     assert frame.index.name == plain.index.name
+
+
+def test_the_logger_adds_glitches_of_3_to_8_standard_deviations_to_moving_channels():
+    family = discover()["thermal_room"]
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 1)
+    plain = family.simulate(vehicles, START, 3)[vehicles[0].asset_id]
+    frame = LoggedFamily(family, Logger(spike=0.01)).simulate(vehicles, START, 3)[
+        vehicles[0].asset_id]
+    assert frame.index.equals(plain.index)
+    for column in plain.columns:
+        moved = (frame[column] - plain[column]).abs().to_numpy() / plain[column].std(ddof=0)
+        if plain[column].nunique() <= 10:              # a flag or a setpoint: untouched
+            assert not moved.any(), column
+            continue
+        hit = moved > 0
+        assert 0.005 < hit.mean() < 0.02, column       # about 1 % of the readings
+        assert moved[hit].min() >= 3.0 - 1e-9 and moved[hit].max() <= 8.0 + 1e-9, column
 
 
 def _report_row(capsys, argv: list[str]) -> list[str]:
