@@ -193,6 +193,23 @@ class Family:
         """
         return self.simulate_together([(plans, start, days, first_day)])[0]
 
+    def fault_days(self, start: pd.Timestamp, days: int = 1,
+                   seed: int = 11) -> dict[str, pd.DataFrame]:
+        """``days`` days of one asset (``seed``) from the day after ``start``, in one batch
+        (for checks of a family's physics).
+
+        Returns
+        -------
+        dict of str -> DataFrame
+            ``"healthy"``, and ``"<fault>/small"`` and ``"<fault>/large"``: the asset with each
+            fault at each of its magnitudes from the first day's start.
+        """
+        onset = start + pd.Timedelta(days=1)
+        plans = [AssetPlan("healthy", seed)] + [
+            AssetPlan(f"{kind.name}/{size}", seed, kind, kind.magnitudes[i], onset)
+            for kind in self.faults for i, size in enumerate(("small", "large"))]
+        return self.simulate(plans, start, days + 1, first_day=1)
+
     def simulate_together(self, requests: Sequence[tuple[Sequence[AssetPlan], pd.Timestamp,
                                                          int, int]]
                           ) -> list[dict[str, pd.DataFrame]]:

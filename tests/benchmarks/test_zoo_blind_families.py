@@ -6,11 +6,9 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.zoo.families import discover
-from benchmarks.zoo.family import AssetPlan
 
 FAMILIES = discover()
 START = pd.Timestamp("2026-03-01", tz="UTC")
-ONSET = START + pd.Timedelta(days=1)
 
 
 @functools.cache
@@ -18,10 +16,7 @@ def _days(name: str) -> dict[str, pd.DataFrame]:
     """Days 1-2 of one vehicle (seed 11) healthy and with each fault at each magnitude from
     the start of day 1."""
     family = FAMILIES[name]
-    plans = [AssetPlan("healthy", 11)] + [
-        AssetPlan(f"{kind.name}/{size}", 11, kind, kind.magnitudes[i], ONSET)
-        for kind in family.faults for i, size in enumerate(("small", "large"))]
-    return family.simulate(plans, START, 3, first_day=1)
+    return family.fault_days(START, 2)
 
 
 def test_the_cold_rooms_thermostat_holds_the_room_between_defrosts():

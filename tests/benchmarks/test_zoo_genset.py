@@ -6,20 +6,15 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.zoo.families.genset import FAMILY
-from benchmarks.zoo.family import AssetPlan
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
-ONSET = START + pd.Timedelta(days=1)
 
 
 @functools.cache
 def _day() -> dict[str, pd.DataFrame]:
     """Day 1 of one set (seed 11) healthy and with each fault at each magnitude from its start:
     one batch, about 3 s."""
-    plans = [AssetPlan("healthy", 11)] + [
-        AssetPlan(f"{kind.name}/{size}", 11, kind, kind.magnitudes[i], ONSET)
-        for kind in FAMILY.faults for i, size in enumerate(("small", "large"))]
-    return FAMILY.simulate(plans, START, 2, first_day=1)
+    return FAMILY.fault_days(START)
 
 
 def test_the_governor_holds_the_speed_and_load_steps_move_it():

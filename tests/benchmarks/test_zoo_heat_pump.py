@@ -7,20 +7,15 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.zoo.families.heat_pump import FAMILY, MIN_OFF, MIN_RUN
-from benchmarks.zoo.family import AssetPlan
 
 START = pd.Timestamp("2026-01-05", tz="UTC")
-ONSET = START + pd.Timedelta(days=1)
 
 
 @functools.cache
 def _day() -> dict[str, pd.DataFrame]:
     """Day 1 of one heat pump (seed 11) healthy and with each fault at each magnitude from
     its start: one batch, about 1 s of CPU."""
-    plans = [AssetPlan("healthy", 11)] + [
-        AssetPlan(f"{kind.name}/{size}", 11, kind, kind.magnitudes[i], ONSET)
-        for kind in FAMILY.faults for i, size in enumerate(("small", "large"))]
-    return FAMILY.simulate(plans, START, 2, first_day=1)
+    return FAMILY.fault_days(START)
 
 
 def _runs(flags: np.ndarray) -> np.ndarray:
