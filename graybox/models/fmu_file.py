@@ -31,6 +31,7 @@ from __future__ import annotations
 import os
 import pathlib
 import threading
+from typing import Collection
 
 from graybox.exceptions import ModelSpecError
 from graybox.models.fmu import FMUModel, import_fmpy
@@ -124,6 +125,27 @@ def file_model_class(spec: str) -> type[FMUFileModel]:
                                                     "__qualname__": path.name})
             _CLASSES[path] = version, cls
     return cls
+
+
+def moved_to(spec: str, fingerprint: str | None, specs: Collection[str]) -> str | None:
+    """Where an FMU a record names (``spec``, fitted as ``fingerprint``) is now: the one
+    spec of ``specs`` (the caller's trusted, configured ones) naming an FMU file with the same
+    fingerprint, its GUID, at another path (the site moved, or the file); None if there is
+    none, or ``spec`` is no FMU's, or it has no fingerprint. Only ``specs``' files are read
+    (their model descriptions; no binary is loaded)."""
+    if not is_fmu_spec(spec) or fingerprint is None:
+        return None
+    found = set()
+    for candidate in specs:
+        if not is_fmu_spec(candidate):
+            continue
+        try:
+            cls = file_model_class(candidate)
+            if cls.fingerprint() == fingerprint:
+                found.add(cls.spec())
+        except ModelSpecError:
+            continue                # not there, or not a usable FMU: not where it moved
+    return found.pop() if len(found) == 1 else None
 
 
 def made(spec: str) -> bool:

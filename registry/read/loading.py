@@ -7,8 +7,8 @@ signature bundle is verified against the manifest digest recorded in the registr
 fit was recorded (:func:`registry.write.artifacts.read_bundle`). A version whose ``source`` has a
 ``..`` segment (a path out of the artifact store) is refused before anything is read. Given
 ``models`` (the asset's configured model specs), the signature's model spec must be one of
-them; nothing the artifact names is imported before that check (see
-:mod:`graybox.models.spec`).
+them, or name an FMU file that moved to one of them with its GUID; nothing the artifact
+names is imported before that check (see :mod:`graybox.models.spec`).
 """
 from __future__ import annotations
 
@@ -22,6 +22,7 @@ import yaml
 from mlflow.exceptions import MlflowException
 
 from graybox.exceptions import ArtifactError
+from graybox.models import fmu_file
 from registry.store import naming
 from registry.write.artifacts import read_bundle
 from registry.store.backend import Backend
@@ -151,15 +152,23 @@ def check_source(source: str, where: str) -> None:
                             f"refusing to read it")
 
 
-def check_model(loaded: LoadedVersion, models: Collection[str], where: str) -> None:
+def check_model(loaded: LoadedVersion, models: Collection[str], where: str) -> LoadedVersion:
     """Refuse a version whose signature names another model than ``models`` (nothing of it
-    is imported)."""
-    stored = loaded.signature.model.spec
-    if stored not in models:
-        configured = " or ".join(map(repr, sorted(models)))
-        raise ArtifactError(f"{where}: signature.json: model {stored!r} is not the asset's "
-                            f"configured model ({configured}); refusing to import it (fit a "
-                            f"new baseline if the class's model changed)")
+    is imported). An FMU file that moved (one of ``models`` names a file at another path with
+    the fingerprint, the GUID, the version was fitted with) is the same model: the version is
+    returned naming the file where it is now."""
+    stored = loaded.signature.model
+    if stored.spec in models:
+        return loaded
+    moved = fmu_file.moved_to(stored.spec, stored.fingerprint, models)
+    if moved is not None:
+        model = dataclasses.replace(stored, spec=moved)
+        return dataclasses.replace(loaded, signature=dataclasses.replace(loaded.signature,
+                                                                         model=model))
+    configured = " or ".join(map(repr, sorted(models)))
+    raise ArtifactError(f"{where}: signature.json: model {stored.spec!r} is not the asset's "
+                        f"configured model ({configured}); refusing to import it (fit a "
+                        f"new baseline if the class's model changed)")
 
 
 def load(backend: Backend, asset_id: str, mv, model=None,
@@ -188,7 +197,7 @@ def load(backend: Backend, asset_id: str, mv, model=None,
     loaded = LoadedVersion(version_info(backend, asset_id, mv, model), bundle.signature,
                            bundle.calibration, bundle.manifest_sha256)
     if models is not None:
-        check_model(loaded, models, where)
+        loaded = check_model(loaded, models, where)
     return loaded
 
 

@@ -2,9 +2,12 @@
 plant.fmu"``), end to end: the test FMU (tests/graybox/models/plant_fmu.py, built from C),
 two heated probes simulated exactly by its Python twin, baselines by the baseline flow, the
 probe whose heater slowed (``tau`` 20 -> 40 s) alerted by the nightly flow and diagnosed as
-that change, the healthy one left alone; then the FMU re-exported under another GUID to the
-same path: both assets ``unusable baseline``, naming both GUIDs."""
+that change, the healthy one left alone; the FMU moved with its GUID: the same model; then
+the FMU re-exported under another GUID to the same path: both assets ``unusable baseline``,
+naming both GUIDs."""
 from __future__ import annotations
+
+import shutil
 
 import pandas as pd
 import pytest
@@ -90,10 +93,23 @@ grid = { min_duration = "4min" }
     assert (best["hypothesis"], best["baseline"]) == ("parameter tau", 20.0)
     assert best["interval"][0] < 40.0 < best["interval"][1]
 
-    # the FMU moved elsewhere in the configuration: not the configured model, nothing loaded
+    # the configuration names a file that is not there: not the configured model, nothing
+    # loaded
     with pytest.raises(UnusableBaselineError, match=f"model 'fmu:{fmu}' is not the asset's "
                                                     f"configured model"):
         registry.reference("F-001", models={f"fmu:{site / 'elsewhere.fmu'}"})
+    # the FMU moved (the site copied to another server): the same GUID, the same model; the
+    # baseline names it where it is now
+    moved = tmp_path / "moved" / "plant.fmu"
+    moved.parent.mkdir()
+    shutil.copy(fmu, moved)
+    reference = registry.reference("F-001", models={f"fmu:{moved}"})
+    assert reference.signature.model.spec == f"fmu:{moved}"
+    assert reference.signature.model.load({f"fmu:{moved}"}).spec() == f"fmu:{moved}"
+    # another FMU (another GUID) at that path is another model
+    PLANT.build_fmu(tmp_path / "other", guid=OTHER_GUID).replace(moved)
+    with pytest.raises(UnusableBaselineError, match="is not the asset's configured model"):
+        registry.reference("F-001", models={f"fmu:{moved}"})
     # re-exported under another GUID to the same path: the fingerprint check refuses it
     PLANT.build_fmu(tmp_path / "export", guid=OTHER_GUID).replace(fmu)
     state = nightly(config_path=str(config), as_of=(START + 5 * window).isoformat(),
