@@ -83,6 +83,12 @@ def _episode(grid: dict) -> str:
             f"{grid['episode_nights']} nights; an experiment, not the product)")
 
 
+def _rate(sample_interval: float) -> str:
+    """``"1 Hz"`` for 1-s samples (as the first zoo families' records, which do not store
+    it), else ``"30 s samples"``."""
+    return "1 Hz" if sample_interval == 1.0 else f"{sample_interval:g} s samples"
+
+
 def scored(rows: list[dict], sample_interval: str) -> list[str]:
     """The accuracy table, the confusion tables, the false causes and the cost of ``rows``."""
     cost = scores.cost(rows)
@@ -133,5 +139,5 @@ def render(result: dict | None, command: str, wall_seconds: float, load: tuple[s
                       f"magnitude scored on 3 nights, candidates on {family['candidate_nights']} "
                       f"night(s), diagnosed on {family.get('diagnosis_nights', 1)}; coarse white "
                       f"box tuned on {family['tuned']}):", "",
-                  *scored(family["rows"], "1 Hz")]
+                  *scored(family["rows"], _rate(family.get("sample_interval", 1.0)))]
     return "\n".join(lines) + "\n"

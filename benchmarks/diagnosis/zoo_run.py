@@ -88,7 +88,8 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
                                for i, v in enumerate(vehicles)], false_alarm_rate=false_alarm_rate)
     baselines = {v.asset_id: result for v, result in zip(vehicles, fitted)
                  if not isinstance(result, gb.GrayBoxError)}
-    tuning = {asset: dict(zip(result[0].tuning.names, result[0].tuning.values))
+    tuning = {asset: (dict(zip(result[0].tuning.names, result[0].tuning.values))
+                      if result[0].tuning is not None else {})   # untuned: the white box as given
               for asset, result in baselines.items()}
     clock["baseline_seconds"] = time.perf_counter() - began
     say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines (tuned on "
@@ -141,4 +142,5 @@ def run_family(family: Family, healthy_assets: int = 3, baseline_days: int = 4,
     return {"family": family.name, "tuned": list(expectation.tuned), "rows": rows,
             "clock": clock, "healthy_assets": healthy_assets, "baseline_days": baseline_days,
             "nights": nights, "faulty_per_cell": faulty_per_cell, "seed": seed,
-            "candidate_nights": span, "diagnosis_nights": span}
+            "candidate_nights": span, "diagnosis_nights": span,
+            "sample_interval": family.sample_interval}
