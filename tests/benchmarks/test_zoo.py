@@ -59,8 +59,11 @@ MISSES = {"bus_longitudinal", "wind_turbine"}
 #: held-out families kept out of the reduced run only for the suite's time (its 10-minute
 #: limit): the district-heating substation (15 s; its fleet run is in docs/benchmarks.md,
 #: "A sixth blind family") would add about 7 s (its reduced fleet through `python -m
-#: benchmarks.zoo`: 7 s wall); the heat pump (30 s, "A seventh blind family") likewise; the
-#: office air-handling unit (60 s, "An eighth blind family") likewise
+#: benchmarks.zoo`: 7 s wall); the heat pump (30 s, "A seventh blind family") likewise. The
+#: office air-handling unit (60 s, "An eighth blind family") is kept out too, though not for
+#: time alone: the run's two nights are a Saturday and a Sunday, when the unit never runs (a
+#: no_data read), and at first most of its baselines did not read (a steady 0.1-C supply air
+#: held for 10 samples was a stuck_channel: a finding of 2026-11-28)
 OUTSIDE_THE_REDUCED_RUN = {"heat_substation", "heat_pump", "air_handler"}
 #: the reduced zoo run: its families and its fleet (5 baseline days, the zoo protocol's own:
 #: day-to-day variation is estimated from them)
