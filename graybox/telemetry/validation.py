@@ -17,15 +17,16 @@ from graybox.telemetry.policy import MIN_STUCK_SAMPLES, GridPolicy, format_durat
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
-#: a coarse reading changes in at least this share of its steps, and its smallest change
-#: makes up at least this share of its changes (:func:`_steady_runs`)
+#: a coarse reading changes in at least this share of its steps (:func:`_steady_runs`)
 COARSE_SHARE = 0.1
+#: or, a slow one, makes at least this share of its changes by its smallest step
+SLOW_STEP_SHARE = 0.9
 #: a reading is on a grid (a sensor's resolution) if at least this share of its changes are
 #: whole multiples of its smallest change, each within :data:`GRID_TOLERANCE` of a multiple
 GRID_SHARE = 0.9
 GRID_TOLERANCE = 0.05
-#: a reading on a grid repeats by chance where its step-to-step change is at most this many
-#: steps, and its readings beside a run scatter at most this many times that change
+#: a reading on a grid repeats by chance where its step-to-step change beside a run is at most
+#: this many steps, and those readings scatter at most this many times that change
 #: (:func:`_among_its_neighbours`)
 STILL_SCATTER = 1.5
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
@@ -446,7 +447,8 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
     An end is explained where an input that holds one value through the whole run changes
     (a fixed-speed pump switched on or off: its power holds between), or where the channel
     moves by its resolution, its smallest change (50.5 to 50.0 kW) if it is a coarse reading
-    of a moving process (it changes in at least :data:`COARSE_SHARE` of its steps), or at
+    (it changes in at least :data:`COARSE_SHARE` of its steps, or, a slow process, at least
+    :data:`MIN_STUCK_SAMPLES` times, :data:`SLOW_STEP_SHARE` of them by its smallest step), or at
     the edge of the window or of an operating period (``paused``, per step; not both ends). A frozen sensor freezes and recovers whenever it does and
     then jumps to wherever the process went: at a sensor's noise its smallest change is rare,
     and a setpoint held all day does not explain a run that neither starts nor ends with it.
@@ -466,11 +468,18 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
     entry = changes[np.maximum(starts - 1, 0)]
     leave = changes[np.minimum(ends, n - 2)]
     begins, closes = first.copy(), last.copy()
-    if moved.size and moved.size >= COARSE_SHARE * len(changes):
+    if moved.size:
         step = 1.01 * moved.min()
-        begins |= ~first & (entry <= step)
-        closes |= ~last & (leave <= step)
-        if _on_a_grid(moved):
+        # a coarse reading of a moving process changes often; one of a slow process (a room
+        # logged to 0.1 C every 30 s) rarely, but then by one step at a time: a sensor that
+        # freezes and jumps, or a setpoint moved between levels, does not
+        often = moved.size >= COARSE_SHARE * len(changes)
+        stepwise = (moved.size >= MIN_STUCK_SAMPLES
+                    and np.count_nonzero(moved <= step) >= SLOW_STEP_SHARE * moved.size)
+        if often or stepwise:
+            begins |= ~first & (entry <= step)
+            closes |= ~last & (leave <= step)
+        if often and _on_a_grid(moved):
             still = _among_its_neighbours(v, starts, ends, moved.min()) & ~first & ~last
             begins |= still
             closes |= still
@@ -498,26 +507,29 @@ def _among_its_neighbours(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
                           resolution: float) -> np.ndarray:
     """Per run of equal samples ``v[starts[r]] .. v[ends[r]]`` (neither at an edge of
     ``v``) of a reading on a grid of ``resolution``: True where the run is the sensor's noise
-    falling within one step while the process stood still. The channel's step-to-step change
-    (its root mean square over ``v``: noise and the process's motion) is at most
-    :data:`STILL_SCATTER` steps, so that its readings repeat by chance at all; the readings
-    as many samples before the run as it is long, and as many after, each scatter by at most
-    :data:`STILL_SCATTER` times that change; and the run's value lies within the range of
-    each. A sensor frozen while the process moves holds a value its later (or earlier)
-    readings do not take, one frozen amid an excursion sits among readings that scatter by
-    more, and a reading whose noise spans many steps repeats only when frozen."""
-    steps = np.diff(v)
-    scatter = np.sqrt(np.nanmean(steps * steps))
+    falling within one step while the process stood still. Beside the run (as many samples
+    before it as it is long, and as many after) the reading changes by at most
+    :data:`STILL_SCATTER` steps from one sample to the next (root mean square), so that it
+    repeats by chance at all; each side scatters by at most :data:`STILL_SCATTER` times that
+    change; and the run's value lies within the range of each side, or one step beyond it (a
+    process standing still near a step's edge reads on either side of it). A sensor frozen
+    while the process moves holds a value its later (or earlier) readings do not come near,
+    one frozen amid an excursion sits among readings that scatter by more, and a reading
+    whose noise spans many steps repeats only when frozen."""
     out = np.zeros(len(starts), dtype=bool)
-    if scatter > STILL_SCATTER * resolution:
-        return out
+    step = 1.01 * resolution
     for r, (s, e) in enumerate(zip(starts, ends)):
         if s == 0 or e == len(v) - 1:
             continue
         width = e - s + 1
         sides = (v[max(s - width, 0):s], v[e + 1:e + 1 + width])
-        out[r] = all(np.nanmin(side) <= v[s] <= np.nanmax(side)
-                     and np.nanstd(side) <= STILL_SCATTER * scatter for side in sides)
+        changes = np.concatenate([np.diff(side) for side in sides])
+        if changes.size < 2:
+            continue
+        scatter = np.sqrt(np.nanmean(changes * changes))
+        out[r] = scatter <= STILL_SCATTER * resolution and all(
+            np.nanmin(side) - step <= v[s] <= np.nanmax(side) + step
+            and np.nanstd(side) <= STILL_SCATTER * scatter for side in sides)
     return out
 
 

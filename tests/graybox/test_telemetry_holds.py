@@ -145,6 +145,27 @@ def test_a_coarse_reading_that_moves_by_its_resolution_is_not_stuck():
     assert stuck_error(frame, inputs=["pumps"]).row == 29
 
 
+def test_a_slow_coarse_reading_that_moves_by_its_resolution_is_not_stuck():
+    # a room logged to 0.1 C every 30 s for 5 hours: it changes by one step every 20-40
+    # samples (3 % of its steps), each hold 10-20 minutes (stuck_after 10 min)
+    rng = np.random.default_rng(2)
+    n = 600
+    holds = rng.integers(20, 41, size=30)
+    at = np.cumsum(holds)[np.cumsum(holds) < n]
+    steps = np.zeros(n)
+    steps[at] = rng.choice([-0.1, 0.1], size=len(at))
+    frame = pd.DataFrame({"timestamp": T0 + pd.to_timedelta(np.arange(n) * 30.0, unit="s"),
+                          "level": 4.0 + rng.normal(0, 0.01, n),
+                          "room": np.round(20.0 + np.cumsum(steps), 1)})
+    assert np.count_nonzero(np.diff(frame["room"])) < 0.1 * (n - 1)
+    validate(frame, "A-1")
+    # the same reading frozen: reached and left by jumps of half a degree
+    steps[at[10]], steps[at[11]] = 0.5, -0.6
+    frozen = frame.assign(room=np.round(20.0 + np.cumsum(steps), 1))
+    # the first hold a jump ends is the one before the frozen reading
+    assert stuck_error(frozen).row == at[9]
+
+
 def test_an_operating_period_s_edge_explains_the_end_of_a_steady_reading():
     # the link drops for 2 hours while the pump runs: the steady power before the outage ends
     # at the period's edge, the one after it starts there, each explained at its other end
