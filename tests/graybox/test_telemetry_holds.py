@@ -210,6 +210,14 @@ def test_a_reading_on_a_grid_that_holds_by_chance_where_the_process_stands_still
     frame.loc[1039, "room"], frame.loc[1060, "room"] = 21.5, 21.8
     frame.loc[1020, "room"], frame.loc[1075, "room"] = 21.8, 21.5
     validate(frame, "A-1")
+    # the air-handling unit of the eighth: a start-up's jumps elsewhere in the day (here the
+    # sensor reading 3 C apart, twenty times in the first hour) do not make a chance hold
+    # hours later stuck (the hold is judged on the readings beside it), nor does a process
+    # that stood one step above the hold just after it (21.7 to 21.8 after a hold at 21.6)
+    started = frame.copy()
+    started.loc[20:59:2, "room"] = started.loc[20:59:2, "room"] - 3.0
+    started.loc[1061:1079, "room"] = np.where(np.arange(19) % 3 == 0, 21.8, 21.7)
+    validate(started, "A-1")
     # the same sensor frozen while the room warms: the hold (20.6 C) is a value the room's
     # later readings have left
     warming = room_day(0.1)
