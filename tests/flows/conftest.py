@@ -10,6 +10,7 @@ to need them builds them in the run's shared temporary directory and the other r
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import fcntl
 import json
@@ -20,6 +21,7 @@ import tempfile
 
 # Prefect reads its settings on import: isolate its home before anything imports it
 os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="fleet-health-test-prefect-")
+atexit.register(shutil.rmtree, os.environ["PREFECT_HOME"], ignore_errors=True)
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "WARNING")
 os.environ.setdefault("PREFECT_SERVER_LOGGING_LEVEL", "WARNING")
