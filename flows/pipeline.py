@@ -401,6 +401,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
     """:func:`read`'s reading: the windows of ``job`` into ``asset``, and the notes."""
     empty = []
     short = []          # windows with too little operation to read (not bad telemetry)
+    gapped = []         # (window start, gaps) of a continuous class's windows with gaps
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
     spans = []          # the nights of the windows taken (the telemetry's days)
@@ -456,6 +457,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                     break
                 asset.fail(error, start)
                 continue
+            if telemetry.n_periods > 1 and not job.grid.intermittent:
+                gapped.append((start, telemetry.n_periods - 1))
             asset.windows.append(PendingWindow(window.start, end, telemetry,
                                                earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
@@ -470,6 +473,11 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                      f"{len(short)} window(s) with too little operation to read (shorter "
                      f"than the grid's min_duration): "
                      f"{', '.join(start.isoformat() for start in short)}")
+    if gapped:  # a logger's outage: analysed in parts, said
+        notes.append(f"read {len(gapped)} window(s) in parts, split where rows were missing "
+                     f"for longer than the grid's max_gap: " + ", ".join(
+                         f"{start.isoformat()} ({gaps} gap{'s' if gaps > 1 else ''})"
+                         for start, gaps in gapped))
     if links:
         notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
                      f"{', '.join(links)}")

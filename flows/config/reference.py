@@ -241,7 +241,8 @@ def sections() -> list[Section]:
                                     "numbers to 3 significant digits (candidates use their "
                                     "baseline's)",
                  "max_gap": "longest time between consecutive rows bridged by linear "
-                            "interpolation; longer is a `gap` error",
+                            "interpolation; longer separates two operating periods (a "
+                            "logger's outage: the asset's result says so)",
                  "stuck_after": "how long a channel may hold one value (`0`: no check), or per "
                                 "channel, `{ \"*\" = \"5min\", pdisch = \"30min\" }`; "
                                 "and at least 10 samples; the model's inputs are exempt",
@@ -250,8 +251,9 @@ def sections() -> list[Section]:
                            "the `plausible_spread` bound",
                  "plausible_spread": "channels without `ranges`: how many 1st-99th percentile "
                                      "spans from the median a value may lie (`0`: off)",
-                 "intermittent": "`true`: a time between rows longer than `max_gap` separates "
-                                 "two operating periods instead of being a `gap` error",
+                 "intermittent": "`true`: the machine runs in operating periods, so a time "
+                                 "between rows longer than `max_gap` is its pause and not "
+                                 "said in the asset's result",
                  "running": "`{ <column> = [low, high] }`: rows with a listed column outside its "
                             "bounds are the machine off, dropped before the other checks; "
                             "implies `intermittent`"},

@@ -18,9 +18,10 @@ The path from store to model input is::
 ``read_raw`` returns the rows as stored, each tagged with its file and 0-based row, so that
 ``validate`` can name the file and row of the first bad sample (docs/design.md section 5.1).
 ``to_grid`` puts the validated rows on the uniform grid the tiers assume. The limits of
-:class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples. An
-intermittent asset (``GridPolicy.intermittent``, ``running``) has windows made of operating
-periods, each on its own grid (docs/design.md section 4.11).
+:class:`GridPolicy` are durations, so one policy holds at 1 s, 10 s or 60 s samples. A
+window with pauses (an intermittent asset, ``GridPolicy.intermittent``, ``running``) or a
+logger's outages longer than ``max_gap`` is made of operating periods, each on its own grid
+(docs/design.md section 4.11).
 
 Modules: :mod:`~graybox.telemetry.layout` (asset ids, partitions), ``reading``,
 ``policy`` (:class:`GridPolicy`), ``validation``, ``gridding``, ``window``

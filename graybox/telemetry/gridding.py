@@ -21,8 +21,9 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
     to the last raw timestamp (no extrapolation). Values at grid points are interpolated
     linearly in time between the raw samples around them, which also absorbs timestamp
     jitter. Grid points with no raw sample within ``dt / 2`` lie in a (short) gap and are
-    counted in ``filled_samples``. With ``policy.intermittent``, each operating period (rows
-    between pauses longer than ``max_gap``) gets its own grid, from its first row to its last.
+    counted in ``filled_samples``. Each operating period (rows between times longer than
+    ``max_gap`` without one: pauses, outages) gets its own grid, from its first row to its
+    last.
 
     Parameters
     ----------
@@ -32,7 +33,7 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
         The asset.
     policy : GridPolicy, optional
         ``sample_interval`` (``None``: median raw step), ``min_duration``, and with
-        ``intermittent`` also ``max_gap``, are used.
+        ``max_gap``, are used.
 
     Returns
     -------

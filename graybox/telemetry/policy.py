@@ -100,10 +100,11 @@ class GridPolicy:
         Grid step. ``None`` infers it as the median step of the raw timestamps.
     max_gap : duration, default "4min"
         The longest time between two consecutive rows that is bridged by linear
-        interpolation; rows further apart are an error (kind ``"gap"``). A gap of ``k``
-        intervals has ``k - 1`` missing samples, so ``"4min"`` fills up to 3 missing samples
-        at 60 s, 23 at 10 s and 239 at 1 s, and a 10-minute gap is an error at every rate
-        (``"40s"`` is the old ``max_fill = 3`` at 10 s). Consecutive samples are always
+        interpolation; rows further apart separate two operating periods (each gridded
+        and analysed on its own). A gap of ``k`` intervals has ``k - 1`` missing samples, so
+        ``"4min"`` fills up to 3 missing samples at 60 s, 23 at 10 s and 239 at 1 s, and a
+        10-minute gap separates two periods at every rate (``"40s"`` is the old
+        ``max_fill = 3`` at 10 s). Consecutive samples are always
         accepted, even if ``max_gap`` is shorter than ``dt``.
     stuck_after : duration or mapping of str to duration, default "10min"
         A channel that holds one value (at least two identical consecutive samples) for this
@@ -138,12 +139,13 @@ class GridPolicy:
         a thousand times it is far beyond any physical excursion of a monitored process, but
         a corrupt sample (1e10) would dominate every least-squares fit. ``0`` disables it.
     intermittent : bool, default False
-        The asset runs in operating periods (a few hours a day, say). ``True``: a time
-        between rows longer than ``max_gap`` ends one operating period and starts the next
-        instead of being an error (kind ``"gap"``); each period is gridded on its own (no
-        interpolation across a pause), a value held across a pause does not count as stuck,
-        and ``min_duration`` counts the operating time. The fits never let a residual,
-        difference or delay span a pause (:meth:`TelemetryWindow.periods`).
+        The asset runs in operating periods (a few hours a day, say): a time between rows
+        longer than ``max_gap`` is its pause, not a logger's outage (for every asset such a
+        time ends one operating period and starts the next: each period is gridded on its
+        own, a value held across it does not count as stuck, ``min_duration`` counts the
+        operating time, and the fits never let a residual, difference or delay span it,
+        :meth:`TelemetryWindow.periods`). ``True``: the flows do not say that its windows
+        were read in parts, as they do for a continuous asset's outages.
     running : mapping of str to (low, high), optional
         When the machine runs, for assets that write rows while stopped, e.g.
         ``{"speed": [50, 5000]}``: rows with a listed channel outside its ``[low, high]`` are

@@ -52,20 +52,24 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
        than the previous row's (which may be in the previous file);
        a channel's missing values (NaN, a missed reading) are interpolated in time like a
-       missing row, and ``"gap"`` when the values around them lie more than
-       ``policy.max_gap`` apart (reported at the first missing one);
+       missing row; where the values around them lie more than ``policy.max_gap`` apart,
+       their rows are missing rows (left out: a gap, below), and ``"gap"`` when no row is
+       left with every channel's value;
        ``"out_of_range"``: a value outside the channel's ``policy.ranges``, or (channels
        without ranges) implausibly far from the window's median (``policy.plausible_spread``);
     3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
        ``policy.stuck_after`` (two or more identical consecutive samples), reported at the
        first row of the run; a part at rest (:func:`_at_rest`) and a steady coarse reading
        (:func:`_steady_runs`) are not stuck;
-    4. ``"gap"``: two consecutive rows more than ``policy.max_gap`` apart, reported at the
-       row after the gap (with ``policy.intermittent`` such a pause separates two operating
-       periods instead, and a value held across it is not stuck);
-    5. ``"too_few_samples"``: the rows cover less than ``policy.min_duration`` (first to last
-       row plus one interval; with ``policy.intermittent`` the sum over operating periods),
-       or there is one row and no ``sample_interval`` (no file or row).
+    4. ``"too_few_samples"``: the rows' operating periods cover less than
+       ``policy.min_duration`` (each period first to last row plus one interval), or there
+       is one row and no ``sample_interval`` (no file or row).
+
+    Two consecutive rows more than ``policy.max_gap`` apart (a logger's outage, an
+    intermittent machine's pause) are not an error: they separate two operating periods,
+    each gridded and analysed on its own, and a value held across the gap is not stuck
+    (:func:`separations`); the reader of a continuous class's window says that it has
+    more than one period (:attr:`TelemetryWindow.n_periods`).
 
     Parameters
     ----------
@@ -106,50 +110,73 @@ def validate_rows(rows: Rows, asset_id: str, policy: GridPolicy, inputs: Collect
     rows = fill_missing(rows, asset_id, policy, dt_ns)
     _check_ranges(rows, asset_id, policy)
     _check_stuck(rows, asset_id, policy, dt_ns, set(inputs))
-    _check_gaps(rows, asset_id, policy, dt_ns)
     check_duration(asset_id, operating_points(rows, dt_ns, policy), dt_ns, policy)
     return rows, dt_ns
 
 
 def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> Rows:
     """The rows with each channel's missing values (NaN) interpolated in time between the
-    values around them in their operating period (held at its ends); ``"gap"`` where those
-    lie further apart than ``policy.max_gap``, as missing rows would."""
+    values around them in their operating period (held at its ends). Where those lie further
+    apart than ``policy.max_gap`` the rows are missing rows: they are left out, and the gap
+    separates two operating periods (:func:`separations`), as a logger's outage does;
+    ``"gap"`` if no row is left with every channel's value."""
     missing = np.isnan(rows.values)
     if not missing.any():
         return rows
+    for j in np.flatnonzero(missing.all(axis=1)):
+        _fail(rows, asset_id, "non_finite", f"channel {rows.channels[j]!r} has no value in "
+                                            f"the window", 0)
+    first = rows
+    while True:     # leaving rows out can widen another channel's gap: until none is left
+        unbridged = _unbridged(rows, missing, policy, dt_ns)
+        if not unbridged.any():
+            break
+        if unbridged.all():
+            gaps = ", ".join(repr(c) for c, m in zip(rows.channels, missing.any(axis=1)) if m)
+            _fail(first, asset_id, "gap",
+                  f"no row has every channel's value within max_gap="
+                  f"{format_duration(policy.max_gap)} of it (missing: {gaps})", 0)
+        rows = rows.take(~unbridged)
+        missing = np.isnan(rows.values)
+    if not missing.any():
+        return rows
     values = rows.values.copy()
-    allowed = bridged_intervals(policy, dt_ns)
     bounds = np.append(period_starts(rows, policy, dt_ns), len(rows))
     for a, b in zip(bounds[:-1], bounds[1:]):
         ts = rows.ts[a:b]
         t = (ts - ts[0]).astype(np.float64)
         for j in np.flatnonzero(missing[:, a:b].any(axis=1)):
             lost, have = np.flatnonzero(missing[j, a:b]), np.flatnonzero(~missing[j, a:b])
-            if not have.size:
-                where = "the window" if len(bounds) == 2 else "an operating period"
-                _fail(rows, asset_id, "non_finite",
-                      f"channel {rows.channels[j]!r} has no value in {where}", int(a))
-            # each missing value's neighbours with a value (the period's ends stand in)
-            after = np.searchsorted(have, lost)
-            before_ts = np.where(after > 0, ts[have[np.maximum(after - 1, 0)]], ts[0])
-            after_ts = np.where(after < have.size, ts[have[np.minimum(after, have.size - 1)]],
-                                ts[-1])
-            too_long = intervals(after_ts - before_ts, dt_ns) > allowed
-            if too_long.any():
-                k = int(np.argmax(too_long))
-                span = format_duration((after_ts[k] - before_ts[k]) / NS_PER_SECOND)
-                _fail(rows, asset_id, "gap",
-                      f"channel {rows.channels[j]!r} has no value from {stamp(before_ts[k])} "
-                      f"to {stamp(after_ts[k])} ({span}; "
-                      f"max_gap={format_duration(policy.max_gap)})", int(a + lost[k]))
             values[j, a + lost] = np.interp(t[lost], t[have], values[j, a + have])
     return replace(rows, values=values, missing=missing.any(axis=0))
 
 
+def _unbridged(rows: Rows, missing: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
+    """Per row, True where a channel's value is missing (``missing``, per channel and row)
+    and its values around it in its operating period lie further apart than ``max_gap`` (the
+    period's ends stand in for a value beyond them), or the channel has no value in that
+    period at all."""
+    out = np.zeros(len(rows), dtype=bool)
+    allowed = bridged_intervals(policy, dt_ns)
+    bounds = np.append(period_starts(rows, policy, dt_ns), len(rows))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        ts = rows.ts[a:b]
+        for j in np.flatnonzero(missing[:, a:b].any(axis=1)):
+            lost, have = np.flatnonzero(missing[j, a:b]), np.flatnonzero(~missing[j, a:b])
+            if not have.size:
+                out[a:b] = True
+                continue
+            after = np.searchsorted(have, lost)
+            before_ts = np.where(after > 0, ts[have[np.maximum(after - 1, 0)]], ts[0])
+            after_ts = np.where(after < have.size, ts[have[np.minimum(after, have.size - 1)]],
+                                ts[-1])
+            out[a + lost[intervals(after_ts - before_ts, dt_ns) > allowed]] = True
+    return out
+
+
 def pauses(ts: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
     """Per step between consecutive rows: True where it is longer than ``policy.max_gap``
-    (a ``"gap"``, or with ``policy.intermittent`` a pause between operating periods)."""
+    (a gap: a pause between operating periods, or a logger's outage)."""
     allowed = bridged_intervals(policy, dt_ns)
     # intervals(step) > allowed  <=>  step >= allowed * dt + ceil(dt / 2)
     return np.diff(ts) >= allowed * dt_ns + (dt_ns + 1) // 2
@@ -163,18 +190,17 @@ def bridged_intervals(policy: GridPolicy, dt_ns: int) -> int:
 
 def separations(rows: Rows, policy: GridPolicy, dt_ns: int) -> np.ndarray:
     """Per step between consecutive rows: True where it separates two operating periods,
-    a pause (``policy.intermittent``) or a logger's hold (``rows.after_hold``) longer than
-    ``max_gap``. A single held row is bridged at any rate: its neighbours are two samples
-    apart, the mildest gap there is, where a 4-minute ``max_gap`` at 15-minute rows would
-    bridge nothing."""
+    a time between rows longer than ``max_gap``: an intermittent machine's pause, a
+    logger's outage (rows missing, or held: ``rows.after_hold``), a channel's missing
+    values too long to bridge (:func:`fill_missing` leaves their rows out). A single held
+    row is bridged at any rate: its neighbours are two samples apart, the mildest gap there
+    is, where a 4-minute ``max_gap`` at 15-minute rows would bridge nothing."""
     if len(rows) < 2:
         return np.zeros(0, dtype=bool)
     long = pauses(rows.ts, policy, dt_ns)
     held = np.zeros_like(long) if rows.after_hold is None else rows.after_hold[1:]
     bridged = held & (intervals(np.diff(rows.ts), dt_ns) <= 2)
-    if policy.intermittent:
-        return long & ~bridged
-    return long & held & ~bridged
+    return long & ~bridged
 
 
 def period_starts(rows: Rows, policy: GridPolicy, dt_ns: int) -> np.ndarray:
@@ -552,22 +578,3 @@ def _at_rest(v: np.ndarray, starts: np.ndarray, ends: np.ndarray, others_move: n
         return np.zeros(len(starts), dtype=bool)
     moved = np.concatenate([[0], np.cumsum(others_move.any(axis=0))])  # steps moved before i
     return rest & (moved[ends] > moved[starts])
-
-
-def _check_gaps(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> None:
-    ts = rows.ts
-    if len(ts) < 2 or policy.intermittent:
-        return
-    steps = np.diff(ts)
-    too_long = pauses(ts, policy, dt_ns)   # after a logger's hold: bridged or a separation
-    if rows.after_hold is not None:
-        too_long &= ~rows.after_hold[1:]
-    if not too_long.any():
-        return
-    i = int(np.argmax(too_long)) + 1
-    step = int(steps[i - 1])
-    k = int(intervals(np.int64(step), dt_ns))
-    _fail(rows, asset_id, "gap",
-          f"gap from {stamp(ts[i - 1])} to {stamp(ts[i])} "
-          f"({format_duration(step / NS_PER_SECOND)}: {k - 1} missing samples at "
-          f"{dt_ns / NS_PER_SECOND:g} s; max_gap={format_duration(policy.max_gap)})", i)

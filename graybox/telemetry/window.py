@@ -31,9 +31,9 @@ class TelemetryWindow:
 
     Notes
     -----
-    An intermittent asset's window (``GridPolicy.intermittent``) holds its operating periods
-    one after another, each on its own uniform grid; :meth:`periods` gives them apart. A
-    continuous window is one period.
+    A window with pauses or outages (times between rows longer than ``GridPolicy.max_gap``)
+    holds its operating periods one after another, each on its own uniform grid;
+    :meth:`periods` gives them apart. A window without any is one period.
     """
 
     asset_id: str

@@ -122,12 +122,6 @@ def _duplicate(path):
     return "duplicate_timestamp", 200
 
 
-def _gap(path):
-    # 20 samples of 30 s dropped: 10 min between rows 299 and (now) 300, max_gap is 4 min
-    _rewrite(path, lambda frame: frame.drop(index=range(300, 320)).reset_index(drop=True))
-    return "gap", 300
-
-
 def _stuck(path):
     # the speed holds one value for 40 samples (20 min), stuck_after is 10 min
     def change(frame):
@@ -173,10 +167,33 @@ def _not_parquet(path):
 
 BREAKAGES = {"plus_inf": _plus_inf, "minus_inf": _minus_inf,
              "backward_timestamp": _backward, "duplicate_timestamp": _duplicate,
-             "gap": _gap, "stuck_sensor": _stuck, "missing_column": _missing_column,
+             "stuck_sensor": _stuck, "missing_column": _missing_column,
              "strings_in_numeric_column": _strings, "out_of_range": _out_of_range,
              "truncated_file": _truncated, "zero_byte_file": _zero_bytes,
              "not_parquet": _not_parquet}
+
+
+def test_a_logger_outage_is_read_in_two_parts_and_said(workspace, fleet, clean, capsys):
+    """Rows missing for longer than max_gap (20 samples of 30 s, 10 minutes; max_gap is 4):
+    not bad telemetry, a logger's outage. The night is analysed in its two parts, committed
+    as in a clean run, and the asset's result says that it was read in parts."""
+    root = workspace.path / "telemetry"
+    shutil.copytree(fleet.root, root)
+    _rewrite(root / f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet",
+             lambda frame: frame.drop(index=range(300, 320)).reset_index(drop=True))
+    workspace.configure(telemetry=root)
+    status, summary, err = _run(capsys, workspace.config)
+    assert status == 0, err
+    assert summary["coverage"]["complete"]
+    bad = {a["asset_id"]: a for a in summary["assets"]}[BAD_ASSET]
+    assert bad["status"] == "ok"
+    assert [w["window_start"] for w in bad["windows"]] == [
+        day(BAD_DAY - 1).isoformat(), day(BAD_DAY).isoformat()]
+    assert (f"read 1 window(s) in parts, split where rows were missing for longer than the "
+            f"grid's max_gap: {day(BAD_DAY).isoformat()} (1 gap)") in bad["note"]
+    state = committed_state(workspace.registry())
+    assert state["watermarks"] == clean.state["watermarks"]
+    assert state["baselines"] == clean.state["baselines"]
 
 
 @pytest.mark.parametrize("miss", [_nan, _null])

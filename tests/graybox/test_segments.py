@@ -49,10 +49,11 @@ def day_of_periods(rng, spans=((6, 3600), (13, 3600)), level_step: float = 0.0):
 def test_a_pause_separates_operating_periods_instead_of_failing(tmp_path):
     rng = np.random.default_rng(1)
     write_telemetry(tmp_path, "P-1", day_of_periods(rng))
-    with pytest.raises(TelemetryError) as info:  # continuous assets: a gap as before
-        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS)
-    assert info.value.kind == "gap" and info.value.row == 3600
+    # a continuous asset's gap separates the same periods (a logger's outage)
+    continuous = read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS)
     window = read_window(tmp_path, "P-1", COLUMNS, policy=INTERMITTENT, inputs=INPUTS)
+    pd.testing.assert_frame_equal(continuous.frame, window.frame)
+    assert continuous.n_periods == 2
     assert window.n_periods == 2 and window.n_samples == 7200 and window.filled_samples == 0
     first, second = window.periods()
     assert first.index[0] == T0 + pd.Timedelta(hours=6) and len(first) == 3600

@@ -55,8 +55,9 @@ def test_an_impossible_reading_is_an_alert_graded_by_its_distance_from_the_range
 
 
 def test_the_data_s_faults_are_not_a_sensor_s():
-    frame = raw_frame(speed=_speed()).drop(index=range(300, 330)).reset_index(drop=True)
+    frame = raw_frame(speed=_speed())
+    frame.loc[frame.index[300], "timestamp"] = frame["timestamp"].iloc[299]
     error = _error(frame)
-    assert error.kind == "gap" and error.channel is None
+    assert error.kind == "duplicate_timestamp" and error.channel is None
     assert sensor_alert(error, **NIGHT) is None
     assert sensor_alert(TelemetryError("P-1", "schema", "no column 'speed'"), **NIGHT) is None

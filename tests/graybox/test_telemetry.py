@@ -300,12 +300,26 @@ def test_a_missing_value_at_an_operating_period_s_start_is_held_not_a_gap(tmp_pa
     assert window.frame["a"].iloc[20] == 1.0 and window.filled_samples == 1
 
 
-def test_values_missing_longer_than_max_gap_are_a_gap_of_the_channel(tmp_path):
+def test_values_missing_longer_than_max_gap_are_missing_rows(tmp_path):
+    # 60 s between values, max_gap 40 s: the rows without them are left out, and the rows
+    # on either side are two operating periods (as rows missing altogether are)
     stamps = pd.date_range(T0, periods=30, freq="10s")
     values = pa.array([float(i) if not 10 <= i < 15 else None for i in range(30)])
-    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=values)
-    error = window_error(tmp_path, "gap", ["a"])        # 60 s between values, max_gap 40 s
-    assert error.row == 10 and "channel 'a' has no value from" in error.message
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps),
+                a=values, b=pa.array([float(-i) for i in range(30)]))
+    window = read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
+    assert window.n_periods == 2 and window.filled_samples == 0
+    first, second = window.periods()
+    assert list(first["a"]) == [float(i) for i in range(10)]
+    assert list(second["a"]) == [float(i) for i in range(15, 30)]
+    assert list(second["b"]) == [float(-i) for i in range(15, 30)]
+    # a channel missing where the other is not, and the reverse: no row has both
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps),
+                a=pa.array([float(i) if i < 15 else None for i in range(30)]),
+                b=pa.array([float(i) if i >= 15 else None for i in range(30)]))
+    error = window_error(tmp_path, "gap", ["a", "b"])
+    assert "no row has every channel's value within max_gap=40s" in error.message
+    assert "'a', 'b'" in error.message
     empty = pa.array([None] * 30, type=pa.float64())
     write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=empty)
     assert "channel 'a' has no value in the window" in window_error(
@@ -358,13 +372,19 @@ def test_stuck_channel(tmp_path):
     read_window(tmp_path, "T-1", ["b"], policy=GridPolicy(min_duration="100s", stuck_after=0))
 
 
-def test_gap_longer_than_max_gap(tmp_path):
+def test_gap_longer_than_max_gap_separates_two_periods(tmp_path):
     frame = make_frame(200).drop(index=range(100, 104))  # 4 missing samples
     write_telemetry(tmp_path, "T-1", frame)
-    error = window_error(tmp_path, "gap", ["a"])
-    assert error.file.endswith("part-0.parquet") and error.row == 100  # the row after the gap
-    assert "4 missing" in error.message and "max_gap=40s" in error.message
-    assert "2024-03-01T00:16:30" in error.message and "2024-03-01T00:17:20" in error.message
+    window = read_window(tmp_path, "T-1", ["a"], policy=POLICY)
+    assert window.n_periods == 2 and window.filled_samples == 0
+    first, second = window.periods()
+    assert first.index[-1] == pd.Timestamp("2024-03-01T00:16:30", tz="UTC")
+    assert second.index[0] == pd.Timestamp("2024-03-01T00:17:20", tz="UTC")
+    assert len(first) + len(second) == 196
+    # three missing samples (40 s between rows) are bridged
+    write_telemetry(tmp_path, "T-1", make_frame(200).drop(index=range(100, 103)))
+    bridged = read_window(tmp_path, "T-1", ["a"], policy=POLICY)
+    assert bridged.n_periods == 1 and bridged.filled_samples == 3
 
 
 def test_too_few_samples(tmp_path):

@@ -51,6 +51,12 @@ def read(root, frame, **kwargs):
     return read_window(root, "A-1", COLUMNS, inputs=["setpoint"], **kwargs)
 
 
+def period_spans(window) -> list[tuple[float, float]]:
+    """Each operating period's first and last grid point, in seconds after T0."""
+    return [((p.index[0] - T0).total_seconds(), (p.index[-1] - T0).total_seconds())
+            for p in window.periods()]
+
+
 def telemetry_error(kind, root, frame, **kwargs) -> TelemetryError:
     with pytest.raises(TelemetryError) as info:
         read(root, frame, **kwargs)
@@ -61,8 +67,8 @@ def telemetry_error(kind, root, frame, **kwargs) -> TelemetryError:
 # -- 1 Hz -----------------------------------------------------------------------------------
 
 def test_a_5_second_dropout_at_1hz_is_filled(tmp_path):
-    """Rows 5 s apart (a dropout of 4 samples) are bridged under max_gap = "5s", 6 s are not;
-    the default (4 minutes) fills either."""
+    """Rows 5 s apart (a dropout of 4 samples) are bridged under max_gap = "5s", 6 s are not
+    (they separate two operating periods); the default (4 minutes) fills either."""
     frame = make_frame(1.0, hours=2)
     five = drop_between(frame, 1000.0, 1005.0)
     window = read(tmp_path, five, policy=GridPolicy(max_gap="5s"))
@@ -72,20 +78,22 @@ def test_a_5_second_dropout_at_1hz_is_filled(tmp_path):
                                np.interp([1001, 1002, 1003, 1004], [1000, 1005],
                                          frame["sensor"].iloc[[1000, 1005]]))
     six = drop_between(frame, 1000.0, 1006.0)
-    error = telemetry_error("gap", tmp_path, six, policy=GridPolicy(max_gap="5s"))
-    assert error.row == 1001 and "max_gap=5s" in error.message
+    apart = read(tmp_path, six, policy=GridPolicy(max_gap="5s"))
+    assert period_spans(apart) == [(0.0, 1000.0), (1006.0, 7199.0)]
+    assert apart.filled_samples == 0 and apart.n_samples == 7200 - 5
     assert read(tmp_path, six).filled_samples == 5
 
 
-def test_a_10_minute_gap_at_1hz_names_asset_file_and_row(tmp_path):
-    frame = drop_between(make_frame(1.0, hours=2), 1800.0, 2400.0)
-    error = telemetry_error("gap", tmp_path, frame)
-    assert error.asset_id == "A-1"
-    assert error.file.endswith("asset_id=A-1/date=2024-03-01/part-0.parquet")
-    assert error.row == 1801  # the first row after the gap
-    assert "2024-03-01T00:30:00" in error.message and "2024-03-01T00:40:00" in error.message
-    assert "599 missing samples at 1 s" in error.message and "max_gap=4min" in error.message
-    assert "A-1" in str(error) and "row 1801" in str(error)
+def test_a_10_minute_gap_at_1hz_separates_two_operating_periods(tmp_path):
+    # a logger's outage is not bad data: the rows on either side are two periods, each on
+    # its own grid, nothing interpolated across the 10 minutes
+    frame = make_frame(1.0, hours=2)
+    window = read(tmp_path, drop_between(frame, 1800.0, 2400.0))
+    assert window.n_periods == 2 and window.sample_interval == 1.0
+    assert period_spans(window) == [(0.0, 1800.0), (2400.0, 7199.0)]
+    assert window.filled_samples == 0 and window.n_samples == 7200 - 599
+    np.testing.assert_array_equal(window.periods()[1]["sensor"].to_numpy(),
+                                  frame["sensor"].iloc[2400:].to_numpy())
 
 
 def test_a_held_setpoint_is_fine_a_stuck_sensor_is_not(tmp_path):
@@ -146,15 +154,15 @@ def test_a_few_missing_samples_are_filled_at_every_rate(tmp_path, step):
 
 
 @pytest.mark.parametrize("step", RATES)
-def test_a_10_minute_gap_is_an_error_at_every_rate(tmp_path, step):
+def test_a_10_minute_gap_separates_two_periods_at_every_rate(tmp_path, step):
     frame = make_frame(step)
-    gapped = drop_between(frame, 3600.0, 4200.0)
-    error = telemetry_error("gap", tmp_path, gapped)
-    assert error.row == rows_at(gapped, 4200.0)
-    assert error.file.endswith("part-0.parquet")
-    # just over max_gap (one interval more) is a gap too, max_gap itself is not
-    telemetry_error("gap", tmp_path, drop_between(frame, 3600.0, 3600.0 + 240.0 + step))
-    read(tmp_path, drop_between(frame, 3600.0, 3600.0 + 240.0))
+    end = 6 * 3600.0 - step
+    window = read(tmp_path, drop_between(frame, 3600.0, 4200.0))
+    assert period_spans(window) == [(0.0, 3600.0), (4200.0, end)]
+    # just over max_gap (one interval more) separates them too, max_gap itself is bridged
+    over = read(tmp_path, drop_between(frame, 3600.0, 3600.0 + 240.0 + step))
+    assert period_spans(over) == [(0.0, 3600.0), (3840.0 + step, end)]
+    assert read(tmp_path, drop_between(frame, 3600.0, 3600.0 + 240.0)).n_periods == 1
 
 
 @pytest.mark.parametrize("step", RATES)
@@ -231,13 +239,13 @@ def test_old_sample_count_fields_are_gone(kwargs):
         GridPolicy(**kwargs)
 
 
-def test_max_gap_shorter_than_the_interval_fills_nothing():
+def test_max_gap_shorter_than_the_interval_fills_nothing(tmp_path):
     frame = make_frame(60.0)
     validate(frame, "A-1", GridPolicy(max_gap="5s"), inputs=["setpoint"])
-    with pytest.raises(TelemetryError) as info:
-        validate(drop_between(frame, 3600.0, 3720.0), "A-1", GridPolicy(max_gap="5s"),
-                 inputs=["setpoint"])
-    assert info.value.kind == "gap" and "1 missing samples at 60 s" in info.value.message
+    # one missing sample at 60 s: two periods, not one filled sample
+    window = read(tmp_path, drop_between(frame, 3600.0, 3720.0), policy=GridPolicy(max_gap="5s"))
+    assert period_spans(window) == [(0.0, 3600.0), (3720.0, 6 * 3600.0 - 60.0)]
+    assert window.filled_samples == 0
 
 
 def test_validate_takes_inputs_too():
@@ -261,9 +269,10 @@ def test_limits_hold_when_the_inferred_interval_is_a_little_off(tmp_path, seed):
     four = frame.drop(index=range(first + 1, first + 4)).reset_index(drop=True)
     window = read(tmp_path, four, policy=GridPolicy(max_gap="4s"))
     assert window.sample_interval == 1.01
+    assert window.n_periods == 1
     five = frame.drop(index=range(first + 1, first + 5)).reset_index(drop=True)
-    error = telemetry_error("gap", tmp_path, five, policy=GridPolicy(max_gap="4s"))
-    assert error.row == first + 1
+    apart = read(tmp_path, five, policy=GridPolicy(max_gap="4s"))
+    assert apart.n_periods == 2 and len(apart.periods()[0]) == first + 1
 
 
 def test_a_logger_slower_than_a_minute_needs_ten_equal_samples_for_a_stuck_sensor(tmp_path):
