@@ -9,7 +9,10 @@ interval times k), ``jitter=f`` moves each timestamp by up to ``f`` sample inter
 to the millisecond), ``drop=p`` drops each row with probability ``p``, ``spike=p`` replaces each
 reading of a channel with more than ten distinct values, with probability ``p``, by a glitch:
 the reading plus or minus 3 to 8 times the channel's standard deviation over the asset's
-simulated days (an interference spike, a garbled transmission). The family then runs
+simulated days (an interference spike, a garbled transmission); ``outage=p`` gives each
+asset-day, with probability ``p``, one logger outage of 10 to 60 minutes at a random time (its
+rows missing), and ``dropout=p`` likewise one channel's readings missing (NaN) for 10 to 60
+minutes (a sensor's link). The family then runs
 exactly as in ``python -m benchmarks.zoo`` (:func:`benchmarks.zoo.run.run_family`, the
 product's defaults), on a smaller fleet by default. One markdown row per spec: failures (reads,
 baselines, nights, with the first reason), healthy alarms, faults found, the analysis interval
@@ -39,17 +42,19 @@ class Logger:
     jitter: float = 0.0
     drop: float = 0.0
     spike: float = 0.0
+    outage: float = 0.0
+    dropout: float = 0.0
 
     @classmethod
     def parse(cls, text: str) -> "Logger":
         """``"every=5,jitter=0.2"`` (empty: the simulator's own logging)."""
         fields = dict(item.split("=", 1) for item in text.split(",") if item)
-        unknown = set(fields) - {"every", "jitter", "drop", "spike"}
+        known = ("every", "jitter", "drop", "spike", "outage", "dropout")
+        unknown = set(fields) - set(known)
         if unknown:
-            raise ValueError(
-                f"unknown logger settings {sorted(unknown)}: every, jitter, drop, spike")
-        return cls(int(fields.get("every", 1)), float(fields.get("jitter", 0.0)),
-                   float(fields.get("drop", 0.0)), float(fields.get("spike", 0.0)))
+            raise ValueError(f"unknown logger settings {sorted(unknown)}: {', '.join(known)}")
+        return cls(int(fields.get("every", 1)),
+                   *(float(fields.get(name, 0.0)) for name in known[1:]))
 
 
 class LoggedFamily:
@@ -86,11 +91,35 @@ class LoggedFamily:
                 values = values.copy()
                 values[hit] += size * values.std()
                 frame[column] = values
+        if self.logger.outage or self.logger.dropout:
+            frame = _outages(frame, rng, self.logger.outage, self.logger.dropout)
         if self.logger.jitter:
             shift = rng.uniform(-1, 1, len(frame)) * self.logger.jitter * self.sample_interval
             frame = frame.set_axis((frame.index + pd.to_timedelta(shift, unit="s")).round("ms")
                                    .rename(frame.index.name))
         return frame
+
+
+def _outages(frame: pd.DataFrame, rng: np.random.Generator, outage: float, dropout: float
+             ) -> pd.DataFrame:
+    """``frame`` with, per day, one outage of 10-60 minutes (rows left out) with probability
+    ``outage`` and one channel's readings missing (NaN) for 10-60 minutes with probability
+    ``dropout``."""
+    frame = frame.copy()
+    keep = np.ones(len(frame), dtype=bool)
+    seconds = (frame.index - frame.index[0]).total_seconds().to_numpy()
+    for first in np.arange(0.0, seconds[-1] + 1.0, 86_400.0):
+        for probability, rows in ((outage, True), (dropout, False)):
+            if rng.random() >= probability:
+                continue
+            begin = first + rng.uniform(0.0, 86_400.0)
+            inside = (seconds >= begin) & (seconds < begin + rng.uniform(600.0, 3600.0))
+            if rows:
+                keep &= ~inside
+            else:
+                column = frame.columns[rng.integers(len(frame.columns))]
+                frame.loc[inside, column] = np.nan
+    return frame[keep]
 
 
 def row(spec: str, result: dict, seconds: float) -> str:

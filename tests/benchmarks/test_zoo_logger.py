@@ -3,6 +3,7 @@ every read before a stuck sensor needed 10 equal samples), and the logger does w
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from benchmarks.zoo.families import discover
@@ -48,6 +49,31 @@ def test_the_logger_adds_glitches_of_3_to_8_standard_deviations_to_moving_channe
         hit = moved > 0
         assert 0.005 < hit.mean() < 0.02, column       # about 1 % of the readings
         assert moved[hit].min() >= 3.0 - 1e-9 and moved[hit].max() <= 8.0 + 1e-9, column
+
+
+def test_the_logger_loses_rows_and_readings_for_10_to_60_minutes_a_day():
+    family = discover()["thermal_room"]                  # 60-s samples
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 1)
+    plain = family.simulate(vehicles, START, 4)[vehicles[0].asset_id]
+    frame = LoggedFamily(family, Logger(outage=1.0, dropout=1.0)).simulate(vehicles, START, 4)[
+        vehicles[0].asset_id]
+    steps = (frame.index[1:] - frame.index[:-1]).total_seconds().to_numpy() / 60.0
+    # an outage a day (two may join across midnight): 10-60 missing minutes each
+    outages = steps[steps > 1] - 1
+    assert 3 <= len(outages) <= 4 and outages.min() >= 9 and outages.max() <= 120
+    assert len(plain) - len(frame) == outages.sum()
+    # a channel's readings lost for 10-60 minutes a day; the rest as simulated
+    lost = frame.isna()
+    assert 4 * 10 <= lost.to_numpy().sum() <= 4 * 60
+    pd.testing.assert_frame_equal(frame[~lost.any(axis=1)], plain.loc[frame.index][~lost.any(axis=1)])
+
+
+def test_a_room_whose_logger_drops_out_every_day_is_baselined_and_scored(capsys):
+    # before 2026-11-29 every such day was a failed read (a "gap")
+    cells = _report_row(capsys, ["thermal_room:outage=1,dropout=1", "--healthy-assets", "2",
+                                 "--baseline-days", "3", "--nights", "2", "--faulty-per-cell", "0"])
+    assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
+    assert cells[3].split(",")[0].endswith("/4")   # 2 vehicles x 2 nights scored
 
 
 def _report_row(capsys, argv: list[str]) -> list[str]:
