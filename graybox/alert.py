@@ -28,11 +28,11 @@ if TYPE_CHECKING:  # pragma: no cover
 NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
 DRIFT, STALE, SENSOR = "drift", "stale", "sensor"
-#: a drift over its threshold; an asset whose telemetry stopped; a sensor found stuck or out
-#: of range by the telemetry checks
+#: a drift over its threshold; an asset whose telemetry stopped; a sensor found stuck, out
+#: of range or silent by the telemetry checks
 KINDS = (DRIFT, STALE, SENSOR)
 #: the telemetry checks' findings that are a sensor's fault (:class:`TelemetryError` kinds)
-SENSOR_FAULTS = ("stuck_channel", "out_of_range")
+SENSOR_FAULTS = ("stuck_channel", "out_of_range", "silent_channel")
 
 
 @dataclass(frozen=True)
@@ -122,6 +122,9 @@ class Alert:
             if self.tier == "stuck_channel":
                 return (f"sensor {self.channel} stuck for {self.zeta:.0f} s "
                         f"(stuck_after {self.epsilon:.0f} s)")
+            if self.tier == "silent_channel":
+                return (f"sensor {self.channel} gave no reading for {self.zeta:.0f} s "
+                        f"(max_gap {self.epsilon:.0f} s)")
             return (f"sensor {self.channel} out of range: {self.zeta:.6g} from its centre, "
                     f"{self.epsilon:.6g} allowed")
         try:
@@ -135,7 +138,8 @@ class Alert:
         :func:`graybox.alert_diagnosis.cause_text`), ``""`` when not diagnosed; for a
         ``sensor`` alert, the sensor's fault (``omega sensor stuck``)."""
         if self.kind == SENSOR:
-            fault = "stuck" if self.tier == "stuck_channel" else "out of range"
+            fault = {"stuck_channel": "stuck", "silent_channel": "silent"}.get(
+                self.tier, "out of range")
             return f"{self.channel} sensor {fault}"
         return cause_text(self.diagnosis[0] if self.diagnosis else None)
 

@@ -28,7 +28,8 @@ class TelemetryError(GrayBoxError):
         The asset whose telemetry is bad.
     kind : str
         A short machine-readable reason: ``"schema"``, ``"non_finite"``, ``"out_of_range"``,
-        ``"duplicate_timestamp"``, ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``, ``"too_few_samples"``,
+        ``"duplicate_timestamp"``, ``"backward_timestamp"``, ``"gap"``, ``"stuck_channel"``,
+        ``"silent_channel"``, ``"too_few_samples"``,
         ``"no_data"``, ``"unreadable"`` (not valid Parquet) or ``"io_error"`` (the file system
         failed to deliver the file: worth a retry).
     message : str
@@ -38,10 +39,12 @@ class TelemetryError(GrayBoxError):
     row : int or None
         The 0-based row index inside ``file``.
     channel : str or None
-        For a sensor's fault (``"stuck_channel"``, ``"out_of_range"``): the channel.
+        For a sensor's fault (``"stuck_channel"``, ``"out_of_range"``,
+        ``"silent_channel"``): the channel.
     excess : tuple of float or None
         For a sensor's fault: how far it went and how far it may go, ``(seconds held,
-        stuck_after)`` or ``(distance from the channel's centre, the distance allowed)``.
+        stuck_after)``, ``(distance from the channel's centre, the distance allowed)`` or
+        ``(seconds without a reading, max_gap)``.
     """
 
     def __init__(self, asset_id: str, kind: str, message: str, file: str | None = None,

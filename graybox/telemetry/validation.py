@@ -47,14 +47,14 @@ def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy()
     rows and the limits count in whole intervals, rounded to the nearest (see
     :class:`GridPolicy`).
 
-    1. ``"non_finite"``: Inf in a channel, a channel without any value, or a missing
-       timestamp;
+    1. ``"non_finite"``: Inf in a channel, or a missing timestamp;
     2. ``"duplicate_timestamp"`` / ``"backward_timestamp"``: a timestamp equal to / earlier
        than the previous row's (which may be in the previous file);
        a channel's missing values (NaN, a missed reading) are interpolated in time like a
        missing row; where the values around them lie more than ``policy.max_gap`` apart,
        their rows are missing rows (left out: a gap, below), and ``"gap"`` when no row is
-       left with every channel's value;
+       left with every channel's value; ``"silent_channel"``: a channel without any value
+       in the window while the others have one (a dead sensor);
        ``"out_of_range"``: a value outside the channel's ``policy.ranges``, or (channels
        without ranges) implausibly far from the window's median (``policy.plausible_spread``);
     3. ``"stuck_channel"``: a channel other than ``inputs`` holds one value for at least its
@@ -123,9 +123,16 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
     missing = np.isnan(rows.values)
     if not missing.any():
         return rows
-    for j in np.flatnonzero(missing.all(axis=1)):
-        _fail(rows, asset_id, "non_finite", f"channel {rows.channels[j]!r} has no value in "
-                                            f"the window", 0)
+    silent = missing.all(axis=1)
+    if silent.all():
+        raise TelemetryError(asset_id, "no_data", "no channel has a value in the window")
+    for j in np.flatnonzero(silent):
+        # a sensor that gives no reading while the others do: its fault, not the data's
+        span = (int(rows.ts[-1] - rows.ts[0]) + dt_ns) / NS_PER_SECOND
+        _fail(rows, asset_id, "silent_channel",
+              f"channel {rows.channels[j]!r} has no value in the window "
+              f"({format_duration(span)}) while the others have", 0,
+              channel=rows.channels[j], excess=(span, float(policy.max_gap)))
     first = rows
     while True:     # leaving rows out can widen another channel's gap: until none is left
         unbridged = _unbridged(rows, missing, policy, dt_ns)

@@ -131,6 +131,12 @@ def _stuck(path):
     return "stuck_channel", 300
 
 
+def _dead_sensor(path):
+    # the speed sensor gives no reading all night, the other channels do
+    _rewrite(path, _set(slice(None), "shaft_speed", float("nan")))
+    return "silent_channel", 0
+
+
 def _missing_column(path):
     _rewrite(path, lambda frame: frame.drop(columns=["fuel_rate"]))
     return "schema", None
@@ -167,7 +173,7 @@ def _not_parquet(path):
 
 BREAKAGES = {"plus_inf": _plus_inf, "minus_inf": _minus_inf,
              "backward_timestamp": _backward, "duplicate_timestamp": _duplicate,
-             "stuck_sensor": _stuck, "missing_column": _missing_column,
+             "stuck_sensor": _stuck, "dead_sensor": _dead_sensor, "missing_column": _missing_column,
              "strings_in_numeric_column": _strings, "out_of_range": _out_of_range,
              "truncated_file": _truncated, "zero_byte_file": _zero_bytes,
              "not_parquet": _not_parquet}
@@ -243,7 +249,7 @@ def test_fault_bad_telemetry(how, workspace, fleet, clean, count, capsys):
     assert summary["coverage"]["missed"] == [BAD_ASSET]
     assert summary["coverage"]["failed"] == 1 and summary["exit_status"] == 1
     sensor = ([(BAD_ASSET, day(BAD_DAY).isoformat(), "shaft_speed", kind)]
-              if kind in ("stuck_channel", "out_of_range") else [])
+              if kind in ("stuck_channel", "out_of_range", "silent_channel") else [])
     assert [(a["asset_id"], a["window_start"], a["channel"], a["tier"])
             for a in bad["alerts"] if a["kind"] == "sensor"] == sensor
     assert all(a["kind"] != "sensor" for r in summary["assets"] for a in r["alerts"]

@@ -54,6 +54,18 @@ def test_an_impossible_reading_is_an_alert_graded_by_its_distance_from_the_range
     assert alert.likely_cause() == "speed sensor out of range"
 
 
+def test_a_sensor_without_a_reading_all_night_is_an_alert_of_its_channel():
+    # two hours of 10-s rows (720), the flow's readings all missing: a dead sensor
+    error = _error(raw_frame(speed=_speed(), flow=np.full(720, np.nan)))
+    assert (error.kind, error.channel, error.row) == ("silent_channel", "flow", 0)
+    assert error.excess == (7200.0, 240.0)  # 2 h without a reading, max_gap 4 min
+    alert = sensor_alert(error, **NIGHT)
+    assert (alert.kind, alert.channel, alert.tier, alert.ratio, alert.severity) == \
+        (SENSOR, "flow", "silent_channel", 30.0, "critical")
+    assert alert.hint() == "sensor flow gave no reading for 7200 s (max_gap 240 s)"
+    assert alert.likely_cause() == "flow sensor silent"
+
+
 def test_the_data_s_faults_are_not_a_sensor_s():
     frame = raw_frame(speed=_speed())
     frame.loc[frame.index[300], "timestamp"] = frame["timestamp"].iloc[299]

@@ -320,10 +320,16 @@ def test_values_missing_longer_than_max_gap_are_missing_rows(tmp_path):
     error = window_error(tmp_path, "gap", ["a", "b"])
     assert "no row has every channel's value within max_gap=40s" in error.message
     assert "'a', 'b'" in error.message
+    # a channel without any value while the other has one: a dead sensor, named
     empty = pa.array([None] * 30, type=pa.float64())
+    write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=empty,
+                b=pa.array([float(-i) for i in range(30)]))
+    error = window_error(tmp_path, "silent_channel", ["a", "b"])
+    assert "channel 'a' has no value in the window (5min) while the others have" in error.message
+    assert (error.channel, error.excess) == ("a", (300.0, 40.0))
+    # no channel with a value: a window without data
     write_table(day_dir(tmp_path) / "n.parquet", timestamp=arrow_ts(stamps), a=empty)
-    assert "channel 'a' has no value in the window" in window_error(
-        tmp_path, "non_finite", ["a"]).message
+    window_error(tmp_path, "no_data", ["a"])
 
 
 def test_duplicate_timestamp(tmp_path):
