@@ -88,6 +88,21 @@ parameter and a gain through the same equilibrium; two parameters that only ente
 score alike: the list shows both, and the gap between the first two scores says how sure the
 ranking is.
 
+**Noise, or the plant.** A plant's fault moves the one-step innovations too: with a coarse
+white box a changed heat capacity, a weaker fan or a lower flow leaves the one-step
+prediction further off, and a noise hypothesis read on the whole spread of the innovations
+explains that spread with a likelihood gain over thousands of samples that the physical
+hypothesis, scored on the k-step errors, does not reach (the plant zoo's heat pump: "supply
+noise level up" first on 13 of its 18 diagnosed nights). A sensor's extra noise cannot be
+taken back by changing the plant: so the innovations are read again with the white box
+changed by each refined parameter hypothesis (its estimate, from the noise hypothesis'
+start), and the noise hypothesis is scored on the least spread left (its estimate and
+interval stay those of the whole spread). Only a noise hypothesis' score can fall by it; a
+parameter hypothesis is scored on its k-step errors as before (given the innovations' gain
+too, parameters fitted the innovations' chance spread and took the first place from the gas
+turbine's sensor biases and the tanks' meter gain: branch `spreadgain`, not kept). A
+:func:`diagnose_window` without ``spreads_under`` scores on the whole spread.
+
 **Several windows** (a candidate of several nights, ``[nightly] candidate_nights``). Their
 evidence adds up: the same night twice gives every hypothesis twice its log-likelihood gain
 (the score gap between two hypotheses doubles; the interval narrows by
@@ -425,10 +440,15 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
     innovations = period_innovations(baseline, model, frames, interval, states)
     spreads = {start: pooled_spreads(baseline, innovations, start)
                for start in _window_starts(windows)}
+
+    def spreads_under(trial: WhiteBoxModel, start: int) -> dict[str, InnovationSpread]:
+        return pooled_spreads(baseline, period_innovations(baseline, trial, frames, interval),
+                              start)
+
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
                            min_score=min_score, time_budget=time_budget,
                            spreads=spreads.get(0), spreads_from=spreads, states=states,
-                           thinning=thinning)
+                           thinning=thinning, spreads_under=spreads_under)
 
 
 def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windows: Sequence,
@@ -437,7 +457,10 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
                     min_score: float = 0.0, time_budget: float | None = TIME_BUDGET,
                     spreads: Mapping[str, InnovationSpread] | None = None,
                     spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None,
-                    states: Sequence | None = None, thinning: int = 1) -> Diagnosis:
+                    states: Sequence | None = None, thinning: int = 1,
+                    spreads_under: Callable[[WhiteBoxModel, int],
+                                            Mapping[str, InnovationSpread]] | None = None
+                    ) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
     RK4, the horizon the level tiers'), without a signature.
@@ -461,7 +484,13 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     loses the skipped starts' information: its intervals widen, honestly), and the
     baseline's share of an interval counts the errors at the level tier's own spacing
     (``thinning`` times the thinned count: the baseline level was estimated at that
-    spacing)."""
+    spacing).
+
+    ``spreads_under``: each channel's innovation spread over the periods from a start on
+    with a changed white box, ``spreads_under(model, start)``; with it, a noise hypothesis
+    read on the innovations is scored on the spread left once the refined parameter
+    hypotheses have taken back what they can (the module's "Noise, or the plant"). Without
+    it a noise hypothesis is scored on the whole spread."""
     if int(thinning) != thinning or thinning < 1:
         raise ValueError(f"thinning must be a whole number of at least 1, got {thinning!r}")
     clock = _Deadline(time_budget)
@@ -472,7 +501,8 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
         try:
             by_start = {**(spreads_from or {}), **({0: spreads} if spreads else {})}
             return _diagnose_window(model, levels, windows, setup, hypotheses, level,
-                                    min_score, clock, by_start, states, int(thinning))
+                                    min_score, clock, by_start, states, int(thinning),
+                                    spreads_under)
         except _OutOfTime:
             raise GrayBoxError(f"the diagnosis stopped at its time budget of {time_budget:g} s "
                                f"after {clock.fitted} of {len(hypotheses)} hypotheses (a "
@@ -504,7 +534,8 @@ class _Deadline:
 def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score,
                      clock: _Deadline,
                      spreads: Mapping[int, Mapping[str, InnovationSpread]],
-                     states: Sequence | None = None, thinning: int = 1) -> Diagnosis:
+                     states: Sequence | None = None, thinning: int = 1,
+                     spreads_under=None) -> Diagnosis:
     frames, interval = operating_segments(windows)
     if setup is None:
         setup = ErrorSetup.default(interval, horizon=next(iter(levels.values())).horizon,
@@ -643,6 +674,11 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
             fits[index] = fit
             refined.add(index)
             first_gains[index] = _gain(fit, healthy, sigma, weights)
+    # a noise hypothesis is scored on the spread that no refined parameter hypothesis takes
+    # back: a plant's fault moves the one-step innovations too, a sensor's noise stays
+    left = ({} if spreads_under is None else
+            _spread_left(fits, [fits[i] for i in sorted(refined)
+                                if fits[i].kind == "parameter"], model, spreads_under, clock))
     # the second weights: the autocorrelation of what the best explanation leaves
     best = fits[int(np.argmax(first_gains))] if fits else None
     effective = n_eff(best.residuals if best is not None else healthy)
@@ -658,7 +694,8 @@ def _diagnose_window(model, levels, windows, setup, hypotheses, level, min_score
     base_counts = np.array([max(levels[c].n_obs, 1) for c in channels])
     results = []
     for index, fit in enumerate(fits):
-        gain = _gain(fit, healthy, sigma, weights)
+        gain = (_gain(fit, healthy, sigma, weights) if index not in left
+                else _noise_gain(left[index], fit.evidence_samples))
         # BIC on the hypothesis' own evidence: a noise hypothesis read on the innovations
         # pays for its free value in their effective samples
         own_penalty = (penalty if fit.evidence_samples is None
@@ -1102,13 +1139,43 @@ def _gain(fit: _Fit, healthy, sigma, weights) -> float:
     """The hypothesis' log-likelihood over the healthy one's, each channel's scaled by its
     weight ``N_eff / N``."""
     if fit.kind == "noise":
-        q = fit.value ** 2
         n = (weights[fit.channel] * len(healthy[fit.channel]) if fit.evidence_samples is None
              else fit.evidence_samples)
-        # the likelihood's maximum over s >= 1: a fall of the spread is s = 1, no gain
-        return float(n / 2 * (q - 1 - np.log(q))) if q > 1 else 0.0
+        return _noise_gain(fit.value ** 2, n)
     return float(sum(w * (np.sum(h ** 2) - np.sum(r ** 2)) / (2 * s ** 2)
                      for h, r, s, w in zip(healthy, fit.residuals, sigma, weights)))
+
+
+def _spread_left(fits: list, parameters: list, model: WhiteBoxModel, spreads_under,
+                 clock: "_Deadline") -> dict[int, float]:
+    """Per noise hypothesis read on the innovations (by index in ``fits``), the least spread
+    ratio of its channel's innovations from its start on with the white box changed by one
+    of the refined ``parameters`` hypotheses (their estimates), where that is below its own:
+    what a sensor's extra noise would still have to explain."""
+    noise = {i: f for i, f in enumerate(fits)
+             if f.kind == "noise" and f.evidence_samples is not None and f.value > 1.0}
+    left: dict[int, float] = {}
+    for fit in parameters if noise else ():
+        trial = with_parameters(model, {fit.target: _value(fit)})
+        by_start: dict[int, Mapping[str, InnovationSpread]] = {}
+        for index, spread in noise.items():
+            if spread.start not in by_start:
+                clock.check()
+                try:
+                    by_start[spread.start] = spreads_under(trial, spread.start)
+                except GrayBoxError:     # the changed white box cannot run over the window
+                    by_start[spread.start] = {}
+            after = by_start[spread.start].get(spread.target)
+            if after is not None and after.ratio < left.get(index, spread.value ** 2):
+                left[index] = after.ratio
+    return left
+
+
+def _noise_gain(q: float, samples: float) -> float:
+    """A noise hypothesis' log-likelihood gain for a variance ratio ``q`` over ``samples``
+    effective samples: its maximum over factors ``s >= 1`` (a fall of the spread is
+    ``s = 1``, no gain)."""
+    return float(samples / 2 * (q - 1 - np.log(q))) if q > 1 else 0.0
 
 
 def _value(fit: _Fit) -> float:

@@ -253,13 +253,19 @@ def test_a_noisier_sensor_is_read_on_the_one_step_innovations(quiet_baseline):
             assert h.interval[0] < 1.0 < h.interval[1]
 
 
-def test_a_noise_change_the_k_step_errors_barely_see_is_ranked_first():
+@pytest.fixture(scope="module")
+def pushed_baseline():
+    """A baseline fitted on two windows with random pushes (the module's usual drive)."""
+    import graybox as gb
+    return gb.fit_signatures([gb.FitRequest(Drive(), [drive_frame(Drive(), seed)
+                                                      for seed in (0, 1)])])[0]
+
+
+def test_a_noise_change_the_k_step_errors_barely_see_is_ranked_first(pushed_baseline):
     # with random pushes the temperature's k-step errors are mostly accumulated pushes; its
     # innovations' variance rises by a share c of the sensor's: 1 + c (s^2 - 1), the same c
     # for x1.5 and x2
-    import graybox as gb
-    baseline = gb.fit_signatures([gb.FitRequest(Drive(), [drive_frame(Drive(), seed)
-                                                          for seed in (0, 1)])])[0]
+    baseline = pushed_baseline
     shares = []
     for factor in (1.5, 2.0):
         diagnosis = diagnose(baseline, [drive_frame(Drive(), 10, noise=(1.0, factor))], Drive())
@@ -268,6 +274,33 @@ def test_a_noise_change_the_k_step_errors_barely_see_is_ranked_first():
         shares.append((best.estimate ** 2 - 1) / (factor ** 2 - 1))
     assert 0.3 < shares[0] < 1.0
     assert shares[1] == pytest.approx(shares[0], rel=0.1)
+
+
+def test_a_change_of_the_plants_dynamics_is_not_read_as_a_noisier_sensor(pushed_baseline):
+    # the bearing's heat capacity 50 -> 30: the temperature's one-step innovations spread
+    # 3.8 times the baseline's, which a noise hypothesis read on them alone explains; the
+    # heat-capacity hypothesis takes them back to 1.11, and the noise hypothesis is scored
+    # on what is left
+    baseline = pushed_baseline
+    window = [drive_frame(with_parameters(Drive(), {"heat_capacity": 30.0}), 10)]
+    diagnosis = diagnose(baseline, window, Drive())
+    best = diagnosis.best
+    assert best.target == "heat_capacity" and best.estimate == pytest.approx(30.0, rel=0.02)
+    before = innovation_spreads(baseline, Drive(), window, DT)["temperature"]
+    after = innovation_spreads(baseline, with_parameters(Drive(), {"heat_capacity": best.estimate}),
+                               window, DT)["temperature"]
+    assert before.ratio > 3.5 and after.ratio < 1.15
+    noise = next(h for h in diagnosis.hypotheses if h.hypothesis == "temperature noise level")
+    assert noise.estimate == pytest.approx(math.sqrt(before.ratio))    # the spread it saw
+    assert noise.log_likelihood_gain == pytest.approx(
+        before.effective_samples / 2 * (after.ratio - 1 - math.log(after.ratio)))
+    assert noise.score < 0
+    # on the whole spread (no white box to change) it came third, after two parameters
+    levels = {c: baseline.channel(c).level for c in Drive().outputs}
+    whole = diagnose_window(Drive(), levels, window,
+                            spreads=innovation_spreads(baseline, Drive(), window, DT))
+    assert whole.hypotheses[2].hypothesis == "temperature noise level"
+    assert whole.hypotheses[2].score > 500
 
 
 def test_the_evidence_holds_the_residual_and_what_the_best_three_leave(levels):
