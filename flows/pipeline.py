@@ -45,6 +45,7 @@ from graybox.signature import Signature
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import GridPolicy, list_dates, read_window
 from graybox.telemetry.layout import outside_links
+from graybox.telemetry.policy import format_duration
 
 from flows import progress
 from flows.batching import guard_asset_error
@@ -402,6 +403,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
     empty = []
     short = []          # windows with too little operation to read (not bad telemetry)
     gapped = []         # (window start, gaps) of a continuous class's windows with gaps
+    unread = []         # (window start, channel, seconds) of readings missing too long
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
     spans = []          # the nights of the windows taken (the telemetry's days)
@@ -459,6 +461,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                 continue
             if telemetry.n_periods > 1 and not job.grid.intermittent:
                 gapped.append((start, telemetry.n_periods - 1))
+            unread += [(start, channel, rows * telemetry.sample_interval)
+                       for channel, rows in telemetry.unread]
             asset.windows.append(PendingWindow(window.start, end, telemetry,
                                                earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
@@ -478,6 +482,11 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                      f"for longer than the grid's max_gap: " + ", ".join(
                          f"{start.isoformat()} ({gaps} gap{'s' if gaps > 1 else ''})"
                          for start, gaps in gapped))
+    if unread:  # a sensor's dropout: its rows left out, said (a dead sensor at the end)
+        notes.append("left out rows where a channel had no reading for longer than the "
+                     "grid's max_gap: " + ", ".join(
+                         f"{start.isoformat()} {channel!r} {format_duration(seconds)}"
+                         for start, channel, seconds in unread))
     if links:
         notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
                      f"{', '.join(links)}")

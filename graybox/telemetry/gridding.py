@@ -1,6 +1,8 @@
 """Putting validated raw rows on the uniform time grid the tiers assume."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
@@ -64,7 +66,14 @@ def to_grid(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy())
 def grid_rows(rows: Rows, asset_id: str, dt_ns: int, starts: np.ndarray | None = None
               ) -> TelemetryWindow:
     """:func:`to_grid` on validated, increasing :class:`Rows` at a step of ``dt_ns``; each
-    operating period (rows from ``starts[i]`` on; default: one period) on its own grid."""
+    operating period (rows from ``starts[i]`` on; default: one period) on its own grid;
+    ``rows.unread`` is the window's ``unread``."""
+    window = _grid_rows(rows, asset_id, dt_ns, starts)
+    return replace(window, unread=rows.unread) if rows.unread else window
+
+
+def _grid_rows(rows: Rows, asset_id: str, dt_ns: int, starts: np.ndarray | None
+               ) -> TelemetryWindow:
     if starts is None or len(starts) < 2:
         return _grid_period(rows, asset_id, dt_ns)
     bounds = np.append(starts, len(rows))

@@ -41,6 +41,9 @@ class Rows:
         Per row, True where held rows were dropped just before it
         (:func:`graybox.telemetry.holds.drop_held_rows`): a step from the previous row longer
         than ``max_gap`` there separates two operating periods; None: no row was held.
+    unread : tuple of (str, int)
+        Per channel, the rows left out because its value was missing for longer than
+        ``max_gap`` (:func:`graybox.telemetry.validation.fill_missing`); empty: none.
     """
 
     ts: np.ndarray
@@ -51,6 +54,7 @@ class Rows:
     file_row: np.ndarray | None = None
     missing: np.ndarray | None = None
     after_hold: np.ndarray | None = None
+    unread: tuple[tuple[str, int], ...] = ()
 
     def __len__(self) -> int:
         return len(self.ts)

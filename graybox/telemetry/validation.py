@@ -134,17 +134,23 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
               f"({format_duration(span)}) while the others have", 0,
               channel=rows.channels[j], excess=(span, float(policy.max_gap)))
     first = rows
+    unread = np.zeros(len(rows.channels), dtype=int)
     while True:     # leaving rows out can widen another channel's gap: until none is left
         unbridged = _unbridged(rows, missing, policy, dt_ns)
         if not unbridged.any():
             break
-        if unbridged.all():
+        left_out = unbridged.any(axis=0)
+        if left_out.all():
             gaps = ", ".join(repr(c) for c, m in zip(rows.channels, missing.any(axis=1)) if m)
             _fail(first, asset_id, "gap",
                   f"no row has every channel's value within max_gap="
                   f"{format_duration(policy.max_gap)} of it (missing: {gaps})", 0)
-        rows = rows.take(~unbridged)
+        unread += unbridged.sum(axis=1)
+        rows = rows.take(~left_out)
         missing = np.isnan(rows.values)
+    if unread.any():
+        rows = replace(rows, unread=tuple((c, int(k)) for c, k in zip(rows.channels, unread)
+                                          if k))
     if not missing.any():
         return rows
     values = rows.values.copy()
@@ -159,11 +165,11 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
 
 
 def _unbridged(rows: Rows, missing: np.ndarray, policy: GridPolicy, dt_ns: int) -> np.ndarray:
-    """Per row, True where a channel's value is missing (``missing``, per channel and row)
-    and its values around it in its operating period lie further apart than ``max_gap`` (the
-    period's ends stand in for a value beyond them), or the channel has no value in that
-    period at all."""
-    out = np.zeros(len(rows), dtype=bool)
+    """Per channel and row, True where the channel's value is missing (``missing``, per
+    channel and row) and its values around it in its operating period lie further apart than
+    ``max_gap`` (the period's ends stand in for a value beyond them), or the channel has no
+    value in that period at all."""
+    out = np.zeros(missing.shape, dtype=bool)
     allowed = bridged_intervals(policy, dt_ns)
     bounds = np.append(period_starts(rows, policy, dt_ns), len(rows))
     for a, b in zip(bounds[:-1], bounds[1:]):
@@ -171,13 +177,13 @@ def _unbridged(rows: Rows, missing: np.ndarray, policy: GridPolicy, dt_ns: int) 
         for j in np.flatnonzero(missing[:, a:b].any(axis=1)):
             lost, have = np.flatnonzero(missing[j, a:b]), np.flatnonzero(~missing[j, a:b])
             if not have.size:
-                out[a:b] = True
+                out[j, a:b] = True
                 continue
             after = np.searchsorted(have, lost)
             before_ts = np.where(after > 0, ts[have[np.maximum(after - 1, 0)]], ts[0])
             after_ts = np.where(after < have.size, ts[have[np.minimum(after, have.size - 1)]],
                                 ts[-1])
-            out[a + lost[intervals(after_ts - before_ts, dt_ns) > allowed]] = True
+            out[j, a + lost[intervals(after_ts - before_ts, dt_ns) > allowed]] = True
     return out
 
 

@@ -28,6 +28,9 @@ class TelemetryWindow:
         step). Points interpolated between jittered raw samples are not counted.
     files : tuple of str
         The files whose rows make up the window, in read order.
+    unread : tuple of (str, int)
+        Per channel, the rows left out because its readings were missing for longer than
+        ``GridPolicy.max_gap`` (a sensor's dropout); empty: none.
 
     Notes
     -----
@@ -41,6 +44,7 @@ class TelemetryWindow:
     sample_interval: float
     filled_samples: int
     files: tuple[str, ...]
+    unread: tuple[tuple[str, int], ...] = ()
     # per grid point: True where it was filled across a gap (lets split apportion the count)
     _filled_mask: np.ndarray | None = field(repr=False, compare=False, default=None)
     # per grid point: indexes into files of the raw samples bracketing it (lets split name

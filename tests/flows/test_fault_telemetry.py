@@ -182,11 +182,15 @@ BREAKAGES = {"plus_inf": _plus_inf, "minus_inf": _minus_inf,
 def test_a_logger_outage_is_read_in_two_parts_and_said(workspace, fleet, clean, capsys):
     """Rows missing for longer than max_gap (20 samples of 30 s, 10 minutes; max_gap is 4):
     not bad telemetry, a logger's outage. The night is analysed in its two parts, committed
-    as in a clean run, and the asset's result says that it was read in parts."""
+    as in a clean run, and the asset's result says that it was read in parts; a sensor that
+    goes silent for the night's last 40 minutes leaves those rows out, also said."""
     root = workspace.path / "telemetry"
     shutil.copytree(fleet.root, root)
-    _rewrite(root / f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet",
-             lambda frame: frame.drop(index=range(300, 320)).reset_index(drop=True))
+
+    def change(frame):
+        frame.loc[2800:, "shaft_speed"] = float("nan")
+        return frame.drop(index=range(300, 320)).reset_index(drop=True)
+    _rewrite(root / f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet", change)
     workspace.configure(telemetry=root)
     status, summary, err = _run(capsys, workspace.config)
     assert status == 0, err
@@ -197,6 +201,8 @@ def test_a_logger_outage_is_read_in_two_parts_and_said(workspace, fleet, clean, 
         day(BAD_DAY - 1).isoformat(), day(BAD_DAY).isoformat()]
     assert (f"read 1 window(s) in parts, split where rows were missing for longer than the "
             f"grid's max_gap: {day(BAD_DAY).isoformat()} (1 gap)") in bad["note"]
+    assert (f"left out rows where a channel had no reading for longer than the grid's "
+            f"max_gap: {day(BAD_DAY).isoformat()} 'shaft_speed' 40min") in bad["note"]
     state = committed_state(workspace.registry())
     assert state["watermarks"] == clean.state["watermarks"]
     assert state["baselines"] == clean.state["baselines"]

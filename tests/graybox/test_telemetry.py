@@ -309,6 +309,7 @@ def test_values_missing_longer_than_max_gap_are_missing_rows(tmp_path):
                 a=values, b=pa.array([float(-i) for i in range(30)]))
     window = read_window(tmp_path, "T-1", ["a", "b"], policy=POLICY)
     assert window.n_periods == 2 and window.filled_samples == 0
+    assert window.unread == (("a", 5),)             # what the flows say
     first, second = window.periods()
     assert list(first["a"]) == [float(i) for i in range(10)]
     assert list(second["a"]) == [float(i) for i in range(15, 30)]
