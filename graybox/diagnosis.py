@@ -1151,7 +1151,8 @@ def _spread_left(fits: list, parameters: list, model: WhiteBoxModel, spreads_und
     """Per noise hypothesis read on the innovations (by index in ``fits``), the least spread
     ratio of its channel's innovations from its start on with the white box changed by one
     of the refined ``parameters`` hypotheses (their estimates), where that is below its own:
-    what a sensor's extra noise would still have to explain."""
+    what a sensor's extra noise would still have to explain. Past the diagnosis' time budget
+    the hypotheses read so far stand (as a refinement's screened value does)."""
     noise = {i: f for i, f in enumerate(fits)
              if f.kind == "noise" and f.evidence_samples is not None and f.value > 1.0}
     left: dict[int, float] = {}
@@ -1160,9 +1161,11 @@ def _spread_left(fits: list, parameters: list, model: WhiteBoxModel, spreads_und
         by_start: dict[int, Mapping[str, InnovationSpread]] = {}
         for index, spread in noise.items():
             if spread.start not in by_start:
-                clock.check()
                 try:
+                    clock.check()
                     by_start[spread.start] = spreads_under(trial, spread.start)
+                except _OutOfTime:
+                    return left
                 except GrayBoxError:     # the changed white box cannot run over the window
                     by_start[spread.start] = {}
             after = by_start[spread.start].get(spread.target)
