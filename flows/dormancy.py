@@ -28,6 +28,7 @@ from graybox.stage_clock import StageClock, timed
 
 from flows.batching import guard_asset_error
 from flows.config import FleetConfig
+from flows.config.settings import FROM_ALERTS
 from flows.discovery import utc
 from flows.pipeline import PendingAsset
 from flows.results import DORMANT, NOT_OPERATING
@@ -92,11 +93,23 @@ def is_dormant(last: LastOperated, as_of, limit: pd.Timedelta | None) -> bool:
     return limit is not None and utc(as_of) - last.end > limit
 
 
-def dormant_note(last: LastOperated, as_of, limit_text: str) -> str:
-    """Why an asset is dormant: since when it has not operated, the limit, what to check."""
+def dormancy_limit(config: FleetConfig, vehicle_class: str) -> tuple[str | None, str]:
+    """How long an asset of ``vehicle_class`` may not operate (a duration, None: the check
+    is off), and the key that says so: its class's ``not_operating_after``, or by default
+    (:data:`flows.config.settings.FROM_ALERTS`) ``[alerts] not_operating_after``."""
+    own = config.classes.get(vehicle_class)
+    if own is not None and own.not_operating_after != FROM_ALERTS:
+        return own.not_operating_after, f"[classes.{vehicle_class}] not_operating_after"
+    return config.alerts.not_operating_after, "[alerts] not_operating_after"
+
+
+def dormant_note(last: LastOperated, as_of, limit_text: str,
+                 key: str = "[alerts] not_operating_after") -> str:
+    """Why an asset is dormant: since when it has not operated, the limit (and the key
+    that set it), what to check."""
     age = (utc(as_of) - last.end) / DAY
     return (f"dormant: not operating for {age:.1f} days ({last.describe()}), longer than "
-            f"[alerts] not_operating_after = {limit_text}: is it out of service (then leave "
+            f"{key} = {limit_text}: is it out of service (then leave "
             f"it out of the fleet, or raise or turn off not_operating_after), or does its "
             f"class's grid drop the time it ran (`running` bounds too strict, or a "
             f"`min_duration` longer than it runs)?")
@@ -105,17 +118,19 @@ def dormant_note(last: LastOperated, as_of, limit_text: str) -> str:
 def settle_dormant(config: FleetConfig, registry, group: Sequence[PendingAsset], as_of,
                    clock: StageClock | None = None) -> None:
     """Each ``not operating`` asset of a nightly group that has not operated for longer
-    than ``[alerts] not_operating_after`` before ``as_of`` becomes ``dormant``, its note
-    saying why (:func:`dormant_note`). Called before the group's watermarks move: an asset
+    than its limit (:func:`dormancy_limit`: its class's ``not_operating_after``, by default
+    ``[alerts] not_operating_after``) before ``as_of`` becomes ``dormant``, its note saying
+    why (:func:`dormant_note`). Called before the group's watermarks move: an asset
     whose look-up fails is failed (its watermark kept); a passing failure of the store is
     raised (the batch is retried)."""
-    limit = config.alerts.not_operating_after_delta
-    if limit is None:
-        return
     for pending in group:
         result = pending.result
         if result.status != NOT_OPERATING or pending.reference is None:
             continue
+        limit_text, key = dormancy_limit(config, pending.ref.vehicle_class)
+        if limit_text is None:
+            continue
+        limit = pd.Timedelta(limit_text)
         reference = pending.reference
         try:
             with timed(clock, "registry"):
@@ -126,6 +141,6 @@ def settle_dormant(config: FleetConfig, registry, group: Sequence[PendingAsset],
             pending.fail(error)
             continue
         if is_dormant(last, as_of, limit):
-            note = dormant_note(last, as_of, config.alerts.not_operating_after)
+            note = dormant_note(last, as_of, limit_text, key)
             result.status = DORMANT
             result.note = note if not result.note else f"{result.note}; {note}"

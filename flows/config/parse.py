@@ -16,7 +16,7 @@ import pandas as pd
 
 from flows.config.checker import Checker
 from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI,
-                                   PLOT_POLICIES, TASK_RUNNERS, AlertSettings, DaskSettings,
+                                   FROM_ALERTS, PLOT_POLICIES, TASK_RUNNERS, AlertSettings, DaskSettings,
                                    FleetConfig, NightlySettings, NotificationSettings,
                                    ScheduleSettings, VehicleClass, resolve_tracking_uri)
 from flows.errors import ConfigError
@@ -262,7 +262,7 @@ def _vehicle_class(check: Checker, name: str, table: Mapping,
     if _CLASS_NAME.fullmatch(name) is None or name in (".", ".."):
         raise check.error(key, "a vehicle class name must match [A-Za-z0-9_.-]{1,64}")
     check.keys(key, table, ("model", "parameters", "assets", "columns", "settings", "grid",
-                            "estimate"))
+                            "estimate", "not_operating_after"))
     if "model" not in table:
         raise check.error(f"{key}.model", "missing: name the physics model, e.g. "
                                           "\"graybox.models:GasTurbineShaft\", or an FMU "
@@ -320,8 +320,12 @@ def _vehicle_class(check: Checker, name: str, table: Mapping,
                            overrides)
 
     grid = _grid(check, f"{key}.grid", check.table(f"{key}.grid", table.get("grid", {})))
+    calm = table.get("not_operating_after", FROM_ALERTS)
+    if calm != FROM_ALERTS:
+        calm = _duration_or_off(check, f"{key}.not_operating_after", calm,
+                                "'30D', '36h', \"alerts\" (the [alerts] value)")
     return VehicleClass(name, model, dict(parameters), tuple(assets), dict(columns), settings,
-                        grid, estimate)
+                        grid, estimate, calm)
 
 
 def _fmu_file(check: Checker, key: str, model: str, base: pathlib.Path) -> str:

@@ -177,7 +177,12 @@ def sections() -> list[Section]:
                              "(candidates use their baseline's own); next table",
                  "grid": "overrides of how telemetry is checked and gridded; table after next",
                  "estimate": "white-box parameters each new baseline first fits to its asset's "
-                             "healthy windows (\"A white box tuned to each asset\" below)"},
+                             "healthy windows (\"A white box tuned to each asset\" below)",
+                 "not_operating_after": "how long the class's assets may not operate before "
+                                        "they are `dormant` (a duration, or `\"off\"`); "
+                                        "`\"alerts\"`: `[alerts] not_operating_after` (a "
+                                        "wind farm calm for a week beside buses parked "
+                                        "over a weekend)"},
                 lists=("estimate",)),
         Section("settings", "classes.<name>.settings",
                 "`settings = { ... }` of a class: `graybox.GrayBoxSettings` "

@@ -30,6 +30,10 @@ MAX_AUTO_PROCESSES = 4
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
 
 
+#: a class's ``not_operating_after`` that takes the fleet's, ``[alerts] not_operating_after``
+FROM_ALERTS = "alerts"
+
+
 @dataclass(frozen=True)
 class VehicleClass:
     """One ``[classes.<name>]`` table.
@@ -54,6 +58,9 @@ class VehicleClass:
     estimate : tuple of str
         White-box parameters each new baseline fits to its asset's healthy windows first
         (``graybox.FitRequest.estimate``); default none.
+    not_operating_after : str or None
+        How long the class's assets may not operate before they are ``dormant`` (a duration,
+        None: never); :data:`FROM_ALERTS`, the default: ``[alerts] not_operating_after``.
     """
 
     name: str
@@ -64,6 +71,7 @@ class VehicleClass:
     settings: Any
     grid: Any
     estimate: tuple[str, ...] = ()
+    not_operating_after: str | None = FROM_ALERTS
 
     def load_model(self):
         """The class's physics model (a :class:`graybox.models.WhiteBoxModel`)."""

@@ -95,7 +95,7 @@ def test_a_dormant_asset_is_named_with_its_baseline_and_a_failed_look_up_keeps_i
     from registry import RegistryError
 
     config = SimpleNamespace(alerts=AlertSettings(not_operating_after="36h"),
-                             nightly=NightlySettings())
+                             nightly=NightlySettings(), classes={})
     baseline = SimpleNamespace(version=3, info=SimpleNamespace(window_end=_night(2)[1]))
 
     def calm(night: int):
@@ -112,6 +112,15 @@ def test_a_dormant_asset_is_named_with_its_baseline_and_a_failed_look_up_keeps_i
         "dormant: not operating for 2.0 days (no night monitored since its baseline v3, whose "
         "window ended 2026-03-04 00:00 UTC), longer than [alerts] not_operating_after = 36h")
     assert far.watermark_end == _night(4)[1]              # it still moves past the calm night
+    # a class with its own limit (pumps parked for days) keeps to it, and names it
+    patient, lazy = calm(4), calm(4)
+    for limit, asset in (("5D", patient), ("1D", lazy)):
+        own = SimpleNamespace(alerts=config.alerts, nightly=config.nightly,
+                              classes={"pumps": SimpleNamespace(not_operating_after=limit)})
+        settle_dormant(own, _Recorded(), [asset], as_of=_night(5)[0])
+    assert patient.result.status == "not operating" and patient.result.note is None
+    assert lazy.result.status == "dormant" and "longer than [classes.pumps] " \
+        "not_operating_after = 1D" in lazy.result.note
     settle_dormant(config, _Recorded(error=RegistryError("the store said no")), [lost],
                    as_of=_night(5)[0])
     assert lost.result.status == "failed" and lost.watermark_end is None

@@ -102,6 +102,23 @@ def test_not_operating_after_defaults_to_a_week_and_can_be_turned_off(tmp_path):
     assert rendered.alerts.not_operating_after == "7D"
 
 
+def test_a_class_may_set_its_own_not_operating_after(tmp_path):
+    from flows.dormancy import dormancy_limit
+
+    fleet = "[alerts]\nnot_operating_after = \"36h\"\n" + MINIMAL
+    config = load_config(write(tmp_path, fleet))
+    assert dormancy_limit(config, "turbine") == ("36h", "[alerts] not_operating_after")
+    for own, limit in (('"30D"', "30D"), ('"off"', None), ('"alerts"', "36h")):
+        config = load_config(write(tmp_path, fleet.replace(
+            "assets = ", f"not_operating_after = {own}\nassets = ", 1)))
+        key = ("[classes.turbine] not_operating_after" if own != '"alerts"'
+               else "[alerts] not_operating_after")
+        assert dormancy_limit(config, "turbine") == (limit, key), own
+    with pytest.raises(ConfigError, match=r"classes\.turbine\.not_operating_after"):
+        load_config(write(tmp_path, fleet.replace("assets = ", "not_operating_after = \"soon\"\n"
+                                                              "assets = ", 1)))
+
+
 @pytest.mark.parametrize("text, where", [
     (MINIMAL.replace('model = ', 'modle = '), "fleet.toml: classes.turbine.modle: unknown key"),
     (MINIMAL + 'settings = { max_ar_order = 10 }\n',
