@@ -483,8 +483,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                          f"{start.isoformat()} ({gaps} gap{'s' if gaps > 1 else ''})"
                          for start, gaps in gapped))
     if unread:  # a sensor's dropout: its rows left out, said (a dead sensor at the end)
-        notes.append("left out rows where a channel had no reading for longer than the "
-                     "grid's max_gap: " + ", ".join(
+        notes.append("left out rows where a channel had no reading (longer than the grid's "
+                     "max_gap, or a running channel's): " + ", ".join(
                          f"{start.isoformat()} {channel!r} {format_duration(seconds)}"
                          for start, channel, seconds in unread))
     if links:

@@ -42,8 +42,10 @@ class Rows:
         (:func:`graybox.telemetry.holds.drop_held_rows`): a step from the previous row longer
         than ``max_gap`` there separates two operating periods; None: no row was held.
     unread : tuple of (str, int)
-        Per channel, the rows left out because its value was missing for longer than
-        ``max_gap`` (:func:`graybox.telemetry.validation.fill_missing`); empty: none.
+        Per channel, the rows left out because its value was missing: for longer than
+        ``max_gap`` (:func:`graybox.telemetry.validation.fill_missing`), or at all in a
+        ``running`` channel (:func:`graybox.telemetry.validation.running_rows`); empty: none.
+        Kept by :meth:`take` and :meth:`slice` (the window's count so far).
     """
 
     ts: np.ndarray
@@ -73,7 +75,7 @@ class Rows:
                     None if self.file_index is None else self.file_index[index],
                     None if self.file_row is None else self.file_row[index],
                     None if self.missing is None else self.missing[index],
-                    None if self.after_hold is None else self.after_hold[index])
+                    None if self.after_hold is None else self.after_hold[index], self.unread)
 
     def slice(self, start: int, stop: int) -> "Rows":
         """Rows ``start`` to ``stop - 1``, still tagged against all of ``files``."""
@@ -82,7 +84,7 @@ class Rows:
                     None if self.file_index is None else self.file_index[part],
                     None if self.file_row is None else self.file_row[part],
                     None if self.missing is None else self.missing[part],
-                    None if self.after_hold is None else self.after_hold[part])
+                    None if self.after_hold is None else self.after_hold[part], self.unread)
 
     @classmethod
     def from_frame(cls, raw: pd.DataFrame) -> "Rows":

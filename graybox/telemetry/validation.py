@@ -149,8 +149,10 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
         rows = rows.take(~left_out)
         missing = np.isnan(rows.values)
     if unread.any():
-        rows = replace(rows, unread=tuple((c, int(k)) for c, k in zip(rows.channels, unread)
-                                          if k))
+        counts = dict(rows.unread)
+        for c, k in zip(rows.channels, unread):
+            counts[c] = counts.get(c, 0) + int(k)
+        rows = replace(rows, unread=tuple((c, k) for c, k in counts.items() if k))
     if not missing.any():
         return rows
     values = rows.values.copy()
@@ -239,21 +241,41 @@ def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
                  channels: Sequence[str] | None = None) -> Rows:
     """The rows in which the machine runs (``policy.running``), with ``channels`` only.
 
-    A non-finite value of a ``running`` channel is ``"non_finite"`` at its row (whether the
-    machine ran is unknown). Without ``policy.running``: every row.
+    A row whose ``running`` channel has no value (NaN, a missed reading) is left out, as
+    missing rows are (whether the machine ran then is unknown), and counted in
+    ``Rows.unread``; a ``running`` channel without any value in the window while the other
+    channels have one is ``"silent_channel"`` (a dead sensor would otherwise read as a
+    machine that never ran); an Inf is ``"non_finite"`` at its row. Without
+    ``policy.running``: every row.
     """
     keep = tuple(rows.channels if channels is None else channels)
     if not policy.running:
         return rows if keep == rows.channels else rows.take(slice(None), keep)
     on = np.ones(len(rows), dtype=bool)
+    unread = []
     for name, low, high in policy.running:
-        v = rows.values[rows.channels.index(name)]
-        if not np.isfinite(v).all():
-            i = int(np.argmax(~np.isfinite(v)))
+        j = rows.channels.index(name)
+        v = rows.values[j]
+        if np.isinf(v).any():
+            i = int(np.argmax(np.isinf(v)))
             _fail(rows, asset_id, "non_finite",
                   f"non-finite value in column {name!r}={float(v[i])!r} (a running channel)", i)
-        on &= (v >= low) & (v <= high)
-    return rows.take(on, keep)
+        lost = np.isnan(v)
+        if lost.all() and not np.isnan(np.delete(rows.values, j, axis=0)).all():
+            span = (int(rows.ts[-1] - rows.ts[0]) + _step_ns(rows.ts)) / NS_PER_SECOND
+            _fail(rows, asset_id, "silent_channel",
+                  f"channel {name!r} (a running channel) has no value in the window "
+                  f"({format_duration(span)}) while the others have", 0,
+                  channel=name, excess=(span, float(policy.max_gap)))
+        if lost.any():
+            unread.append((name, int(lost.sum())))
+        on &= (v >= low) & (v <= high)        # NaN compares False: left out
+    return replace(rows.take(on, keep), unread=rows.unread + tuple(unread))
+
+
+def _step_ns(ts: np.ndarray) -> int:
+    """The median step between rows in ns (0 for a single row)."""
+    return int(np.median(np.diff(ts))) if len(ts) > 1 else 0
 
 
 #: the kept rows' step is not the logger's where it is more than this many of all rows' steps

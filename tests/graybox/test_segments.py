@@ -231,10 +231,25 @@ def test_rows_of_a_stopped_machine_are_pauses_when_running_is_set(tmp_path):
                     policy=GridPolicy(intermittent=True, running={"motor_on": [0.5, 1.5]}))
     assert info.value.kind == "no_data"
     assert GridPolicy(running={"speed": [1.0, 100.0]}).intermittent  # implied
-    # a missing running value is an error naming its row (whether the pump ran is unknown)
+    # a missing running value leaves its row out, as a missing row (whether the pump ran
+    # then is unknown), counted; the row is filled like any missed reading
+    motor = GridPolicy(intermittent=True, running={"motor_on": [0.5, 1.5]})
     frame.loc[5, "motor_on"] = np.nan
     write_telemetry(tmp_path, "P-1", frame)
+    window = read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS, policy=motor)
+    assert [len(p) for p in window.periods()] == [3600, 3600] and window.filled_samples == 1
+    assert window.unread == (("motor_on", 1),)
+    # silent all day while the pump's sensors read: a dead sensor, not a stopped pump
+    frame["motor_on"] = np.nan
+    write_telemetry(tmp_path, "P-1", frame)
     with pytest.raises(TelemetryError) as info:
-        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS,
-                    policy=GridPolicy(intermittent=True, running={"motor_on": [0.5, 1.5]}))
+        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS, policy=motor)
+    assert (info.value.kind, info.value.channel, info.value.row) == ("silent_channel",
+                                                                    "motor_on", 0)
+    # an Inf is still bad data at its row
+    frame["motor_on"] = np.where(off, 0.0, 1.0)
+    frame.loc[5, "motor_on"] = np.inf
+    write_telemetry(tmp_path, "P-1", frame)
+    with pytest.raises(TelemetryError) as info:
+        read_window(tmp_path, "P-1", COLUMNS, inputs=INPUTS, policy=motor)
     assert info.value.kind == "non_finite" and info.value.row == 5
