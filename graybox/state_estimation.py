@@ -753,20 +753,34 @@ def _run_hidden(model, layout: _Layout, y, u, dt, integration, start: np.ndarray
             chained = _chain(start, guesses, base[:, -1], sensitivity)
             if not np.max(np.abs(chained - guesses) / scale) > CHAIN_TOLERANCE:
                 break
-        batch = np.concatenate([guesses] + [guesses + delta[i] * np.eye(n_hidden)[i]
-                                            for i in range(n_hidden)])
-        runs = _run(model, layout, y, u, dt, integration, batch,
-                    np.tile(firsts, n_hidden + 1), length)
-        base, used = runs[:len(firsts)], guesses
-        ends = base[:, -1]
-        sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
-                                / delta[i] for i in range(n_hidden)], axis=-1)
-        chained = _chain(start, guesses, ends, sensitivity)
+        base, sensitivity = _full_pass(model, layout, y, u, dt, integration, guesses, firsts,
+                                       length, delta)
+        used = guesses
+        chained = _chain(start, guesses, base[:, -1], sensitivity)
         mismatch = np.max(np.abs(chained - guesses) / scale)
         if not mismatch > CHAIN_TOLERANCE:   # chained, or diverged (NaN): stop either way
             break
         guesses = chained
     return _joined(base, firsts, length, total), used, sensitivity
+
+
+def _full_pass(model, layout: _Layout, y, u, dt, integration, guesses: np.ndarray,
+               firsts: np.ndarray, length: int, delta: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """A full pass of :func:`_run_hidden`: every chunk run from its guessed start and, beside
+    it, from the start moved by ``delta`` along each hidden state. Returns the runs from the
+    guesses (K, length + 1, n_hidden) and their ends' sensitivities to the starts
+    (K, n_hidden, n_hidden)."""
+    n_hidden = len(delta)
+    batch = np.concatenate([guesses] + [guesses + delta[i] * np.eye(n_hidden)[i]
+                                        for i in range(n_hidden)])
+    runs = _run(model, layout, y, u, dt, integration, batch,
+                np.tile(firsts, n_hidden + 1), length)
+    base = runs[:len(firsts)]
+    ends = base[:, -1]
+    sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
+                            / delta[i] for i in range(n_hidden)], axis=-1)
+    return base, sensitivity
 
 
 def _common_sensitivity(sensitivity: np.ndarray, scale: np.ndarray) -> np.ndarray | None:

@@ -64,20 +64,14 @@ def _every_pass_in_full(model, layout, y, u, dt, integration, start):
     """``_run_hidden`` as it was before its confirming pass was made lazy."""
     total = len(y)
     firsts, length = _chunks(total)
-    n_hidden = len(layout.hidden)
     scale = np.maximum(1.0, np.abs(start))
     delta = 1e-4 * scale
     guesses = np.repeat(start[None], len(firsts), axis=0)
     for _ in range(state_estimation.MAX_PASSES):
-        batch = np.concatenate([guesses] + [guesses + delta[i] * np.eye(n_hidden)[i]
-                                            for i in range(n_hidden)])
-        runs = _run(model, layout, y, u, dt, integration, batch,
-                    np.tile(firsts, n_hidden + 1), length)
-        base, used = runs[:len(firsts)], guesses
-        ends = base[:, -1]
-        sensitivity = np.stack([(runs[(i + 1) * len(firsts):(i + 2) * len(firsts), -1] - ends)
-                                / delta[i] for i in range(n_hidden)], axis=-1)
-        chained = state_estimation._chain(start, guesses, ends, sensitivity)
+        base, sensitivity = state_estimation._full_pass(model, layout, y, u, dt, integration,
+                                                        guesses, firsts, length, delta)
+        used = guesses
+        chained = state_estimation._chain(start, guesses, base[:, -1], sensitivity)
         if not np.max(np.abs(chained - guesses) / scale) > state_estimation.CHAIN_TOLERANCE:
             break
         guesses = chained
