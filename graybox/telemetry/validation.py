@@ -127,12 +127,7 @@ def fill_missing(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int) -> R
     if silent.all():
         raise TelemetryError(asset_id, "no_data", "no channel has a value in the window")
     for j in np.flatnonzero(silent):
-        # a sensor that gives no reading while the others do: its fault, not the data's
-        span = (int(rows.ts[-1] - rows.ts[0]) + dt_ns) / NS_PER_SECOND
-        _fail(rows, asset_id, "silent_channel",
-              f"channel {rows.channels[j]!r} has no value in the window "
-              f"({format_duration(span)}) while the others have", 0,
-              channel=rows.channels[j], excess=(span, float(policy.max_gap)))
+        _fail_silent(rows, asset_id, rows.channels[j], dt_ns, policy)
     first = rows
     unread = np.zeros(len(rows.channels), dtype=int)
     while True:     # leaving rows out can widen another channel's gap: until none is left
@@ -262,20 +257,24 @@ def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,
                   f"non-finite value in column {name!r}={float(v[i])!r} (a running channel)", i)
         lost = np.isnan(v)
         if lost.all() and not np.isnan(np.delete(rows.values, j, axis=0)).all():
-            span = (int(rows.ts[-1] - rows.ts[0]) + _step_ns(rows.ts)) / NS_PER_SECOND
-            _fail(rows, asset_id, "silent_channel",
-                  f"channel {name!r} (a running channel) has no value in the window "
-                  f"({format_duration(span)}) while the others have", 0,
-                  channel=name, excess=(span, float(policy.max_gap)))
+            _fail_silent(rows, asset_id, name,
+                         interval_ns(rows.ts, policy) if len(rows) > 1 else 0, policy,
+                         " (a running channel)")
         if lost.any():
             unread.append((name, int(lost.sum())))
         on &= (v >= low) & (v <= high)        # NaN compares False: left out
     return replace(rows.take(on, keep), unread=rows.unread + tuple(unread))
 
 
-def _step_ns(ts: np.ndarray) -> int:
-    """The median step between rows in ns (0 for a single row)."""
-    return int(np.median(np.diff(ts))) if len(ts) > 1 else 0
+def _fail_silent(rows: Rows, asset_id: str, channel: str, dt_ns: int, policy: GridPolicy,
+                 what: str = "") -> None:
+    """``"silent_channel"``: ``channel`` has no value in the window while the others have
+    one, a sensor's fault (a dead sensor), not the data's: its excess is the window's
+    seconds against ``max_gap``."""
+    span = (int(rows.ts[-1] - rows.ts[0]) + dt_ns) / NS_PER_SECOND
+    _fail(rows, asset_id, "silent_channel",
+          f"channel {channel!r}{what} has no value in the window ({format_duration(span)}) "
+          f"while the others have", 0, channel=channel, excess=(span, float(policy.max_gap)))
 
 
 #: the kept rows' step is not the logger's where it is more than this many of all rows' steps

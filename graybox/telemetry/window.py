@@ -29,8 +29,9 @@ class TelemetryWindow:
     files : tuple of str
         The files whose rows make up the window, in read order.
     unread : tuple of (str, int)
-        Per channel, the rows left out because its readings were missing for longer than
-        ``GridPolicy.max_gap`` (a sensor's dropout); empty: none.
+        Per channel, the rows left out because its readings were missing: for longer than
+        ``GridPolicy.max_gap`` (a sensor's dropout), or at all in a ``running`` channel
+        (``Rows.unread``); empty: none.
 
     Notes
     -----
