@@ -441,9 +441,9 @@ def diagnose(baseline: Signature, windows: Sequence, model: WhiteBoxModel | None
     spreads = {start: pooled_spreads(baseline, innovations, start)
                for start in _window_starts(windows)}
 
-    def spreads_under(trial: WhiteBoxModel, start: int) -> dict[str, InnovationSpread]:
-        return pooled_spreads(baseline, period_innovations(baseline, trial, frames, interval),
-                              start)
+    def spreads_under(trial: WhiteBoxModel) -> Callable[[int], dict[str, InnovationSpread]]:
+        innovations = period_innovations(baseline, trial, frames, interval)   # one run
+        return functools.partial(pooled_spreads, baseline, innovations)
 
     return diagnose_window(model, levels, windows, setup, hypotheses=hypotheses, level=level,
                            min_score=min_score, time_budget=time_budget,
@@ -458,8 +458,8 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
                     spreads: Mapping[str, InnovationSpread] | None = None,
                     spreads_from: Mapping[int, Mapping[str, InnovationSpread]] | None = None,
                     states: Sequence | None = None, thinning: int = 1,
-                    spreads_under: Callable[[WhiteBoxModel, int],
-                                            Mapping[str, InnovationSpread]] | None = None
+                    spreads_under: Callable[[WhiteBoxModel], Callable[
+                        [int], Mapping[str, InnovationSpread]]] | None = None
                     ) -> Diagnosis:
     """:func:`diagnose` from its parts: the white box, each channel's baseline level tier and
     how the errors are computed (default: the level tier's at the telemetry's rate with
@@ -486,8 +486,9 @@ def diagnose_window(model: WhiteBoxModel, levels: Mapping[str, LevelTier], windo
     (``thinning`` times the thinned count: the baseline level was estimated at that
     spacing).
 
-    ``spreads_under``: each channel's innovation spread over the periods from a start on
-    with a changed white box, ``spreads_under(model, start)``; with it, a noise hypothesis
+    ``spreads_under``: with a changed white box, each channel's innovation spread over the
+    periods from a start on, ``spreads_under(model)(start)`` (the white box run once per
+    model); with it, a noise hypothesis
     read on the innovations is scored on the spread left once the refined parameter
     hypotheses have taken back what they can (the module's "Noise, or the plant"). Without
     it a noise hypothesis is scored on the whole spread."""
@@ -1157,17 +1158,17 @@ def _spread_left(fits: list, parameters: list, model: WhiteBoxModel, spreads_und
              if f.kind == "noise" and f.evidence_samples is not None and f.value > 1.0}
     left: dict[int, float] = {}
     for fit in parameters if noise else ():
-        trial = with_parameters(model, {fit.target: _value(fit)})
+        try:
+            clock.check()
+            from_start = spreads_under(with_parameters(model, {fit.target: _value(fit)}))
+        except _OutOfTime:
+            return left
+        except GrayBoxError:     # the changed white box cannot run over the window
+            continue
         by_start: dict[int, Mapping[str, InnovationSpread]] = {}
         for index, spread in noise.items():
             if spread.start not in by_start:
-                try:
-                    clock.check()
-                    by_start[spread.start] = spreads_under(trial, spread.start)
-                except _OutOfTime:
-                    return left
-                except GrayBoxError:     # the changed white box cannot run over the window
-                    by_start[spread.start] = {}
+                by_start[spread.start] = from_start(spread.start)
             after = by_start[spread.start].get(spread.target)
             if after is not None and after.ratio < left.get(index, spread.value ** 2):
                 left[index] = after.ratio
