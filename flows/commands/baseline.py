@@ -6,6 +6,7 @@ import argparse
 
 from flows.commands.plumbing import (class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
+from flows.commands.temporary_server import TemporaryServer
 from flows.errors import FlowFailed, UsageError
 from flows.discovery import parse_time
 from flows.commands.review import add_baseline_commands
@@ -48,12 +49,14 @@ def baseline_fit(args: argparse.Namespace) -> int:
     start = parse_time(args.start, "--start")
     end = parse_time(args.end, "--end")
     prefect_environment(args)
-    # prefect loads only for commands that run flows, after prefect_environment
+    # its child starts while the flow's modules load (prefect loads only for commands that
+    # run flows, after prefect_environment)
+    server = TemporaryServer().start()
     from flows.baseline import baseline, baseline_windows
 
     baseline_windows(config, start, end)
     try:
-        summary = run_flow(args, lambda: baseline(
+        summary = run_flow(args, server, lambda: baseline(
             start=start.isoformat(), end=end.isoformat(), config_path=str(config.path),
             assets=args.assets or None, vehicle_class=args.vehicle_class,
             promote=args.promote, reason=args.reason, tracking_uri=args.tracking_uri,

@@ -14,6 +14,7 @@ from flows.errors import FlowFailed, StoreUnavailable, UsageError
 from flows.run_tables import alert_table, fleet_table
 from flows.results import MONITORED, RunSummary, state_summary
 from flows.store_probe import bound_mlflow_requests, require_store
+from flows.commands.temporary_server import TemporaryServer
 from graybox.exceptions import InvalidAssetIdError
 from flows.terminal import EXIT_FAILED, EXIT_USAGE, print_error, rich_console
 
@@ -104,34 +105,20 @@ def guarded(function: Callable[[argparse.Namespace], int]) -> Callable[[argparse
     return run
 
 
-#: said on stderr when a flow runs without a Prefect server (PREFECT_API_URL unset)
-TEMPORARY_SERVER_HINT = (
-    "fleet-health: no Prefect server set: starting a temporary one for this run (10-30 s); "
-    "to skip it, run `prefect server start` once and export "
-    "PREFECT_API_URL=http://127.0.0.1:4200/api")
-
-
-def temporary_server_hint() -> str | None:
-    """:data:`TEMPORARY_SERVER_HINT` when Prefect will start a temporary local server (no
-    API URL in the environment or the active Prefect profile); None otherwise."""
-    from prefect.settings import PREFECT_API_URL
-
-    return None if PREFECT_API_URL.value() else TEMPORARY_SERVER_HINT
-
-
-def run_flow(args: argparse.Namespace, call: Callable[[], object]) -> RunSummary:
-    """Run a flow with progress on stderr; return its RunSummary. Without a Prefect server,
-    one line on stderr first says how to avoid the temporary one
-    (:func:`temporary_server_hint`).
+def run_flow(args: argparse.Namespace, server: TemporaryServer,
+             call: Callable[[], object]) -> RunSummary:
+    """Run a flow with progress on stderr, once the command's temporary Prefect server (if
+    any, started with :meth:`TemporaryServer.start` before the flow's modules loaded)
+    answers; return its RunSummary.
 
     Raises
     ------
     FlowFailed
         If the flow failed for another reason than a usage or configuration error.
+    RuntimeError
+        Prefect's, when its temporary server did not start in time (nothing was run).
     """
-    hint = temporary_server_hint()
-    if hint:
-        print(hint, file=sys.stderr)
+    server.wait()
     with progress.reporting(progress.for_stream(sys.stderr)):
         state = call()
     try:

@@ -7,6 +7,7 @@ from rich.table import Table
 
 from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
+from flows.commands.temporary_server import TemporaryServer
 from flows.errors import FlowFailed, UsageError
 from flows.discovery import not_in_future, parse_time, range_windows
 from flows.run_tables import window_label
@@ -53,11 +54,13 @@ def reanalyze(args: argparse.Namespace) -> int:
     end = parse_time(args.end, "--end")
     range_windows(start, end, config.nightly.window_delta, whole_only=False)
     prefect_environment(args)
-    # prefect loads only for commands that run flows, after prefect_environment
+    # its child starts while the flow's modules load (prefect loads only for commands that
+    # run flows, after prefect_environment)
+    server = TemporaryServer().start()
     from flows.reanalyze import reanalyze as reanalyze_flow
 
     try:
-        summary = run_flow(args, lambda: reanalyze_flow(
+        summary = run_flow(args, server, lambda: reanalyze_flow(
             start=start.isoformat(), end=end.isoformat(), assets=args.assets,
             config_path=str(config.path), vehicle_class=args.vehicle_class,
             version=args.version, tracking_uri=args.tracking_uri,

@@ -5,6 +5,7 @@ import argparse
 
 from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
                                      prefect_environment, report_summary, run_flow)
+from flows.commands.temporary_server import TemporaryServer
 from flows.errors import FlowFailed
 from flows.discovery import not_in_future, parse_time
 from flows.terminal import EXIT_FAILED, print_error
@@ -30,11 +31,13 @@ def run(args: argparse.Namespace) -> int:
     as_of = None if args.as_of is None else not_in_future(
         parse_time(args.as_of, "--as-of"), "--as-of").isoformat()
     prefect_environment(args)
-    # prefect loads only for commands that run flows, after prefect_environment
+    # its child starts while the flow's modules load (prefect loads only for commands that
+    # run flows, after prefect_environment)
+    server = TemporaryServer().start()
     from flows.nightly import nightly
 
     try:
-        summary = run_flow(args, lambda: nightly(
+        summary = run_flow(args, server, lambda: nightly(
             config_path=str(config.path), as_of=as_of, assets=args.assets,
             vehicle_class=args.vehicle_class, tracking_uri=args.tracking_uri,
             return_state=True))

@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from flows.cli import COMMANDS, build_parser, main
-from flows.commands.plumbing import TEMPORARY_SERVER_HINT, temporary_server_hint
+from flows.commands.temporary_server import TEMPORARY_SERVER_HINT, temporary_server_hint
 from flowtest_fleet import BASELINE_DAYS, DAYS, day
 
 
