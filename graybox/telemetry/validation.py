@@ -29,6 +29,9 @@ GRID_TOLERANCE = 0.05
 #: this many steps, and those readings scatter at most this many times that change
 #: (:func:`_among_its_neighbours`)
 STILL_SCATTER = 1.5
+#: readings on each side of a run whose median a coarse reading's run lies within one step
+#: of (:func:`_side_within`)
+SIDE_SAMPLES = 3
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
@@ -537,8 +540,9 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
         stepwise = (moved.size >= MIN_STUCK_SAMPLES
                     and np.count_nonzero(moved <= step) >= SLOW_STEP_SHARE * moved.size)
         if often or stepwise:
-            begins |= ~first & (entry <= step)
-            closes |= ~last & (leave <= step)
+            begins |= ~first & ((entry <= step)
+                                | _side_within(v, starts - 1, -1, paused, step))
+            closes |= ~last & ((leave <= step) | _side_within(v, ends + 1, 1, paused, step))
         if often and _on_a_grid(moved):
             still = _among_its_neighbours(v, starts, ends, moved.min()) & ~first & ~last
             begins |= still
@@ -550,6 +554,29 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
         begins |= holds & ~first & changed[starts]
         closes |= holds & ~last & changed[np.minimum(ends + 1, n - 1)]
     return begins & closes & ~(first & last)
+
+
+def _side_within(v: np.ndarray, first: np.ndarray, direction: int, paused: np.ndarray | None,
+                 step: float) -> np.ndarray:
+    """Per run: True where the median of the :data:`SIDE_SAMPLES` readings beside it (from
+    ``first``, going ``direction``; not across a pause nor past the window's edge) lies within
+    ``step`` of the run's value: a coarse reading's noise can leave a run by two steps for one
+    sample (a 0.4-kPa noise on a 1-kPa grid), while the readings around it stay where the run
+    is. A frozen sensor recovers to wherever the process went meanwhile."""
+    n = len(v)
+    out = np.zeros(len(first), dtype=bool)
+    for r, i in enumerate(first):
+        held = v[i - direction]
+        side = []
+        while 0 <= i < n and len(side) < SIDE_SAMPLES:
+            side.append(v[i])
+            # the step from this reading to the next one out crosses a pause: stop
+            gap = i if direction > 0 else i - 1
+            if paused is not None and 0 <= gap < n - 1 and paused[gap]:
+                break
+            i += direction
+        out[r] = len(side) == SIDE_SAMPLES and abs(np.median(side) - held) <= step
+    return out
 
 
 def _on_a_grid(moved: np.ndarray) -> bool:

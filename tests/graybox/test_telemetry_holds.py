@@ -233,3 +233,21 @@ def test_a_reading_on_a_grid_that_holds_by_chance_where_the_process_stands_still
     precise.loc[1040:1059, "room"] = precise.loc[1039, "room"]
     error = stuck_error(precise)
     assert error.channel == "room" and error.row == 1039   # row 1039's reading, held
+
+
+def test_a_coarse_reading_left_by_one_noisy_sample_two_steps_away_is_not_stuck():
+    # the ninth blind family's tyre: a pressure logged to 1 kPa every minute with 0.4 kPa of
+    # noise holds 859 for 12 minutes, left by one reading two steps up (861) while the
+    # readings after it (861, 860, 859) stay within a step of the hold
+    k = np.arange(120)
+    rng = np.random.default_rng(4)
+    pressure = np.round(858.2 + 0.02 * (k - 60) + rng.normal(0.0, 0.4, k.size))
+    pressure[60:72] = 859.0
+    pressure[59], pressure[72:75] = 858.0, [861.0, 860.0, 859.0]
+    frame = pd.DataFrame({"timestamp": T0 + pd.to_timedelta(k * 60.0, unit="s"),
+                          "pressure": pressure,
+                          "speed": 80.0 + rng.normal(0.0, 1.0, k.size)})
+    validate(frame, "A-1")
+    # frozen: the readings after the hold are where the process went, three steps up
+    frozen = frame.assign(pressure=np.where(k >= 72, pressure + 3.0, pressure))
+    assert stuck_error(frozen).row == 60
