@@ -10,9 +10,9 @@ flow; :meth:`TemporaryServer.wait` is called before the flow runs.
 """
 from __future__ import annotations
 
-import concurrent.futures
 import contextvars
 import sys
+import threading
 
 #: said on stderr when a flow runs without a Prefect server (PREFECT_API_URL unset)
 TEMPORARY_SERVER_HINT = (
@@ -38,7 +38,8 @@ class TemporaryServer:
     """
 
     def __init__(self) -> None:
-        self._starting: concurrent.futures.Future | None = None
+        self._starting: threading.Thread | None = None
+        self._error: BaseException | None = None
 
     def start(self) -> "TemporaryServer":
         """Say that a temporary server starts (:data:`TEMPORARY_SERVER_HINT`) and start it in
@@ -46,17 +47,24 @@ class TemporaryServer:
         if temporary_server_hint() is None:
             return self
         print(TEMPORARY_SERVER_HINT, file=sys.stderr)
-        # imported by the caller's thread, not the pool's: two threads importing at once can
+        # imported by the caller's thread, not the starting one: two threads importing at once can
         # see a module half initialised
         from prefect.server.api.server import SubprocessASGIServer
 
-        server = SubprocessASGIServer()
-        pool = concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="prefect-temporary-server")
-        # the thread reads Prefect's settings (the start-up timeout) from this context
-        self._starting = pool.submit(contextvars.copy_context().run, server.start)
-        pool.shutdown(wait=False)
+        # a daemon: a command that fails before its flow runs exits at once (Prefect stops
+        # the child at exit); the thread reads Prefect's settings (the start-up timeout)
+        # from this context
+        self._starting = threading.Thread(
+            target=self._start, args=(contextvars.copy_context(), SubprocessASGIServer()),
+            name="prefect-temporary-server", daemon=True)
+        self._starting.start()
         return self
+
+    def _start(self, context: contextvars.Context, server) -> None:
+        try:
+            context.run(server.start)
+        except BaseException as error:  # noqa: BLE001 - raised by wait(), in the caller's thread
+            self._error = error
 
     def wait(self) -> None:
         """Return once the server answers.
@@ -68,4 +76,6 @@ class TemporaryServer:
             ``PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS``.
         """
         if self._starting is not None:
-            self._starting.result()
+            self._starting.join()
+        if self._error is not None:
+            raise self._error
