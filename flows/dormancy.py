@@ -24,6 +24,7 @@ from typing import Sequence
 
 import pandas as pd
 
+from graybox.alert import dormant_alert
 from graybox.stage_clock import StageClock, timed
 
 from flows.batching import guard_asset_error
@@ -120,7 +121,8 @@ def settle_dormant(config: FleetConfig, registry, group: Sequence[PendingAsset],
     """Each ``not operating`` asset of a nightly group that has not operated for longer
     than its limit (:func:`dormancy_limit`: its class's ``not_operating_after``, by default
     ``[alerts] not_operating_after``) before ``as_of`` becomes ``dormant``, its note saying
-    why (:func:`dormant_note`). Called before the group's watermarks move: an asset
+    why (:func:`dormant_note`) and its result holding a ``dormant`` alert
+    (:func:`graybox.alert.dormant_alert`, one per last monitored night). Called before the group's watermarks move: an asset
     whose look-up fails is failed (its watermark kept); a passing failure of the store is
     raised (the batch is retried)."""
     for pending in group:
@@ -143,4 +145,8 @@ def settle_dormant(config: FleetConfig, registry, group: Sequence[PendingAsset],
         if is_dormant(last, as_of, limit):
             note = dormant_note(last, as_of, limit_text, key)
             result.status = DORMANT
+            result.alerts.append(dormant_alert(
+                asset_id=pending.asset_id, vehicle_class=pending.ref.vehicle_class,
+                last_operated=last.end.isoformat(), age_days=(utc(as_of) - last.end) / DAY,
+                limit_days=limit / DAY))
             result.note = note if not result.note else f"{result.note}; {note}"

@@ -57,7 +57,9 @@ Dormancy: an asset whose new nights all ran too little to monitor is ``not opera
 status 0, its watermark moved past them); when its last monitored night (or its baseline,
 when none since) ended longer than ``[alerts] not_operating_after`` before the as-of time
 (default 7 days, ``"off"`` to disable) it is ``dormant`` instead: not monitored, the run
-exits 1, and its note says since when and what to check (:mod:`flows.dormancy`).
+exits 1, its note says since when and what to check, and a ``dormant`` alert
+(:func:`graybox.alert.dormant_alert`) goes into the alerts file once per last monitored
+night (:mod:`flows.dormancy`).
 
 Failures: an asset whose telemetry is bad (:class:`graybox.exceptions.TelemetryError`) or
 whose fit fails stops at that window: the windows before it are committed, the watermark
@@ -95,7 +97,7 @@ from prefect import flow
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry import list_dates, newest_timestamp
 from graybox.telemetry.changes import changed_days, clear_changed
-from graybox.alert import SENSOR as SENSOR_KIND, STALE as STALE_KIND
+from graybox.alert import DORMANT as DORMANT_KIND, SENSOR as SENSOR_KIND, STALE as STALE_KIND
 from graybox.alert import Alert, stale_alert
 
 from flows.alerts import AlertLog, export_alerts
@@ -376,7 +378,7 @@ def export_night_alerts(config: FleetConfig, summary: RunSummary) -> None:
     """
     since = export_since(summary, config.nightly.lookback_delta)
     unrecorded = [alert for a in summary.assets for alert in a.alerts
-                  if alert.kind in (STALE_KIND, SENSOR_KIND)]
+                  if alert.kind in (STALE_KIND, SENSOR_KIND, DORMANT_KIND)]
     if since is None and not unrecorded:
         return
     log = AlertLog(config.alerts.jsonl)

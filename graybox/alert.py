@@ -4,7 +4,7 @@ The one alert type of fleet-health, and its one home: the step after the drift
 (telemetry -> residual -> signature -> drift -> alert), as pure as the drift it comes from.
 Grading (:class:`graybox.severity.SeverityScale`, a small record of its own) and alert
 making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
-:func:`stale_alert`; :func:`sensor_alert`, a candidate night whose sensor the telemetry
+:func:`stale_alert`; :func:`dormant_alert`; :func:`sensor_alert`, a candidate night whose sensor the telemetry
 checks found stuck or out of range) are here; the pipeline makes alerts from a fresh
 :class:`graybox.drift.Drift`, :meth:`registry.Registry.alerts` makes the same records again
 from the drift it stored, and the JSON-lines file (:class:`flows.alerts.AlertLog`) writes
@@ -27,10 +27,10 @@ if TYPE_CHECKING:  # pragma: no cover
 
 NIGHTLY, REANALYSIS = "nightly", "reanalysis"
 SOURCES = (NIGHTLY, REANALYSIS)
-DRIFT, STALE, SENSOR = "drift", "stale", "sensor"
+DRIFT, STALE, SENSOR, DORMANT = "drift", "stale", "sensor", "dormant"
 #: a drift over its threshold; an asset whose telemetry stopped; a sensor found stuck, out
-#: of range or silent by the telemetry checks
-KINDS = (DRIFT, STALE, SENSOR)
+#: of range or silent by the telemetry checks; an asset that has not operated for too long
+KINDS = (DRIFT, STALE, SENSOR, DORMANT)
 #: the telemetry checks' findings that are a sensor's fault (:class:`TelemetryError` kinds)
 SENSOR_FAULTS = ("stuck_channel", "out_of_range", "silent_channel")
 
@@ -118,6 +118,9 @@ class Alert:
         129.49 (+0.47)``; for a stale or sensor alert, what was found."""
         if self.kind == STALE:
             return f"no telemetry since {self.window_end} ({self.zeta:.1f} days)"
+        if self.kind == DORMANT:
+            return (f"not operating since {self.window_end} ({self.zeta:.1f} days; "
+                    f"not_operating_after {self.epsilon:.1f} days)")
         if self.kind == SENSOR:
             if self.tier == "stuck_channel":
                 return (f"sensor {self.channel} stuck for {self.zeta:.0f} s "
@@ -226,6 +229,29 @@ def stale_alert(*, asset_id: str, vehicle_class: str, last_data: str, age_days: 
                  window_end=last_data, channel="*", tier=STALE, zeta=float(age_days),
                  epsilon=float(stale_after_days), ratio=float(ratio), severity="major",
                  source=NIGHTLY, kind=STALE)
+
+
+def dormant_alert(*, asset_id: str, vehicle_class: str, last_operated: str, age_days: float,
+                  limit_days: float) -> Alert:
+    """The alert of an asset that has not operated for longer than ``not_operating_after``
+    (it has telemetry, but every new night ran too little to monitor).
+
+    One per (asset, last operated night): its key's window is ``[last_operated,
+    last_operated]`` and its channel and tier ``"*"`` and ``"dormant"``, so later runs while
+    it stays parked add no duplicate.
+
+    Parameters
+    ----------
+    asset_id, vehicle_class : str
+    last_operated : str
+        ISO UTC end of the asset's last monitored night (or of its baseline's window).
+    age_days, limit_days : float
+        How long ago that is at the run's as-of time, and the limit, in days.
+    """
+    return Alert(asset_id=asset_id, vehicle_class=vehicle_class, window_start=last_operated,
+                 window_end=last_operated, channel="*", tier=DORMANT, zeta=float(age_days),
+                 epsilon=float(limit_days), ratio=float(age_days / limit_days),
+                 severity="major", source=NIGHTLY, kind=DORMANT)
 
 
 def sensor_alert(error: "TelemetryError", *, vehicle_class: str, window_start: str,

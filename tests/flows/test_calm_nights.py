@@ -112,6 +112,14 @@ def test_a_dormant_asset_is_named_with_its_baseline_and_a_failed_look_up_keeps_i
         "dormant: not operating for 2.0 days (no night monitored since its baseline v3, whose "
         "window ended 2026-03-04 00:00 UTC), longer than [alerts] not_operating_after = 36h")
     assert far.watermark_end == _night(4)[1]              # it still moves past the calm night
+    # and it is in the alert feed: one dormant alert, keyed by the night it last operated
+    assert near.result.alerts == []
+    (alert,) = far.result.alerts
+    assert (alert.kind, alert.tier, alert.channel) == ("dormant", "dormant", "*")
+    assert alert.window_start == alert.window_end == _night(2)[1].isoformat()
+    assert (alert.zeta, alert.epsilon, alert.ratio) == (2.0, 1.5, 2.0 / 1.5)
+    assert alert.hint() == (f"not operating since {_night(2)[1].isoformat()} (2.0 days; "
+                            "not_operating_after 1.5 days)")
     # a class with its own limit (pumps parked for days) keeps to it, and names it
     patient, lazy = calm(4), calm(4)
     for limit, asset in (("5D", patient), ("1D", lazy)):
@@ -234,6 +242,14 @@ def test_an_asset_whose_new_nights_all_ran_too_little_is_not_operating(harness, 
     assert (coverage["dormant"], coverage["not_operating"], coverage["missed"]) == (
         1, 0, ["P-001"])
     assert "fleet-health: P-001 not monitored (dormant): " in stderr[-1]
+    # in the alert feed too (the run's alerts and the JSON-lines file), once: a rerun of the
+    # same night (its calm nights old news by then: up to date) adds no second line
+    [alert] = asset["alerts"]
+    assert (alert["kind"], alert["window_end"]) == ("dormant", "2026-03-07T00:00:00+00:00")
+    feed = tmp_path / "alerts.jsonl"
+    assert [json.loads(line)["kind"] for line in feed.read_text().splitlines()] == ["dormant"]
+    assert run(8)["assets"][0]["status"] == "up to date"
+    assert len(feed.read_text().splitlines()) == 1
 
     limit('"off"')
     [asset] = run(9)["assets"]
