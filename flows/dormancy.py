@@ -122,9 +122,9 @@ def settle_dormant(config: FleetConfig, registry, group: Sequence[PendingAsset],
     than its limit (:func:`dormancy_limit`: its class's ``not_operating_after``, by default
     ``[alerts] not_operating_after``) before ``as_of`` becomes ``dormant``, its note saying
     why (:func:`dormant_note`) and its result holding a ``dormant`` alert
-    (:func:`graybox.alert.dormant_alert`, one per last monitored night). Called before the group's watermarks move: an asset
-    whose look-up fails is failed (its watermark kept); a passing failure of the store is
-    raised (the batch is retried)."""
+    (:func:`graybox.alert.dormant_alert`, one per last monitored night). Called before the
+    group's watermarks move: an asset whose look-up fails is failed (its watermark kept); a
+    passing failure of the store is raised (the batch is retried)."""
     for pending in group:
         result = pending.result
         if result.status != NOT_OPERATING or pending.reference is None:
