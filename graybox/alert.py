@@ -4,8 +4,9 @@ The one alert type of fleet-health, and its one home: the step after the drift
 (telemetry -> residual -> signature -> drift -> alert), as pure as the drift it comes from.
 Grading (:class:`graybox.severity.SeverityScale`, a small record of its own) and alert
 making (:func:`alerts_from_drift`, the only place an alert is made from a drift;
-:func:`stale_alert`; :func:`dormant_alert`; :func:`sensor_alert`, a candidate night whose sensor the telemetry
-checks found stuck or out of range) are here; the pipeline makes alerts from a fresh
+:func:`stale_alert`; :func:`dormant_alert`; :func:`sensor_alert`, a candidate night whose
+sensor the telemetry checks found stuck or out of range) are here; the pipeline makes
+alerts from a fresh
 :class:`graybox.drift.Drift`, :meth:`registry.Registry.alerts` makes the same records again
 from the drift it stored, and the JSON-lines file (:class:`flows.alerts.AlertLog`) writes
 and reads them. An alert becomes a dict only at the edges: :meth:`Alert.to_dict` /
