@@ -68,7 +68,10 @@ class Alert:
         newest sample, ``zeta`` its age and ``epsilon`` the ``stale_after`` limit, in days),
         or ``sensor``: a channel of the night read stuck or out of range
         (:func:`sensor_alert`: ``tier`` is the finding, ``zeta`` and ``epsilon`` how far it
-        went and may go).
+        went and may go), or ``dormant``: the asset has not operated for longer than
+        ``not_operating_after`` (:func:`dormant_alert`: ``window_start`` and ``window_end``
+        are both the end of its last monitored night, ``zeta`` the days since and
+        ``epsilon`` the limit).
     diagnosis : tuple of dict
         The physical diagnosis of the alert's window (the same for every alert of the
         window), ranked: ``hypothesis``, ``kind``, ``target``, ``baseline``, ``estimate``,
