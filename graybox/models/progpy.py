@@ -135,11 +135,51 @@ def _hold_defaults(parameters: Mapping[str, Any], states: tuple[str, ...]) -> di
     return defaults
 
 
+@functools.cache
+def _read_once(container: type) -> type:
+    """``container`` (a ProgPy model's ``StateContainer`` or ``InputContainer``) whose items
+    are the same rows, taken from its matrix at the first read: ProgPy finds a key's row with
+    ``list.index`` on every read, and a model's ``next_state`` reads each variable many
+    times (a third to a half of a pump's ``next_state`` call). Writing an item, deleting one
+    or setting the matrix (``x.matrix += ...``, as ``DCMotor`` does) takes the rows again; a
+    model that wrote into a row in place and then read that variable would read the old
+    value (ProgPy's catalogue does not: ``DCMotor`` wraps its angle last)."""
+
+    class ReadOnce(container):
+        _rows = None
+
+        def __getitem__(self, key):
+            if self._rows is None:
+                self._rows = {k: (row[0] if len(row) == 1 else row)
+                              for k, row in zip(self._keys, self._matrix)}
+            return self._rows[key]
+
+        def __setitem__(self, key, value):
+            self._rows = None
+            super().__setitem__(key, value)
+
+        def __delitem__(self, key):
+            self._rows = None
+            super().__delitem__(key)
+
+        @property
+        def matrix(self):
+            return self._matrix
+
+        @matrix.setter
+        def matrix(self, value):
+            self._rows = None
+            self._matrix = value
+
+    ReadOnce.__name__ = ReadOnce.__qualname__ = f"ReadOnce{container.__name__}"
+    return ReadOnce
+
+
 def progpy_rates(model, full: np.ndarray, inputs: np.ndarray, step: float) -> np.ndarray:
     """ProgPy's ``dx`` of a continuous model, ``(next_state(x, u, step) - x) / step`` of a
     discrete one, at the state columns ``full`` (n_states, T) and inputs (n_inputs, T)."""
-    state = model.StateContainer(full.copy())
-    load = model.InputContainer(inputs.copy())
+    state = _read_once(model.StateContainer)(full.copy())
+    load = _read_once(model.InputContainer)(inputs.copy())
     if not model.is_discrete:
         return np.asarray(model.dx(state, load).matrix, dtype=float).reshape(full.shape)
     following = np.asarray(model.next_state(state, load, step).matrix, dtype=float)

@@ -410,3 +410,21 @@ def test_the_damage_states_held_values_are_the_diagnosis_parameters():
     assert battery.diagnosable == ()
     assert ([t for k, t in candidate_hypotheses(battery) if k == "parameter"]
             == list(float_parameters(battery)))
+
+
+def test_the_read_once_containers_read_what_progpys_do_and_follow_writes():
+    from graybox.models.progpy import _read_once
+
+    model = progpy.models.CentrifugalPump()
+    matrix = np.arange(len(model.states) * 3, dtype=float).reshape(len(model.states), 3)
+    plain, fast = model.StateContainer(matrix.copy()), _read_once(model.StateContainer)(
+        matrix.copy())
+    assert isinstance(fast, model.StateContainer)
+    for key in model.states:
+        np.testing.assert_array_equal(fast[key], plain[key])
+    single = _read_once(model.StateContainer)(matrix[:, :1].copy())
+    assert single["w"] == model.StateContainer(matrix[:, :1].copy())["w"]
+    fast["w"] = np.array([7.0, 8.0, 9.0])               # a write is read back
+    np.testing.assert_array_equal(fast["w"], [7.0, 8.0, 9.0])
+    fast.matrix = fast.matrix + 1.0                     # and so is a new matrix
+    np.testing.assert_array_equal(fast["w"], [8.0, 9.0, 10.0])
