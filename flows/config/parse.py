@@ -16,9 +16,10 @@ import pandas as pd
 
 from flows.config.checker import Checker
 from flows.config.settings import (DEFAULT_CONFIG, DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI,
-                                   FROM_ALERTS, PLOT_POLICIES, TASK_RUNNERS, AlertSettings, DaskSettings,
-                                   FleetConfig, NightlySettings, NotificationSettings,
-                                   ScheduleSettings, VehicleClass, resolve_tracking_uri)
+                                   FROM_ALERTS, PLOT_POLICIES, TASK_RUNNERS, AlertSettings,
+                                   DaskSettings, FleetConfig, NightlySettings,
+                                   NotificationSettings, ScheduleSettings, VehicleClass,
+                                   resolve_tracking_uri)
 from flows.errors import ConfigError
 from flows.memory import parse_bytes
 from graybox.estimator import GrayBoxSettings

@@ -463,7 +463,7 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         return y
 
     def _progpy_outputs(self, full: np.ndarray) -> np.ndarray:
-        state = self.progpy.StateContainer(full.copy())
+        state = _read_once(self.progpy.StateContainer)(full.copy())
         values = np.asarray(self.progpy.output(state).matrix, dtype=float)
         return values.reshape(len(self.progpy_outputs), full.shape[1])
 
