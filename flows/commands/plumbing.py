@@ -109,7 +109,8 @@ def run_flow(args: argparse.Namespace, server: TemporaryServer,
              call: Callable[[], object]) -> RunSummary:
     """Run a flow with progress on stderr, once the command's temporary Prefect server (if
     any, started with :meth:`TemporaryServer.start` before the flow's modules loaded)
-    answers; return its RunSummary.
+    answers, with that server's :meth:`TemporaryServer.flow_settings`; return its
+    RunSummary.
 
     Raises
     ------
@@ -119,7 +120,7 @@ def run_flow(args: argparse.Namespace, server: TemporaryServer,
         Prefect's, when its temporary server did not start in time (nothing was run).
     """
     server.wait()
-    with progress.reporting(progress.for_stream(sys.stderr)):
+    with server.flow_settings(), progress.reporting(progress.for_stream(sys.stderr)):
         state = call()
     try:
         return state_summary(state)

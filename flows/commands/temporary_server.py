@@ -10,6 +10,7 @@ flow; :meth:`TemporaryServer.wait` is called before the flow runs.
 """
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import sys
 import threading
@@ -33,8 +34,9 @@ class TemporaryServer:
     """The temporary server of one command, if it needs one.
 
     Call :meth:`start` after Prefect's environment is set (``prefect_environment``) and
-    before the flow's modules are imported, and :meth:`wait` before the flow runs. With a
-    server set (``PREFECT_API_URL``) both do nothing.
+    before the flow's modules are imported, :meth:`wait` before the flow runs, and run the
+    flow within :meth:`flow_settings`. With a server set (``PREFECT_API_URL``) all three do
+    nothing.
     """
 
     def __init__(self) -> None:
@@ -79,3 +81,18 @@ class TemporaryServer:
             self._starting.join()
         if self._error is not None:
             raise self._error
+
+    def flow_settings(self) -> contextlib.AbstractContextManager:
+        """Prefect's settings for a flow run on this command's temporary server: no flow-run
+        heartbeats (Prefect's default since 3.8 is one every 180 s).
+
+        Heartbeats serve a server's automation that marks a silent run crashed; a server
+        that stops with the command runs none. And at the flow's end Prefect joins its
+        heartbeat thread, which sleeps in 1-s steps: up to a second more per flow run. With a
+        server set, Prefect's own setting holds.
+        """
+        if self._starting is None:
+            return contextlib.nullcontext()
+        from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
+
+        return temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None})

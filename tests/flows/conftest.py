@@ -40,10 +40,15 @@ from flowtest_fleet import ASSETS, BASELINE_DAYS, DAYS, FAULTY, day  # noqa: E40
 
 @pytest.fixture(scope="session")
 def harness():
-    """One Prefect test server for the session (it takes seconds to start)."""
+    """One Prefect test server for the session (it takes seconds to start), its flow runs
+    without heartbeats as Prefect's own test profile has them: at a flow's end Prefect joins
+    its heartbeat thread, which sleeps in 1-s steps (half a second a flow run, some hundreds
+    of runs); no test reads them."""
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
     from prefect.testing.utilities import prefect_test_harness
 
-    with prefect_test_harness(server_startup_timeout=120):
+    with prefect_test_harness(server_startup_timeout=120), \
+            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         yield
 
 
