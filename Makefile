@@ -1,7 +1,7 @@
 # Two commands: `make demo` installs and runs the demo, `make test` installs and runs the tests.
 PYTHON ?= python3
 VENV ?= .venv
-# the suite runs its test files on two processes (2 cores: 6.5 min instead of 10.5), the
+# the suite runs its test files on two processes (2 cores: about 9 min), the
 # longest files first (tests/conftest.py: LONGEST_FIRST)
 TEST_WORKERS ?= 2
 BIN := $(VENV)/bin

@@ -91,7 +91,7 @@ class TemporaryServer:
         heartbeat thread, which sleeps in 1-s steps: up to a second more per flow run. With a
         server set, Prefect's own setting holds.
         """
-        if self._starting is None:
+        if temporary_server_hint() is None:
             return contextlib.nullcontext()
         from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 

@@ -11,7 +11,8 @@ import sys
 import pytest
 
 from flows.cli import COMMANDS, build_parser, main
-from flows.commands.temporary_server import TEMPORARY_SERVER_HINT, temporary_server_hint
+from flows.commands.temporary_server import (TEMPORARY_SERVER_HINT, TemporaryServer,
+                                             temporary_server_hint)
 from flowtest_fleet import BASELINE_DAYS, DAYS, day
 
 
@@ -199,6 +200,20 @@ def test_a_set_prefect_server_is_not_told_about_the_temporary_one(monkeypatch):
     with temporary_settings(restore_defaults={PREFECT_API_URL}):
         assert temporary_server_hint() == TEMPORARY_SERVER_HINT
         assert "prefect server start" in TEMPORARY_SERVER_HINT
+
+
+def test_flows_on_a_temporary_server_send_no_heartbeats_and_on_a_server_set_prefects_own():
+    from prefect.settings import (PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY,
+                                  get_current_settings, temporary_settings)
+
+    with temporary_settings(updates={PREFECT_API_URL: "http://127.0.0.1:4200/api",
+                                     PREFECT_FLOWS_HEARTBEAT_FREQUENCY: 240}):
+        with TemporaryServer().flow_settings():
+            assert get_current_settings().flows.heartbeat_frequency == 240
+        with temporary_settings(restore_defaults={PREFECT_API_URL}):
+            with TemporaryServer().flow_settings():
+                assert get_current_settings().flows.heartbeat_frequency is None
+            assert get_current_settings().flows.heartbeat_frequency == 240
 
 
 def test_the_command_line_allows_a_loaded_machine_time_to_start_prefect(monkeypatch):
