@@ -122,6 +122,12 @@ def _outages(frame: pd.DataFrame, rng: np.random.Generator, outage: float, dropo
     return frame[keep]
 
 
+def _calm(result: dict) -> str:
+    """`` (+N not operating)`` for a run's nights too short to fit (none: empty)."""
+    calm = len(result.get("calm_nights", {}))
+    return f" (+{calm} not operating)" if calm else ""
+
+
 def row(spec: str, result: dict, seconds: float) -> str:
     """The markdown row of one run."""
     failures = {**result["failed_reads"], **result["failed_baselines"], **result["failed_nights"]}
@@ -130,7 +136,8 @@ def row(spec: str, result: dict, seconds: float) -> str:
     tiers = "".join(f", {name} {count}" for name, count in result["healthy_tiers"].items())
     small, large = result["detected_small"], result["detected_large"]
     return (f"| {spec} | {result['analysis_intervals']} | {len(result['failed_reads'])} / "
-            f"{len(result['failed_baselines'])} / {len(result['failed_nights'])} | "
+            f"{len(result['failed_baselines'])} / {len(result['failed_nights'])}"
+            f"{_calm(result)} | "
             f"{fa['alarms']}/{fa['asset_nights']}{tiers} | {small[0]}/{small[1]} | "
             f"{large[0]}/{large[1]} | "
             f"{result['s_per_baseline_day']:.2f} | {result['s_per_night']:.3f} | {seconds:.0f} | "

@@ -31,12 +31,13 @@ def markdown(results: list[dict], command: str, notes: str = "") -> str:
     rows = []
     for r in results:
         failures = sum(len(r[k]) for k in ("failed_reads", "failed_baselines", "failed_nights"))
+        calm = len(r.get("calm_nights", {}))
         rows.append(
             f"| {r['title']} | {'held out' if r['held_out'] else 'tuning'} | "
             f"{r['baselines_fitted']}/{r['healthy_assets']} | "
             f"{share(*r['detected_small'])} | {share(*r['detected_large'])} | {false_alarm_cell(r['false_alarms'])} | "
             f"{_tiers(r['healthy_tiers'])} | {r['s_per_night']:.2f} | "
-            f"{r['s_per_baseline_day']:.2f} | {100 * r['needed_share']:.0f} % | {failures} |")
+            f"{r['s_per_baseline_day']:.2f} | {100 * r['needed_share']:.0f} % | {failures} | {calm} |")
     faults = []
     for r in results:
         for (kind, size), d in r["detection"].items():
@@ -64,9 +65,12 @@ seed and baseline (identical telemetry up to the onset, inside the first scored 
 on the three nights from the onset; candidates of {first.get('candidate_nights', '-')}
 nights, as `[nightly] candidate_nights`; telemetry through the store layout and
 `graybox.read_window`. "Tuning" families were used to choose defaults; "held out" ones were not.
+A night whose window ran too little to fit is what the product reports as `not operating`
+(not monitored that night, with a note): counted under "nights not operating", neither scored
+nor a failure.
 
-| family | role | baselines | small faults within 3 nights | large faults within 3 nights | false alarms per healthy asset-night (95 % CI) | healthy alarms by channel/tier | s per asset-night | s per asset-day of baseline | channels needing the network | failures |
-|---|---|---|---|---|---|---|---|---|---|---|
+| family | role | baselines | small faults within 3 nights | large faults within 3 nights | false alarms per healthy asset-night (95 % CI) | healthy alarms by channel/tier | s per asset-night | s per asset-day of baseline | channels needing the network | failures | nights not operating |
+|---|---|---|---|---|---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 
 | family | fault | magnitude | detected within 3 nights | alarmed before onset | first alarm's channel/tier |

@@ -23,6 +23,7 @@ import pandas as pd
 
 import graybox as gb
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
+from graybox.exceptions import ShortWindowsError
 from graybox.telemetry.writing import write_telemetry
 
 from benchmarks.detection.grid import trailing_nights
@@ -179,10 +180,11 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     clock["nights"] = time.perf_counter() - began
     clock["nights_cpu"] = time.process_time() - cpu
 
-    rows, failed_nights = [], {}
+    rows, failed_nights, calm_nights = [], {}, {}
     for (plan, night, base, _), candidate in zip(jobs, scored):
         if isinstance(candidate, gb.GrayBoxError):
-            failed_nights[f"{plan.asset_id} night {night}"] = str(candidate)
+            settled = calm_nights if night_not_operating(candidate) else failed_nights
+            settled[f"{plan.asset_id} night {night}"] = str(candidate)
             continue
         signature, calibration = baselines[base]
         drift = gb.compute_drift(candidate, signature, calibration)
@@ -204,7 +206,8 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
         "healthy_assets": len(vehicles), "baseline_days": baseline_days, "nights": nights,
         "faulty_per_cell": faulty_per_cell, "candidate_nights": span, "seed": seed,
         "failed_reads": failed_reads, "failed_baselines": failed_baselines,
-        "failed_nights": failed_nights, "clock": clock, "baselines_fitted": len(baselines),
+        "failed_nights": failed_nights, "calm_nights": calm_nights, "clock": clock,
+        "baselines_fitted": len(baselines),
         "baseline_asset_days": len(ready) * baseline_days, "scored_nights": len(jobs),
         "nonlinear_needed": sorted({f"{c.channel}" for s, _ in baselines.values()
                                     for c in s.channels if c.structure.nonlinear_needed}),
@@ -241,6 +244,14 @@ def write_and_read(family: Family, model, policy: gb.GridPolicy,
                 except gb.GrayBoxError as error:
                     failed_reads[f"{asset} day {day}"] = str(error)
     return windows, failed_reads
+
+
+def night_not_operating(error: gb.GrayBoxError) -> bool:
+    """Whether a scored night's failed fit is one the product settles as ``not operating``
+    rather than as a failure: its window ran too little to fit (:class:`ShortWindowsError`;
+    ``flows.pipeline`` leaves such a window out with a note, and the asset is not
+    monitored that night). Such a night is neither scored nor counted as a failure."""
+    return isinstance(error, ShortWindowsError)
 
 
 def summarise(family: Family, rows: list[dict], result: dict) -> dict:

@@ -9,12 +9,15 @@ from benchmarks.zoo.fleets import main, markdown, pool
 
 
 def run(seed: int, family: str, alarms: int, small: list, large: list, held_out=False,
-        failed_reads=None) -> dict:
+        failed_reads=None, calm_nights=None) -> dict:
     """The fields of one family's result in a zoo run's JSON that the pooling reads."""
-    return {"family": family, "title": family.title(), "held_out": held_out, "seed": seed,
-            "false_alarms": {"alarms": alarms, "asset_nights": 300},
-            "detected_small": small, "detected_large": large,
-            "failed_reads": failed_reads or {}, "failed_baselines": {}, "failed_nights": {}}
+    result = {"family": family, "title": family.title(), "held_out": held_out, "seed": seed,
+              "false_alarms": {"alarms": alarms, "asset_nights": 300},
+              "detected_small": small, "detected_large": large,
+              "failed_reads": failed_reads or {}, "failed_baselines": {}, "failed_nights": {}}
+    if calm_nights is not None:            # runs written before the count was kept lack it
+        result["calm_nights"] = calm_nights
+    return result
 
 
 def test_counts_are_summed_per_family_over_the_runs_and_judged():
@@ -50,3 +53,18 @@ def test_the_table_and_the_command_line(tmp_path, capsys):
     path.write_text(json.dumps(runs[0]))
     assert main([str(path)]) == 0
     assert capsys.readouterr().out.strip() == text
+
+
+def test_nights_too_short_to_fit_are_not_operating_not_failures():
+    from benchmarks.zoo.run import night_not_operating
+    from graybox.exceptions import InsufficientDataError, ShortWindowsError, TelemetryError
+
+    assert night_not_operating(ShortWindowsError("window(s) [1] have 19 residual samples", (1,)))
+    assert not night_not_operating(InsufficientDataError("no operating period"))
+    assert not night_not_operating(TelemetryError("A", "stuck_channel", "a reading held 10 samples"))
+    calm = {"T-1 night 0": "window(s) [0] have 19 residual samples",
+            "T-2 night 3": "window(s) [1] have 12 residual samples"}
+    (tyres,) = pool([[run(1, "tyres", 0, [1, 2], [2, 2], calm_nights=calm)],
+                     [run(2, "tyres", 0, [1, 2], [2, 2])]])
+    assert tyres.not_operating == 2 and tyres.failures == 0
+    assert "| 0 | 2 |" in markdown([tyres])
