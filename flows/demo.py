@@ -20,7 +20,7 @@ import pathlib
 import shutil
 import sys
 import time
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import pandas as pd
 from rich.console import Console
@@ -34,6 +34,9 @@ from flows.results import state_summary
 from graybox.simulation import TRUTH_FILE, Fault, demo_fleet, simulate_fleet
 from graybox.telemetry import write_telemetry
 from graybox.alert import Alert
+
+if TYPE_CHECKING:
+    from flows.commands.temporary_server import TemporaryServer
 
 MARKER = ".fleet-health-demo"
 _OURS = ("telemetry", "mlflow.db", "mlflow.db-wal", "mlflow.db-shm", "mlflow.db.init.lock",
@@ -201,8 +204,12 @@ def _verdict_table(rows: list[Verdict]):
 
 
 def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_days: int = 4,
-             seed: int = 0, sample_interval: float = 10.0, console=None) -> int:
+             seed: int = 0, sample_interval: float = 10.0, console=None,
+             server: TemporaryServer | None = None) -> int:
     """Run the demo in a prepared work directory; returns the exit status.
+
+    ``server``, the command's temporary Prefect server started before the fleet is simulated,
+    is waited for before the first flow runs.
 
     0 when every run processed every asset and the alerts agree with the ground truth
     (faulty vehicles alert, only after their onsets; healthy ones stay quiet); 1 otherwise.
@@ -230,6 +237,8 @@ def run_demo(workdir: pathlib.Path, vehicles: int = 8, days: int = 10, baseline_
     from flows.baseline import baseline
     from flows.nightly import nightly
 
+    if server is not None:
+        server.wait()
     day0 = spec.start_timestamp.normalize()
     base_end = day0 + pd.Timedelta(days=baseline_days)
     console.print(f"Fitting baselines on the healthy days {day0:%Y-%m-%d} .. "

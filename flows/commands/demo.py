@@ -8,6 +8,7 @@ import sys
 
 from flows.commands.plumbing import (guarded, nonnegative_int, positive_int,
                                      prefect_environment)
+from flows.commands.temporary_server import TemporaryServer
 from flows.demo import prepare_workdir, run_demo
 from flows.terminal import rich_console
 
@@ -39,6 +40,10 @@ def demo(args: argparse.Namespace) -> int:
         os.environ["PREFECT_HOME"] = str(workdir / ".prefect")
         os.environ.pop("PREFECT_API_URL", None)
     prefect_environment(args)
-    return run_demo(workdir, vehicles=args.vehicles, days=args.days,
-                    baseline_days=args.baseline_days, seed=args.seed,
-                    sample_interval=args.sample_interval, console=rich_console())
+    # the temporary server boots while the fleet is simulated
+    server = TemporaryServer().start(announce=False)
+    with server.flow_settings():
+        return run_demo(workdir, vehicles=args.vehicles, days=args.days,
+                        baseline_days=args.baseline_days, seed=args.seed,
+                        sample_interval=args.sample_interval, console=rich_console(),
+                        server=server)

@@ -43,12 +43,14 @@ class TemporaryServer:
         self._starting: threading.Thread | None = None
         self._error: BaseException | None = None
 
-    def start(self) -> "TemporaryServer":
-        """Say that a temporary server starts (:data:`TEMPORARY_SERVER_HINT`) and start it in
+    def start(self, announce: bool = True) -> "TemporaryServer":
+        """Say that a temporary server starts (:data:`TEMPORARY_SERVER_HINT`, unless not
+        ``announce``: the demo, whose runs always go to a server of its own) and start it in
         a thread; return self."""
         if temporary_server_hint() is None:
             return self
-        print(TEMPORARY_SERVER_HINT, file=sys.stderr)
+        if announce:
+            print(TEMPORARY_SERVER_HINT, file=sys.stderr)
         # imported by the caller's thread, not the starting one: two threads importing at once can
         # see a module half initialised
         from prefect.server.api.server import SubprocessASGIServer
