@@ -6,7 +6,9 @@ the flow's first API call and waits for it to answer: about 4 s on 2 cores, in w
 command does nothing else. :meth:`TemporaryServer.start`, called before the flow's modules are
 imported, starts the same server (Prefect keeps one per process, so the flow finds it
 running) in a thread, and the child boots on the other core while this process imports the
-flow; :meth:`TemporaryServer.wait` is called before the flow runs.
+flow; :meth:`TemporaryServer.wait` is called before the flow runs, and the flow runs within
+:meth:`TemporaryServer.flow_settings` (no flow-run heartbeats on a server that stops with the
+command).
 """
 from __future__ import annotations
 
