@@ -248,6 +248,12 @@ class Registry:
         read without the runs' metrics."""
         return history.recorded_windows(self._backend, asset_id, last)
 
+    def baseline_window_end(self, asset_id: str) -> pd.Timestamp | None:
+        """End (exclusive, UTC) of the window the asset's baseline was fitted on (None
+        without a baseline), read without loading the baseline: one registry call."""
+        end = history.baseline_window_end(self._backend, asset_id)
+        return None if not end else pd.Timestamp(end)
+
     def alerts(self, since=None, *, scale: SeverityScale = SeverityScale()) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.
 

@@ -130,6 +130,19 @@ def recorded_windows(backend: Backend, asset_id: str, last: int) -> list[tuple[s
             for v in versions]
 
 
+def baseline_window_end(backend: Backend, asset_id: str) -> str | None:
+    """``window_end`` of the version holding the asset's ``baseline`` alias (the ISO string
+    as tagged; None without a baseline): one query of its tag's row on an SQLAlchemy store,
+    without loading or verifying the version (:func:`registry.review.reference` does both)."""
+    writer = backend.sql_writer()
+    if writer is not None:
+        return call_with_retry(writer.alias_version_tag, naming.model_name(asset_id),
+                               naming.BASELINE, naming.TAG_WINDOW_END, policy=backend.retry,
+                               what="read the baseline's window")
+    version = backend.version_by_alias(asset_id, naming.BASELINE)
+    return None if version is None else (version.tags or {}).get(naming.TAG_WINDOW_END)
+
+
 def alerts(backend: Backend, since=None, *, scale: SeverityScale = SeverityScale()
            ) -> list[Alert]:
     """The recorded nightly alerts, oldest window first.

@@ -14,8 +14,8 @@ from typing import Any, Callable, Iterator
 from mlflow import MlflowClient
 from mlflow.entities import ViewType
 from mlflow.exceptions import MlflowException
-from mlflow.protos.databricks_pb2 import (RESOURCE_ALREADY_EXISTS, RESOURCE_DOES_NOT_EXIST,
-                                          ErrorCode)
+from mlflow.protos.databricks_pb2 import (INVALID_PARAMETER_VALUE, RESOURCE_ALREADY_EXISTS,
+                                          RESOURCE_DOES_NOT_EXIST, ErrorCode)
 
 from registry.store import naming
 from registry.exceptions import NotFoundError, RegistryError
@@ -33,6 +33,12 @@ def is_not_found(error: Exception) -> bool:
     """Whether an MLflow error means "no such resource"."""
     return (isinstance(error, MlflowException)
             and error.error_code == ErrorCode.Name(RESOURCE_DOES_NOT_EXIST))
+
+
+def _is_missing_alias(error: MlflowException) -> bool:
+    """MLflow's stores say an absent alias as a bad parameter, not a missing resource."""
+    return (error.error_code == ErrorCode.Name(INVALID_PARAMETER_VALUE)
+            and "alias" in str(error) and "not found" in str(error))
 
 
 def is_already_exists(error: Exception) -> bool:
@@ -305,7 +311,7 @@ class Backend:
         try:
             return self.client.get_model_version_by_alias(naming.model_name(asset_id), alias)
         except MlflowException as error:
-            if is_not_found(error):
+            if is_not_found(error) or _is_missing_alias(error):
                 return None
             raise
 

@@ -175,6 +175,33 @@ def test_watermark_is_read_from_the_registered_model_and_only_advances(rec, regi
     assert registry.watermark("T-01") == pd.Timestamp("2026-01-08", tz="UTC")
 
 
+def test_baseline_window_end_is_the_window_of_the_version_the_alias_names(rec, registry):
+    """Read from the alias's version tag without loading it, on SQLite's rows and through
+    MLflow's client alike: None before a promotion, then the promoted version's window end,
+    which moves with the alias."""
+    day4 = DAY0 + pd.Timedelta(days=4)
+    rec.baseline()
+    later = rec.baseline(shift_days=2)
+    for sql_writes in (True, False):
+        registry.backend.sql_writes = sql_writes
+        try:
+            assert registry.baseline_window_end("T-01") is None    # recorded, not promoted
+            assert registry.baseline_window_end("T-99") is None    # nothing recorded
+        finally:
+            registry.backend.sql_writes = True
+    registry.promote("T-01", 1, reason="initial")
+    for sql_writes in (True, False):
+        registry.backend.sql_writes = sql_writes
+        try:
+            assert registry.baseline_window_end("T-01") == day4
+        finally:
+            registry.backend.sql_writes = True
+    registry.promote("T-01", later.version, reason="the later window")
+    assert registry.baseline_window_end("T-01") == day4 + pd.Timedelta(days=2)
+    assert registry.baseline_window_end("T-01") == pd.Timestamp(
+        registry.reference("T-01").info.window_end)
+
+
 def test_zeta_history_and_alerts(rec, registry, fits):
     rec.baseline()
     registry.promote("T-01", 1, reason="initial")
