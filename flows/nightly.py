@@ -149,8 +149,9 @@ def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp
         marked = changed_days(config.telemetry_root, asset)
         changed = [] if watermark is None else changed_windows(marked, dates, watermark, window)
         late = sorted(set(late) | set(changed))
-        if watermark is not None and not late and not pending_windows(dates, watermark, as_of,
-                                                                      window):
+        if (watermark is not None and not pending_windows(dates, watermark, as_of, window)
+                and (not late or (not marked and _inside_baseline(registry, asset, late,
+                                                                  clock)))):
             # nothing new: no need to load the baseline
             return AssetJob(ref, _stale(AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
                                                     watermark_before=before,
@@ -198,6 +199,16 @@ def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp
                          idle_status=STALE if stale else UP_TO_DATE,
                          changed_days=tuple(days_done_by(set(marked) - set(in_baseline),
                                                          as_of)))
+
+
+def _inside_baseline(registry, asset_id: str, late: list, clock: StageClock | None) -> bool:
+    """Whether every late window starts before the end of the asset's baseline window (days
+    the baseline was fitted on have no candidate, and are never analysed): read from the
+    baseline's tags, so that an asset up to date in the first ``lookback`` after its baseline
+    loads nothing (loading and verifying a baseline costs several times this look-up)."""
+    with timed(clock, "registry"):
+        end = registry.baseline_window_end(asset_id)
+    return end is not None and all(start < utc(end) for start, _ in late)
 
 
 def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark: pd.Timestamp,

@@ -72,6 +72,11 @@ def test_planning_reads_no_telemetry_and_execute_names_the_unreadable_file(
     assert reads == []
     assert [len(job.windows) for job in again.jobs] == \
         [len(nights) if asset == BROKEN else 0 for asset in ASSETS]
+    # the baseline's days lie in the look-back and have no candidate: read as the baseline's
+    # from its tag, so an asset up to date loads no baseline (only the failed one does)
+    assert day(DAYS) - config.nightly.lookback_delta < day(BASELINE_DAYS)
+    assert [job.reference is not None for job in again.jobs] == \
+        [asset == BROKEN for asset in ASSETS]
     assert [r.status for r in execute(config, again)] == \
         [FAILED if asset == BROKEN else UP_TO_DATE for asset in ASSETS]
 
