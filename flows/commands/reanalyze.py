@@ -6,7 +6,8 @@ import argparse
 from rich.table import Table
 
 from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
-                                     prefect_environment, report_summary, run_flow)
+                                     prefect_environment, report_summary, run_flow,
+                                     start_pool_early)
 from flows.commands.temporary_server import TemporaryServer
 from flows.errors import FlowFailed, UsageError
 from flows.discovery import not_in_future, parse_time, range_windows
@@ -54,6 +55,8 @@ def reanalyze(args: argparse.Namespace) -> int:
     end = parse_time(args.end, "--end")
     range_windows(start, end, config.nightly.window_delta, whole_only=False)
     prefect_environment(args)
+    if args.vehicle_class or len(args.assets or ()) > 1:
+        start_pool_early(config)
     # its child starts while the flow's modules load (prefect loads only for commands that
     # run flows, after prefect_environment)
     server = TemporaryServer().start()

@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 
 from flows.commands.plumbing import (asset_option, class_option, flow_command_options, load,
-                                     prefect_environment, report_summary, run_flow)
+                                     prefect_environment, report_summary, run_flow,
+                                     start_pool_early)
 from flows.commands.temporary_server import TemporaryServer
 from flows.errors import FlowFailed
 from flows.discovery import not_in_future, parse_time
@@ -31,6 +32,7 @@ def run(args: argparse.Namespace) -> int:
     as_of = None if args.as_of is None else not_in_future(
         parse_time(args.as_of, "--as-of"), "--as-of").isoformat()
     prefect_environment(args)
+    start_pool_early(config)
     # its child starts while the flow's modules load (prefect loads only for commands that
     # run flows, after prefect_environment)
     server = TemporaryServer().start()
