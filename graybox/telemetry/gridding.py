@@ -67,9 +67,11 @@ def grid_rows(rows: Rows, asset_id: str, dt_ns: int, starts: np.ndarray | None =
               ) -> TelemetryWindow:
     """:func:`to_grid` on validated, increasing :class:`Rows` at a step of ``dt_ns``; each
     operating period (rows from ``starts[i]`` on; default: one period) on its own grid;
-    ``rows.unread`` is the window's ``unread``."""
+    ``rows.unread`` and ``rows.resent`` are the window's."""
     window = _grid_rows(rows, asset_id, dt_ns, starts)
-    return replace(window, unread=rows.unread) if rows.unread else window
+    if rows.unread or rows.resent:
+        return replace(window, unread=rows.unread, resent=rows.resent)
+    return window
 
 
 def _grid_rows(rows: Rows, asset_id: str, dt_ns: int, starts: np.ndarray | None

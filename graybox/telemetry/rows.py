@@ -46,6 +46,10 @@ class Rows:
         ``max_gap`` (:func:`graybox.telemetry.validation.fill_missing`), or at all in a
         ``running`` channel (:func:`graybox.telemetry.validation.running_rows`); empty: none.
         Kept by :meth:`take` and :meth:`slice` (the window's count so far).
+    resent : int
+        Rows left out because a logger sent them twice (the same timestamp and readings as a
+        row before them; :func:`graybox.telemetry.resent.drop_resent_rows`). Kept by
+        :meth:`take` and :meth:`slice`.
     """
 
     ts: np.ndarray
@@ -57,6 +61,7 @@ class Rows:
     missing: np.ndarray | None = None
     after_hold: np.ndarray | None = None
     unread: tuple[tuple[str, int], ...] = ()
+    resent: int = 0
 
     def __len__(self) -> int:
         return len(self.ts)
@@ -75,7 +80,8 @@ class Rows:
                     None if self.file_index is None else self.file_index[index],
                     None if self.file_row is None else self.file_row[index],
                     None if self.missing is None else self.missing[index],
-                    None if self.after_hold is None else self.after_hold[index], self.unread)
+                    None if self.after_hold is None else self.after_hold[index], self.unread,
+                    self.resent)
 
     def slice(self, start: int, stop: int) -> "Rows":
         """Rows ``start`` to ``stop - 1``, still tagged against all of ``files``."""
@@ -84,7 +90,8 @@ class Rows:
                     None if self.file_index is None else self.file_index[part],
                     None if self.file_row is None else self.file_row[part],
                     None if self.missing is None else self.missing[part],
-                    None if self.after_hold is None else self.after_hold[part], self.unread)
+                    None if self.after_hold is None else self.after_hold[part], self.unread,
+                    self.resent)
 
     @classmethod
     def from_frame(cls, raw: pd.DataFrame) -> "Rows":

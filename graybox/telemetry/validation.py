@@ -13,6 +13,7 @@ import pandas as pd
 from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
 from graybox.telemetry.holds import drop_held_rows
+from graybox.telemetry.resent import drop_resent_rows
 from graybox.telemetry.policy import MIN_STUCK_SAMPLES, GridPolicy, format_duration
 from graybox.telemetry.rows import Rows
 
@@ -230,9 +231,10 @@ def operating_points(rows: Rows, dt_ns: int, policy: GridPolicy) -> int:
 
 def data_rows(rows: Rows, asset_id: str, policy: GridPolicy,
               channels: Sequence[str] | None = None) -> Rows:
-    """The rows that are data: :func:`running_rows` without the rows a logger held
-    (:func:`graybox.telemetry.holds.drop_held_rows`)."""
-    return drop_held_rows(running_rows(rows, asset_id, policy, channels))
+    """The rows that are data: without the rows a logger sent twice
+    (:func:`graybox.telemetry.resent.drop_resent_rows`), :func:`running_rows` without the
+    rows a logger held (:func:`graybox.telemetry.holds.drop_held_rows`)."""
+    return drop_held_rows(running_rows(drop_resent_rows(rows), asset_id, policy, channels))
 
 
 def running_rows(rows: Rows, asset_id: str, policy: GridPolicy,

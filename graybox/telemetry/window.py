@@ -32,6 +32,9 @@ class TelemetryWindow:
         Per channel, the rows left out because its readings were missing: for longer than
         ``GridPolicy.max_gap`` (a sensor's dropout), or at all in a ``running`` channel
         (``Rows.unread``); empty: none.
+    resent : int
+        Rows left out because a logger sent them twice (the same timestamp and readings as a
+        row before them, ``Rows.resent``); 0: none.
 
     Notes
     -----
@@ -46,6 +49,7 @@ class TelemetryWindow:
     filled_samples: int
     files: tuple[str, ...]
     unread: tuple[tuple[str, int], ...] = ()
+    resent: int = 0
     # per grid point: True where it was filled across a gap (lets split apportion the count)
     _filled_mask: np.ndarray | None = field(repr=False, compare=False, default=None)
     # per grid point: indexes into files of the raw samples bracketing it (lets split name
