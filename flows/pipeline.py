@@ -404,6 +404,7 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
     short = []          # windows with too little operation to read (not bad telemetry)
     gapped = []         # (window start, gaps) of a continuous class's windows with gaps
     unread = []         # (window start, channel, seconds) of readings missing too long
+    resent = []         # (window start, rows) a logger sent twice
     dates = None        # the asset's date partitions, listed when a window has no rows
     found: dict = {}
     spans = []          # the nights of the windows taken (the telemetry's days)
@@ -463,6 +464,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                 gapped.append((start, telemetry.n_periods - 1))
             unread += [(start, channel, rows * telemetry.sample_interval)
                        for channel, rows in telemetry.unread]
+            if telemetry.resent:
+                resent.append((start, telemetry.resent))
             asset.windows.append(PendingWindow(window.start, end, telemetry,
                                                earlier=tuple(earlier), night_start=start))
         links = outside_links(config.telemetry_root, asset.asset_id,
@@ -487,6 +490,11 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                      "max_gap, or a running channel's): " + ", ".join(
                          f"{start.isoformat()} {channel!r} {format_duration(seconds)}"
                          for start, channel, seconds in unread))
+    if resent:  # a logger's re-sent batch: nothing new in it, said
+        notes.append("left out rows sent twice (the timestamp and readings of a row before "
+                     "them): " + ", ".join(f"{start.isoformat()} ({rows} row"
+                                           f"{'s' if rows > 1 else ''})"
+                                           for start, rows in resent))
     if links:
         notes.append(f"skipped {len(links)} symbolic link(s) out of the telemetry root: "
                      f"{', '.join(links)}")

@@ -209,6 +209,33 @@ def test_a_logger_outage_is_read_in_two_parts_and_said(workspace, fleet, clean, 
     assert state["baselines"] == clean.state["baselines"]
 
 
+def test_rows_sent_twice_are_left_out_and_said(workspace, fleet, clean, count, capsys):
+    """A gateway that reconnects sends its last 50 rows again (times go back, the readings
+    are the same): nothing new, and not bad telemetry. The night is the clean run's (its
+    records, alerts and watermark), and the asset's result says how many rows were left
+    out."""
+    root = workspace.path / "telemetry"
+    shutil.copytree(fleet.root, root)
+
+    def change(frame):
+        return pd.concat([frame.iloc[:1050], frame.iloc[1000:1050], frame.iloc[1050:]],
+                         ignore_index=True)
+    _rewrite(root / f"asset_id={BAD_ASSET}/date={day(BAD_DAY):%Y-%m-%d}/part-0.parquet", change)
+    workspace.configure(telemetry=root)
+    status, summary, err = _run(capsys, workspace.config)
+    assert status == 0, err
+    bad = {a["asset_id"]: a for a in summary["assets"]}[BAD_ASSET]
+    assert bad["status"] == "ok"
+    assert (f"left out rows sent twice (the timestamp and readings of a row before them): "
+            f"{day(BAD_DAY).isoformat()} (50 rows)") in bad["note"]
+    registry = workspace.registry()
+    state = committed_state(registry)
+    assert state["watermarks"] == clean.state["watermarks"]
+    assert state["baselines"] == clean.state["baselines"]
+    assert count(registry) == clean.counts
+    assert _alert_lines(workspace.alerts) == clean.alerts
+
+
 @pytest.mark.parametrize("miss", [_nan, _null])
 def test_a_missed_reading_is_interpolated_and_the_night_analysed(miss, workspace, fleet, clean,
                                                                  count, capsys):
