@@ -12,7 +12,9 @@ the reading plus or minus 3 to 8 times the channel's standard deviation over the
 simulated days (an interference spike, a garbled transmission); ``outage=p`` gives each
 asset-day, with probability ``p``, one logger outage of 10 to 60 minutes at a random time (its
 rows missing), and ``dropout=p`` likewise one channel's readings missing (NaN) for 10 to 60
-minutes (a sensor's link). The family then runs
+minutes (a sensor's link), and ``resend=p`` gives each asset-day, with probability ``p``, one
+reconnect of its gateway, which sends the last 10 to 60 minutes of rows again (the same
+timestamps and readings, after the rows already sent). The family then runs
 exactly as in ``python -m benchmarks.zoo`` (:func:`benchmarks.zoo.run.run_family`, the
 product's defaults), on a smaller fleet by default. One markdown row per spec: failures (reads,
 baselines, nights, with the first reason), healthy alarms, faults found, the analysis interval
@@ -44,12 +46,13 @@ class Logger:
     spike: float = 0.0
     outage: float = 0.0
     dropout: float = 0.0
+    resend: float = 0.0
 
     @classmethod
     def parse(cls, text: str) -> "Logger":
         """``"every=5,jitter=0.2"`` (empty: the simulator's own logging)."""
         fields = dict(item.split("=", 1) for item in text.split(",") if item)
-        known = ("every", "jitter", "drop", "spike", "outage", "dropout")
+        known = ("every", "jitter", "drop", "spike", "outage", "dropout", "resend")
         unknown = set(fields) - set(known)
         if unknown:
             raise ValueError(f"unknown logger settings {sorted(unknown)}: {', '.join(known)}")
@@ -97,6 +100,8 @@ class LoggedFamily:
             shift = rng.uniform(-1, 1, len(frame)) * self.logger.jitter * self.sample_interval
             frame = frame.set_axis((frame.index + pd.to_timedelta(shift, unit="s")).round("ms")
                                    .rename(frame.index.name))
+        if self.logger.resend:   # the rows as stamped, sent again
+            frame = _resent(frame, rng, self.logger.resend)
         return frame
 
 
@@ -120,6 +125,24 @@ def _outages(frame: pd.DataFrame, rng: np.random.Generator, outage: float, dropo
                 column = frame.columns[rng.integers(len(frame.columns))]
                 frame.loc[inside, column] = np.nan
     return frame[keep]
+
+
+def _resent(frame: pd.DataFrame, rng: np.random.Generator, resend: float) -> pd.DataFrame:
+    """``frame`` with, per day and with probability ``resend``, the rows of 10-60 minutes
+    before a random time sent again right after them (a gateway's reconnect)."""
+    seconds = (frame.index - frame.index[0]).total_seconds().to_numpy()
+    parts, done = [], 0
+    for first in np.arange(0.0, seconds[-1] + 1.0, 86_400.0):
+        if rng.random() >= resend:
+            continue
+        at = first + rng.uniform(3600.0, 86_400.0)
+        cut = int(np.searchsorted(seconds, at))
+        begin = int(np.searchsorted(seconds, at - rng.uniform(600.0, 3600.0)))
+        if begin >= cut or cut <= done:
+            continue
+        parts += [frame.iloc[done:cut], frame.iloc[begin:cut]]
+        done = cut
+    return pd.concat(parts + [frame.iloc[done:]]) if parts else frame
 
 
 def _calm(result: dict) -> str:

@@ -14,6 +14,7 @@ from benchmarks.zoo.run import START, plan_fleet
 def test_logger_settings_parse_and_refuse_unknown_ones():
     assert Logger.parse("every=5,jitter=0.2,drop=0.02") == Logger(5, 0.2, 0.02)
     assert Logger.parse("spike=0.001") == Logger(spike=0.001)
+    assert Logger.parse("resend=0.5") == Logger(resend=0.5)
     assert Logger.parse("") == Logger()
     with pytest.raises(ValueError, match="unknown logger settings"):
         Logger.parse("rate=5")
@@ -66,6 +67,27 @@ def test_the_logger_loses_rows_and_readings_for_10_to_60_minutes_a_day():
     lost = frame.isna()
     assert 4 * 10 <= lost.to_numpy().sum() <= 4 * 60
     pd.testing.assert_frame_equal(frame[~lost.any(axis=1)], plain.loc[frame.index][~lost.any(axis=1)])
+
+
+def test_the_logger_resends_10_to_60_minutes_of_rows_a_day():
+    family = discover()["thermal_room"]                  # 60-s samples
+    vehicles, _ = plan_fleet(family, 1, 0, 1, 1)
+    plain = family.simulate(vehicles, START, 4)[vehicles[0].asset_id]
+    frame = LoggedFamily(family, Logger(resend=1.0)).simulate(vehicles, START, 4)[
+        vehicles[0].asset_id]
+    back = np.flatnonzero(frame.index[1:] <= frame.index[:-1]) + 1
+    assert len(back) == 4                                # one reconnect a day
+    assert 4 * 10 <= len(frame) - len(plain) <= 4 * 61
+    # the rows sent again are rows already sent, as stamped; once each, the plain log
+    pd.testing.assert_frame_equal(frame[~frame.index.duplicated()], plain, check_freq=False)
+
+
+def test_a_room_whose_gateway_resends_rows_every_day_is_baselined_and_scored(capsys):
+    # before 2026-11-29 every such day was a failed read (duplicate or backward timestamps)
+    cells = _report_row(capsys, ["thermal_room:resend=1", "--healthy-assets", "2",
+                                 "--baseline-days", "3", "--nights", "2", "--faulty-per-cell", "0"])
+    assert cells[2] == "0 / 0 / 0"        # no read, baseline or night failed
+    assert cells[3].split(",")[0].endswith("/4")   # 2 vehicles x 2 nights scored
 
 
 def test_a_room_whose_logger_drops_out_every_day_is_baselined_and_scored(capsys):
