@@ -6,7 +6,7 @@ import argparse
 import json
 import os
 import sys
-from typing import Callable
+from typing import Callable, Sequence
 
 from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
@@ -26,11 +26,14 @@ EPHEMERAL_STARTUP_TIMEOUT = 180
 USAGE_ERRORS = (ConfigError, UsageError, InvalidAssetIdError)
 
 
-def start_pool_early(config: FleetConfig) -> None:
+def start_pool_early(config: FleetConfig, assets: Sequence[str] | None = None) -> None:
     """Start the compute pool's forkserver now when the run's batches go to a pool (the
-    sequential runner and ``[nightly] processes`` > 1; :func:`flows.batching.run_over_fleet`
-    decides): its imports then run beside the temporary server's start (about 3 s of the
-    first worker's start at 2 cores). Call after :func:`prefect_environment`."""
+    sequential runner, ``[nightly] processes`` > 1 and not one named asset (``assets``, the
+    command's ``--asset``); :func:`flows.batching.run_over_fleet` decides): its imports then
+    run beside the temporary server's start (about 3 s of the first worker's start at 2
+    cores). Call after :func:`prefect_environment`."""
+    if assets is not None and len(assets) == 1:
+        return
     if config.nightly.task_runner == "sequential" and config.nightly.process_count() > 1:
         from flows.compute_pool import start_forkserver
 

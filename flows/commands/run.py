@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     as_of = None if args.as_of is None else not_in_future(
         parse_time(args.as_of, "--as-of"), "--as-of").isoformat()
     prefect_environment(args)
-    start_pool_early(config)
+    start_pool_early(config, args.assets)
     # its child starts while the flow's modules load (prefect loads only for commands that
     # run flows, after prefect_environment)
     server = TemporaryServer().start()
