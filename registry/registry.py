@@ -180,6 +180,10 @@ class Registry:
         """End (exclusive, UTC) of the asset's last committed window: one registry call."""
         return watermarks.watermark(self._backend, asset_id)
 
+    def watermarks(self, asset_ids: Sequence[str]) -> dict[str, pd.Timestamp | None]:
+        """:meth:`watermark` of each asset, read together (one query on an SQL store)."""
+        return watermarks.watermarks(self._backend, asset_ids)
+
     def commit_watermark(self, asset_id: str, end) -> pd.Timestamp:
         """Advance the asset's watermark to ``end`` once its results are committed (never
         backwards); returns the watermark in place."""
@@ -253,6 +257,18 @@ class Registry:
         without a baseline), read without loading the baseline: one registry call."""
         end = history.baseline_window_end(self._backend, asset_id)
         return None if not end else pd.Timestamp(end)
+
+    def baseline_window_ends(self, asset_ids: Sequence[str]) -> dict[str, pd.Timestamp | None]:
+        """:meth:`baseline_window_end` of each asset, read together (one query on an SQL
+        store)."""
+        ends = history.baseline_window_ends(self._backend, asset_ids)
+        return {asset: (pd.Timestamp(end) if end else None) for asset, end in ends.items()}
+
+    def recorded_windows_of(self, asset_ids: Sequence[str], last: int
+                            ) -> dict[str, list[tuple[str, str]]]:
+        """:meth:`recorded_windows` of each asset, read together (two queries on an SQL
+        store)."""
+        return history.recorded_windows_of(self._backend, asset_ids, last)
 
     def alerts(self, since=None, *, scale: SeverityScale = SeverityScale()) -> list[Alert]:
         """The recorded nightly alerts (window end at or after ``since``), oldest first.

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import pathlib
 import tempfile
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -141,6 +141,34 @@ def baseline_window_end(backend: Backend, asset_id: str) -> str | None:
                                what="read the baseline's window")
     version = backend.version_by_alias(asset_id, naming.BASELINE)
     return None if version is None else (version.tags or {}).get(naming.TAG_WINDOW_END)
+
+
+def baseline_window_ends(backend: Backend, asset_ids: Sequence[str]) -> dict[str, str | None]:
+    """:func:`baseline_window_end` of each asset: on an SQLAlchemy store one query (per 500
+    assets), elsewhere one read each."""
+    writer = backend.sql_writer()
+    if writer is None:
+        return {asset: baseline_window_end(backend, asset) for asset in asset_ids}
+    names = {naming.model_name(asset): asset for asset in asset_ids}
+    values = call_with_retry(writer.alias_version_tag_of, list(names), naming.BASELINE,
+                             naming.TAG_WINDOW_END, policy=backend.retry,
+                             what="read the baselines' windows")
+    return {asset: values.get(name) for name, asset in names.items()}
+
+
+def recorded_windows_of(backend: Backend, asset_ids: Sequence[str], last: int
+                        ) -> dict[str, list[tuple[str, str]]]:
+    """:func:`recorded_windows` of each asset: on an SQLAlchemy store two queries (per 500
+    assets), the versions ranked in the database; elsewhere one search each."""
+    writer = backend.sql_writer()
+    if writer is None:
+        return {asset: recorded_windows(backend, asset, last) for asset in asset_ids}
+    names = {naming.model_name(asset): asset for asset in asset_ids}
+    found = call_with_retry(writer.version_tag_values_of, list(names), naming.TAG_ROLE,
+                            naming.CANDIDATE, (naming.TAG_WINDOW_START, naming.TAG_WINDOW_END),
+                            last, policy=backend.retry, what="read the recorded windows")
+    return {asset: [(t.get(naming.TAG_WINDOW_START), t.get(naming.TAG_WINDOW_END))
+                    for t in found[name]] for name, asset in names.items()}
 
 
 def alerts(backend: Backend, since=None, *, scale: SeverityScale = SeverityScale()

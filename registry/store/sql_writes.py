@@ -37,6 +37,16 @@ def now_ms() -> int:
     return int(time.time() * 1000)
 
 
+#: model names per ``IN (...)`` of the reads of many models (SQLite allows 32,766 bound
+#: values a statement, PostgreSQL 65,535)
+NAMES_PER_QUERY = 500
+
+
+def _chunks(names: Sequence[str]) -> list[list[str]]:
+    names = list(names)
+    return [names[i:i + NAMES_PER_QUERY] for i in range(0, len(names), NAMES_PER_QUERY)]
+
+
 @dataclass(frozen=True)
 class RunRows:
     """A complete, finished run to write.
@@ -291,6 +301,80 @@ class SqlWriter:
                             *self.registry._get_workspace_clauses(SqlTag))):
                 found[number][tag] = text
             return [found[number] for number in versions]
+
+    # -- the same reads for many models at once (a night's planning of a batch) --------------
+    def model_tag_of(self, names: Sequence[str], key: str) -> dict[str, str]:
+        """:meth:`model_tag` of each of ``names`` (absent: not in the result): one query per
+        :data:`NAMES_PER_QUERY` names."""
+        T = self.r.SqlRegisteredModelTag
+        found: dict[str, str] = {}
+        with self.registry.ManagedSessionMaker() as session:
+            for chunk in _chunks(names):
+                found.update(session.query(T.name, T.value).filter(
+                    T.name.in_(chunk), T.key == key, *self.registry._get_workspace_clauses(T)))
+        return found
+
+    def alias_version_tag_of(self, names: Sequence[str], alias: str, key: str
+                             ) -> dict[str, str]:
+        """:meth:`alias_version_tag` of each of ``names`` (absent: not in the result)."""
+        SqlModelVersion, SqlAlias = self.r.SqlModelVersion, self.r.SqlRegisteredModelAlias
+        SqlTag = self.r.SqlModelVersionTag
+        found: dict[str, str] = {}
+        with self.registry.ManagedSessionMaker() as session:
+            for chunk in _chunks(names):
+                found.update(
+                    session.query(SqlTag.name, SqlTag.value)
+                    .join(SqlAlias, (SqlAlias.name == SqlTag.name)
+                          & (SqlAlias.version == SqlTag.version)
+                          & (SqlAlias.workspace == SqlTag.workspace))
+                    .join(SqlModelVersion, (SqlModelVersion.name == SqlTag.name)
+                          & (SqlModelVersion.version == SqlTag.version)
+                          & (SqlModelVersion.workspace == SqlTag.workspace))
+                    .filter(SqlAlias.name.in_(chunk), SqlAlias.alias == alias, SqlTag.key == key,
+                            SqlModelVersion.current_stage != "Deleted_Internal",
+                            *self.registry._get_workspace_clauses(SqlModelVersion)))
+        return found
+
+    def version_tag_values_of(self, names: Sequence[str], key: str, value: str,
+                              keys: Sequence[str], last: int) -> dict[str, list[dict[str, str]]]:
+        """:meth:`version_tag_values` of each of ``names`` (a model without such versions:
+        an empty list): the ``last`` newest versions per model ranked in the database
+        (``row_number`` over each model's versions), then their tags, in two queries per
+        :data:`NAMES_PER_QUERY` names."""
+        from sqlalchemy import func
+
+        SqlModelVersion, SqlTag = self.r.SqlModelVersion, self.r.SqlModelVersionTag
+        found: dict[str, dict[int, dict[str, str]]] = {name: {} for name in names}
+        with self.registry.ManagedSessionMaker() as session:
+            for chunk in _chunks(names):
+                ranked = (
+                    session.query(SqlModelVersion.name.label("name"),
+                                  SqlModelVersion.version.label("version"),
+                                  SqlModelVersion.workspace.label("workspace"),
+                                  func.row_number().over(
+                                      partition_by=SqlModelVersion.name,
+                                      order_by=SqlModelVersion.version.desc()).label("rank"))
+                    .join(SqlTag, (SqlTag.name == SqlModelVersion.name)
+                          & (SqlTag.version == SqlModelVersion.version)
+                          & (SqlTag.workspace == SqlModelVersion.workspace))
+                    .filter(SqlModelVersion.name.in_(chunk), SqlTag.key == key,
+                            SqlTag.value == value,
+                            SqlModelVersion.current_stage != "Deleted_Internal",
+                            *self.registry._get_workspace_clauses(SqlModelVersion))
+                    .subquery())
+                chosen = session.query(ranked.c.name, ranked.c.version).filter(
+                    ranked.c.rank <= max(1, last))
+                for name, number in chosen:
+                    found[name][number] = {}
+                for name, number, tag, text in (
+                        session.query(ranked.c.name, ranked.c.version, SqlTag.key, SqlTag.value)
+                        .join(SqlTag, (SqlTag.name == ranked.c.name)
+                              & (SqlTag.version == ranked.c.version)
+                              & (SqlTag.workspace == ranked.c.workspace))
+                        .filter(ranked.c.rank <= max(1, last), SqlTag.key.in_(list(keys)))):
+                    found[name][number][tag] = text
+        return {name: [versions[n] for n in sorted(versions, reverse=True)]
+                for name, versions in found.items()}
 
     def model_tag(self, name: str, key: str) -> str | None:
         """The value of a registered model's tag (None when the tag or the model is absent):

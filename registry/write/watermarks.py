@@ -10,7 +10,7 @@ It only moves forward, and only when the flow says its results are committed
 """
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import pandas as pd
 from mlflow.exceptions import MlflowException
@@ -34,6 +34,19 @@ def watermark(backend: Backend, asset_id: str) -> pd.Timestamp | None:
         return None
     value = (model.tags or {}).get(naming.TAG_WATERMARK)
     return None if not value else pd.Timestamp(value)
+
+
+def watermarks(backend: Backend, asset_ids: Sequence[str]) -> dict[str, pd.Timestamp | None]:
+    """:func:`watermark` of each asset: on an SQLAlchemy store the tags' rows of all of them
+    in one query (per 500), elsewhere one read each."""
+    writer = backend.sql_writer()
+    if writer is None:
+        return {asset: watermark(backend, asset) for asset in asset_ids}
+    names = {naming.model_name(asset): asset for asset in asset_ids}
+    values = call_with_retry(writer.model_tag_of, list(names), naming.TAG_WATERMARK,
+                             policy=backend.retry, what="read the watermarks")
+    return {asset: (pd.Timestamp(values[name]) if values.get(name) else None)
+            for name, asset in names.items()}
 
 
 def commit_watermark(backend: Backend, asset_id: str, end) -> pd.Timestamp:

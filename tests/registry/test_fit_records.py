@@ -202,6 +202,35 @@ def test_baseline_window_end_is_the_window_of_the_version_the_alias_names(rec, r
         registry.reference("T-01").info.window_end)
 
 
+def test_the_reads_of_many_assets_are_each_assets_read(rec, registry):
+    """``watermarks``, ``baseline_window_ends`` and ``recorded_windows_of`` give, asset by
+    asset, what the one-asset reads give, whatever ``last`` (the versions ranked in the
+    database), on SQLite's rows and through MLflow's client alike."""
+    rec.baseline()
+    registry.promote("T-01", 1, reason="initial")
+    for night in (5, 6, 7):
+        rec.candidate(night=night)
+    rec.baseline(shift_days=1)                    # a baseline version among the candidates
+    rec.candidate(night=8)
+    rec.candidate(asset_id="T-02", night=6)
+    registry.commit_watermark("T-01", "2026-01-09")
+    assets = ["T-01", "T-02", "T-99"]
+    for sql_writes in (True, False):
+        registry.backend.sql_writes = sql_writes
+        try:
+            assert registry.watermarks(assets) == {a: registry.watermark(a) for a in assets}
+            assert registry.baseline_window_ends(assets) == {
+                a: registry.baseline_window_end(a) for a in assets}
+            for last in (1, 2, 3, 10):
+                assert registry.recorded_windows_of(assets, last) == {
+                    a: registry.recorded_windows(a, last) for a in assets}
+        finally:
+            registry.backend.sql_writes = True
+    assert registry.watermarks(["T-01"])["T-01"] == pd.Timestamp("2026-01-09", tz="UTC")
+    assert len(registry.recorded_windows_of(assets, 10)["T-01"]) == 4
+    assert registry.recorded_windows_of(assets, 10)["T-99"] == []
+
+
 def test_zeta_history_and_alerts(rec, registry, fits):
     rec.baseline()
     registry.promote("T-01", 1, reason="initial")
