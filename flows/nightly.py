@@ -110,6 +110,7 @@ from flows.discovery import AssetRef, not_in_future, pending_windows, utc, windo
 from flows.dormancy import settle_dormant
 from flows.hooks import notify_hook
 from flows.fleet_publish import publish_or_note  # noqa: I001 - apart from the line above
+from flows.planning_reads import PlanningReads, versions_to_read
 from flows.pipeline import (AssetJob, BatchPlan, CommitPolicy, PendingAsset, candidate_job,
                             configured_models, record_group)
 from flows.run_tables import flow_result
@@ -126,31 +127,34 @@ logger = logging.getLogger(__name__)
 
 
 def plan_asset(config: FleetConfig, registry, ref: AssetRef, as_of: pd.Timestamp,
-               clock: StageClock | None = None) -> AssetJob:
+               clock: StageClock | None = None, reads=None) -> AssetJob:
     """An asset's nightly job: its result so far and, when it has windows to process, those
     windows against its baseline (nothing to do when it is up to date or cannot be
     monitored). No telemetry is read: the windows come from its date partitions.
 
     The windows are the whole windows past its watermark and the late ones (see
     :func:`late_windows`); an asset whose newest telemetry is older than ``stale_after`` gets
-    a stale alert (see :func:`staleness`).
+    a stale alert (see :func:`staleness`). ``reads``: its batch's registry reads
+    (:class:`flows.planning_reads.PlanningReads`; default: ``registry``'s, one asset at a
+    time).
     """
+    reads = reads or registry
     asset = ref.asset_id
     window = config.nightly.window_delta
     before = None
     try:
         with timed(clock, "registry"):
-            watermark = registry.watermark(asset)
+            watermark = reads.watermark(asset)
         before = None if watermark is None else watermark.isoformat()
         dates = list_dates(config.telemetry_root, asset)
         stale = staleness(config, ref, as_of)
-        late = [] if watermark is None else late_windows(config, registry, asset, dates,
+        late = [] if watermark is None else late_windows(config, reads, asset, dates,
                                                          watermark, as_of, clock)
         marked = changed_days(config.telemetry_root, asset)
         changed = [] if watermark is None else changed_windows(marked, dates, watermark, window)
         late = sorted(set(late) | set(changed))
         if (watermark is not None and not pending_windows(dates, watermark, as_of, window)
-                and (not late or (not marked and _inside_baseline(registry, asset, late,
+                and (not late or (not marked and _inside_baseline(reads, asset, late,
                                                                   clock)))):
             # nothing new: no need to load the baseline
             return AssetJob(ref, _stale(AssetResult(asset, ref.vehicle_class, UP_TO_DATE,
@@ -230,11 +234,9 @@ def late_windows(config: FleetConfig, registry, asset_id: str, dates, watermark:
               if earliest <= s and e <= watermark]
     if not bounds:
         return []
-    # every candidate recorded in the look-back is among the newest this many versions (one
-    # a night, and room for baselines refitted in between)
-    newest = 2 * (int(-(-(utc(as_of) - earliest) // window)) + 1)
     with timed(clock, "registry"):
-        recorded = registry.recorded_windows(asset_id, last=newest)
+        recorded = registry.recorded_windows(asset_id, last=versions_to_read(config, watermark,
+                                                                             as_of))
     starts: dict[pd.Timestamp, list[pd.Timestamp]] = {}
     for s, e in recorded:
         starts.setdefault(utc(e), []).append(utc(s))
@@ -272,10 +274,12 @@ def _stale(result: AssetResult, alert: Alert | None) -> AssetResult:
 def plan_batch(config: FleetConfig, refs: Sequence[AssetRef], as_of, registry=None,
                clock: StageClock | None = None) -> BatchPlan:
     """The nightly work of one batch of assets up to ``as_of``: each asset's job
-    (:func:`plan_asset`), committed by :class:`RecordThenAdvance`."""
+    (:func:`plan_asset`, its registry reads made for the whole batch at once:
+    :class:`flows.planning_reads.PlanningReads`), committed by :class:`RecordThenAdvance`."""
     registry = registry or config.registry()
     as_of = utc(as_of)
-    return BatchPlan([plan_asset(config, registry, ref, as_of, clock) for ref in refs],
+    reads = PlanningReads.read(config, registry, [ref.asset_id for ref in refs], as_of, clock)
+    return BatchPlan([plan_asset(config, registry, ref, as_of, clock, reads) for ref in refs],
                      RecordThenAdvance(config, registry, clock, as_of=as_of))
 
 
