@@ -16,24 +16,23 @@ def _plan_facts(jobs):
 
 
 @pytest.fixture
-def nights_run(workspace):
-    """The store after the nightly run over every night but the last: the look-back then
-    holds the baseline's days and the recorded nights."""
-    from flows.nightly import nightly
-
-    state = nightly(config_path=str(workspace.config), as_of=day(DAYS - 1).isoformat(),
-                    return_state=True)
-    assert state.is_completed(), state.message
+def watermarked(workspace):
+    """The baselined store with every asset's watermark at its baseline's end: the
+    look-back then holds the baseline's days (no candidate), and the nights after it are
+    new."""
+    registry = workspace.registry()
+    for asset in ASSETS:
+        registry.commit_watermark(asset, day(BASELINE_DAYS))
     return workspace
 
 
-def test_a_batch_planned_together_is_planned_as_asset_by_asset(nights_run, monkeypatch):
+def test_a_batch_planned_together_is_planned_as_asset_by_asset(watermarked, monkeypatch):
     from flows.config import load_config
     from flows.discovery import AssetRef
     from flows.nightly import plan_asset, plan_batch
 
-    config = load_config(nights_run.config)
-    registry = nights_run.registry()
+    config = load_config(watermarked.config)
+    registry = watermarked.registry()
     refs = [AssetRef(asset, "turbine") for asset in ASSETS]
     calls = {"one": 0, "many": 0}
     for name in ("watermark", "recorded_windows", "baseline_window_end"):
@@ -45,7 +44,7 @@ def test_a_batch_planned_together_is_planned_as_asset_by_asset(nights_run, monke
         monkeypatch.setattr(registry, name, lambda *a, _f=original, **k: (
             calls.__setitem__("many", calls["many"] + 1), _f(*a, **k))[1])
 
-    for as_of in (day(DAYS - 1), day(DAYS)):       # nothing new; then the last night
+    for as_of in (day(BASELINE_DAYS), day(DAYS)):  # nothing new; then the nights after it
         alone = [plan_asset(config, registry, ref, as_of) for ref in refs]
         one_by_one = calls["one"]
         assert one_by_one >= 2 * len(refs)            # each asset asks on its own
@@ -54,10 +53,10 @@ def test_a_batch_planned_together_is_planned_as_asset_by_asset(nights_run, monke
         assert calls == {"one": 0, "many": 3}         # the batch asks three times
         calls.update(one=0, many=0)
         assert _plan_facts(together.jobs) == _plan_facts(alone)
-    # the nights planned: the last one for every asset, against its baseline
-    assert all(job.windows and job.reference is not None for job in together.jobs)
-    assert {job.windows[-1].nights[-1] for job in together.jobs} == {(day(DAYS - 1),
-                                                                       day(DAYS))}
+    # the nights planned: those after the baseline for every asset, against its baseline
+    nights = [((day(i), day(i + 1)),) for i in range(BASELINE_DAYS, DAYS)]
+    assert all([w.nights for w in job.windows] == nights and job.reference is not None
+               for job in together.jobs)
 
     # reads together that fail: the batch is planned asset by asset, as before
     def fail(*args, **kwargs):
