@@ -63,7 +63,9 @@ class PlanningReads:
     def read(cls, config: FleetConfig, registry, asset_ids: Sequence[str], as_of,
              clock: StageClock | None = None) -> "PlanningReads | None":
         """The batch's reads, or None when they failed (the batch is then planned asset by
-        asset, each with its own error)."""
+        asset, each with its own error) or there is no asset."""
+        if not asset_ids:
+            return None
         try:
             with timed(clock, "registry"):
                 marks = registry.watermarks(asset_ids)
