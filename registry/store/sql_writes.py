@@ -256,21 +256,7 @@ class SqlWriter:
         """The tag ``key`` of the version holding ``alias`` (None when the model, the alias,
         the version or the tag is absent): one query of the tag's row, without the version's
         entity (:meth:`version_by_alias` reads it whole: three queries)."""
-        SqlModelVersion, SqlAlias = self.r.SqlModelVersion, self.r.SqlRegisteredModelAlias
-        SqlTag = self.r.SqlModelVersionTag
-        with self.registry.ManagedSessionMaker() as session:
-            row = (session.query(SqlTag.value)
-                   .join(SqlAlias, (SqlAlias.name == SqlTag.name)
-                         & (SqlAlias.version == SqlTag.version)
-                         & (SqlAlias.workspace == SqlTag.workspace))
-                   .join(SqlModelVersion, (SqlModelVersion.name == SqlTag.name)
-                         & (SqlModelVersion.version == SqlTag.version)
-                         & (SqlModelVersion.workspace == SqlTag.workspace))
-                   .filter(SqlAlias.name == name, SqlAlias.alias == alias, SqlTag.key == key,
-                           SqlModelVersion.current_stage != "Deleted_Internal",
-                           *self.registry._get_workspace_clauses(SqlModelVersion))
-                   .one_or_none())
-            return None if row is None else row[0]
+        return self.alias_version_tag_of([name], alias, key).get(name)
 
     def version_tag_values(self, name: str, key: str, value: str, keys: Sequence[str],
                            last: int) -> list[dict[str, str]]:
