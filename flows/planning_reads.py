@@ -8,7 +8,8 @@ queries each (about 5 ms of the 6.4 ms an up-to-date asset took to plan at N = 1
 :meth:`~registry.Registry.baseline_window_ends`), and :func:`flows.nightly.plan_asset` asks
 it what it would ask the registry: the same three methods, the same answers. An asset or a
 ``last`` outside what was read is asked of the registry. Should the batch's reads fail, the
-batch is planned asset by asset as before, so that each asset gets its own error.
+batch is planned asset by asset as before, so that each asset gets its own error; a passing
+failure of the store (:func:`flows.results.is_transient`) is the batch's, which is retried.
 """
 from __future__ import annotations
 
@@ -22,6 +23,8 @@ from graybox.stage_clock import StageClock, timed
 
 from flows.config import FleetConfig
 from flows.discovery import utc
+from flows.errors import TransientError
+from flows.results import is_transient
 
 logger = logging.getLogger(__name__)
 
@@ -77,6 +80,9 @@ class PlanningReads:
                 recorded = registry.recorded_windows_of(marked, last) if marked else {}
                 ends = registry.baseline_window_ends(marked) if marked else {}
         except Exception as error:  # noqa: BLE001 - each asset then reads (and fails) alone
+            if is_transient(error):   # the store is away: the batch is retried
+                raise TransientError(f"reading the registry for {len(asset_ids)} asset(s): "
+                                     f"{type(error).__name__}: {error}") from error
             logger.warning("reading the registry for %d assets together failed (%s: %s); "
                            "each asset reads alone", len(asset_ids), type(error).__name__,
                            error)

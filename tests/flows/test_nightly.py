@@ -225,31 +225,32 @@ def test_transient_error_is_retried(workspace, monkeypatch):
 
 
 def test_a_store_briefly_away_is_a_transient_error_and_is_retried(workspace, monkeypatch):
-    """A genuine store failure, not a mock of MLflow: while the batch reads T-001's watermark
-    the store's directory is away (an unmounted share). The registry raises its
-    TransientStoreError, the flows treat it as transient as they treated MLflow's error, and
-    the batch's retry finds the store back."""
+    """A genuine store failure, not a mock of MLflow: while the batch reads its assets'
+    watermarks (planning reads them for the whole batch at once) the store's directory is
+    away (an unmounted share). The registry raises its TransientStoreError, the flows treat
+    it as transient as they treated MLflow's error, and the batch's retry finds the store
+    back."""
     from registry.exceptions import TransientStoreError
     from registry.registry import Registry
 
     monkeypatch.setenv("MLFLOW_SQLALCHEMYSTORE_POOLCLASS", "NullPool")  # a connection a call
-    original = Registry.watermark
+    original = Registry.watermarks
     store, away = workspace.db.parent, workspace.path / "store-away"
     failures = []
 
-    def away_once(self, asset_id):
+    def away_once(self, asset_ids):
         if failures:
-            return original(self, asset_id)
+            return original(self, asset_ids)
         store.rename(away)
         try:
-            return original(self, asset_id)
+            return original(self, asset_ids)
         except Exception as error:
             failures.append(error)
             raise
         finally:
             away.rename(store)
 
-    monkeypatch.setattr(Registry, "watermark", away_once)
+    monkeypatch.setattr(Registry, "watermarks", away_once)
     state, summary = _run(workspace.config, as_of=day(BASELINE_DAYS + 1).isoformat(),
                           assets=["T-001"])
     assert [type(error) for error in failures] == [TransientStoreError]

@@ -66,6 +66,16 @@ def test_a_batch_planned_together_is_planned_as_asset_by_asset(watermarked, monk
     assert calls["one"] >= 2 * len(refs)
     assert _plan_facts(again.jobs) == _plan_facts(alone)
 
+    # a passing failure of the store is the batch's: it is retried, not read asset by asset
+    from flows.errors import TransientError
+    from registry.exceptions import TransientStoreError
+
+    def away(*args, **kwargs):
+        raise TransientStoreError("database is locked")
+    monkeypatch.setattr(registry, "recorded_windows_of", away)
+    with pytest.raises(TransientError, match="reading the registry for 5 asset"):
+        plan_batch(config, refs, day(DAYS), registry)
+
 
 def test_versions_to_read_cover_the_look_back(tmp_path):
     from flows.config import load_config
