@@ -263,30 +263,10 @@ class SqlWriter:
         """The tags ``keys`` of the ``last`` newest versions of the model ``name`` (by version
         number, deleted ones left out) whose tag ``key`` is ``value``, newest first: what
         ``search_model_versions`` with that name and tag, ordered by ``version_number DESC``,
-        returns of them, in two queries of the tags' rows instead of every version's entity.
+        returns of them, in two queries of the tags' rows instead of every version's entity
+        (:meth:`version_tag_values_of` of one model).
         """
-        SqlModelVersion, SqlTag = self.r.SqlModelVersion, self.r.SqlModelVersionTag
-        with self.registry.ManagedSessionMaker() as session:
-            versions = [number for (number,) in (
-                session.query(SqlModelVersion.version)
-                .join(SqlTag, (SqlTag.name == SqlModelVersion.name)
-                      & (SqlTag.version == SqlModelVersion.version)
-                      & (SqlTag.workspace == SqlModelVersion.workspace))
-                .filter(SqlModelVersion.name == name, SqlTag.key == key, SqlTag.value == value,
-                        SqlModelVersion.current_stage != "Deleted_Internal",
-                        *self.registry._get_workspace_clauses(SqlModelVersion))
-                .order_by(SqlModelVersion.version.desc())
-                .limit(max(1, last)))]
-            if not versions:
-                return []
-            found: dict[int, dict[str, str]] = {number: {} for number in versions}
-            for number, tag, text in (
-                    session.query(SqlTag.version, SqlTag.key, SqlTag.value)
-                    .filter(SqlTag.name == name, SqlTag.version.in_(versions),
-                            SqlTag.key.in_(list(keys)),
-                            *self.registry._get_workspace_clauses(SqlTag))):
-                found[number][tag] = text
-            return [found[number] for number in versions]
+        return self.version_tag_values_of([name], key, value, keys, last)[name]
 
     # -- the same reads for many models at once (a night's planning of a batch) --------------
     def model_tag_of(self, names: Sequence[str], key: str) -> dict[str, str]:
@@ -365,13 +345,7 @@ class SqlWriter:
     def model_tag(self, name: str, key: str) -> str | None:
         """The value of a registered model's tag (None when the tag or the model is absent):
         one query of the tag's row, whatever the model's history."""
-        SqlRegisteredModelTag = self.r.SqlRegisteredModelTag
-        with self.registry.ManagedSessionMaker() as session:
-            row = (session.query(SqlRegisteredModelTag.value)
-                   .filter(SqlRegisteredModelTag.name == name, SqlRegisteredModelTag.key == key,
-                           *self.registry._get_workspace_clauses(SqlRegisteredModelTag))
-                   .one_or_none())
-            return None if row is None else row[0]
+        return self.model_tag_of([name], key).get(name)
 
     def advance_model_tag(self, name: str, key: str, value: str,
                           newer: Callable[[str | None], bool]) -> str | None:
