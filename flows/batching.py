@@ -165,11 +165,11 @@ def _compute_ahead(pool, job: BatchJob, parts: Sequence[Sequence[AssetRef]]) -> 
 def _processes(config: FleetConfig, runner, job: BatchJob, assets: int) -> int:
     """Worker processes of the run's compute pool (``[nightly] processes``; 1: none): only
     beside the sequential runner, for a flow of :data:`POOLED_FLOWS` with more than one
-    asset."""
+    asset (``"auto"``: enough of them, :meth:`NightlySettings.process_count`)."""
     if not isinstance(runner, SequentialBatches) or job.flow not in POOLED_FLOWS \
             or assets < 2:
         return 1
-    return config.nightly.process_count()
+    return config.nightly.process_count(assets=assets)
 
 
 def no_telemetry(ref: AssetRef, fails: bool = False) -> AssetResult:

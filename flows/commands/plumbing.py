@@ -26,15 +26,25 @@ EPHEMERAL_STARTUP_TIMEOUT = 180
 USAGE_ERRORS = (ConfigError, UsageError, InvalidAssetIdError)
 
 
-def start_pool_early(config: FleetConfig, assets: Sequence[str] | None = None) -> None:
+def start_pool_early(config: FleetConfig, assets: Sequence[str] | None = None,
+                     vehicle_class: str | None = None) -> None:
     """Start the compute pool's forkserver now when the run's batches go to a pool (the
-    sequential runner, ``[nightly] processes`` > 1 and not one named asset (``assets``, the
-    command's ``--asset``); :func:`flows.batching.run_over_fleet` decides): its imports then
-    run beside the temporary server's start (about 3 s of the first worker's start at 2
-    cores). Call after :func:`prefect_environment`."""
-    if assets is not None and len(assets) == 1:
+    sequential runner, ``[nightly] processes`` > 1, for ``"auto"`` a fleet of enough assets,
+    and not one named asset (``assets``, the command's ``--asset``; ``vehicle_class``, its
+    ``--class``); :func:`flows.batching.run_over_fleet` decides): its imports then run beside
+    the temporary server's start (about 3 s of the first worker's start at 2 cores). Call
+    after :func:`prefect_environment`."""
+    if config.nightly.task_runner != "sequential" or (assets is not None and len(assets) == 1):
         return
-    if config.nightly.task_runner == "sequential" and config.nightly.process_count() > 1:
+    count = None
+    if config.nightly.processes == "auto":
+        from flows.discovery import discover
+
+        try:
+            count = len(discover(config, assets, vehicle_class).assets)
+        except Exception:                # the flow reports it; nothing to start early
+            return
+    if config.nightly.process_count(assets=count) > 1:
         from flows.compute_pool import start_forkserver
 
         start_forkserver()

@@ -55,7 +55,7 @@ def reanalyze(args: argparse.Namespace) -> int:
     end = parse_time(args.end, "--end")
     range_windows(start, end, config.nightly.window_delta, whole_only=False)
     prefect_environment(args)
-    start_pool_early(config, None if args.vehicle_class else args.assets)
+    start_pool_early(config, args.assets, args.vehicle_class)
     # its child starts while the flow's modules load (prefect loads only for commands that
     # run flows, after prefect_environment)
     server = TemporaryServer().start()

@@ -20,7 +20,8 @@ import pathlib
 import sys
 from typing import Any, Iterator
 
-from flows.config.settings import (DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI, AlertSettings,
+from flows.config.settings import (AUTO_POOL_MIN_ASSETS, DEFAULT_TELEMETRY_ROOT,
+                                   DEFAULT_TRACKING_URI, MAX_AUTO_PROCESSES, AlertSettings,
                                    DaskSettings, NightlySettings, NotificationSettings,
                                    ScheduleSettings, VehicleClass)
 from graybox.network_settings import FitSettings
@@ -137,8 +138,9 @@ def sections() -> list[Section]:
                  "processes": "with the sequential runner, processes that read, fit and "
                               "compare the candidates while the flow's own process records "
                               "them in order (integer >= 1 or `\"auto\"`: one per core, at "
-                              "most 4; 1: everything in the flow's process; \"Processes\" "
-                              "below)"},
+                              f"most {MAX_AUTO_PROCESSES}, for a run of {AUTO_POOL_MIN_ASSETS} "
+                              "assets or more; 1: everything in the "
+                              "flow's process; \"Processes\" below)"},
                 sizes=("memory_budget",)),
         Section("[dask]", "dask", "Used with `[nightly] task_runner = \"dask\"`.",
                 _fields(DaskSettings),

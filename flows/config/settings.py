@@ -25,6 +25,10 @@ PLOT_POLICIES = ("alarms", "all", "none")
 TASK_RUNNERS = ("sequential", "dask")
 #: ``[nightly] processes = "auto"`` takes at most this many cores
 MAX_AUTO_PROCESSES = 4
+#: ``[nightly] processes = "auto"`` starts a pool for a run of at least this many assets: two
+#: full chunks (:data:`flows.pooled_execute.MAX_CHUNK`); below it the pool's start (its
+#: forkserver's imports, about 3 s of CPU) costs about what its second core gains
+AUTO_POOL_MIN_ASSETS = 64
 
 #: peak resident size a batch task may reach (bytes): assets are fitted in groups within it
 DEFAULT_MEMORY_BUDGET = 4 * 10 ** 9
@@ -127,9 +131,9 @@ class NightlySettings:
     #: nightly windows each candidate is fitted on: the night and the N - 1 before it
     candidate_nights: int = 2
     #: processes computing a night's candidates beside the flow's (``"auto"``: one per core,
-    #: at most :data:`MAX_AUTO_PROCESSES`; 1: all in the flow's own process). 1 until the
-    #: pool is tested with plots on and on PostgreSQL (docs/configuration.md, "Processes")
-    processes: int | str = 1
+    #: at most :data:`MAX_AUTO_PROCESSES`, for a run of :data:`AUTO_POOL_MIN_ASSETS` assets
+    #: or more; 1: all in the flow's own process)
+    processes: int | str = "auto"
 
     @property
     def window_delta(self) -> pd.Timedelta:
@@ -139,12 +143,15 @@ class NightlySettings:
     def lookback_delta(self) -> pd.Timedelta:
         return pd.Timedelta(self.lookback)
 
-    def process_count(self, cores: int | None = None) -> int:
+    def process_count(self, cores: int | None = None, assets: int | None = None) -> int:
         """The processes of ``processes``: an integer as it is, ``"auto"`` the usable
         cores (``cores``, default this process's CPU affinity) up to
-        :data:`MAX_AUTO_PROCESSES`; 1 on one core (the flow's own process only)."""
+        :data:`MAX_AUTO_PROCESSES`; 1 (the flow's own process only) on one core or for a
+        run of fewer than :data:`AUTO_POOL_MIN_ASSETS` ``assets`` (None: not known)."""
         if self.processes != "auto":
             return int(self.processes)
+        if assets is not None and assets < AUTO_POOL_MIN_ASSETS:
+            return 1
         if cores is None:
             cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
                 else (os.cpu_count() or 1)

@@ -21,14 +21,17 @@ def test_a_forkserver_started_early_is_the_one_the_pools_workers_fork_from():
     assert parents == {server}
 
 
-@pytest.mark.parametrize("processes, assets, started", [
-    (2, None, True),                 # the whole fleet, a pool of 2
-    (2, ["T-001", "T-002"], True),   # two named assets
-    (2, ["T-001"], False),           # one named asset: no pool
-    (1, None, False),                # no pool configured
+@pytest.mark.parametrize("processes, assets, fleet, started", [
+    (2, None, 2, True),                  # the whole fleet, a pool of 2
+    (2, ["T-001", "T-002"], 2, True),    # two named assets
+    (2, ["T-001"], 2, False),            # one named asset: no pool
+    (1, None, 2, False),                 # no pool configured
+    ("auto", None, 64, True),            # the default: a fleet of 64 on two cores
+    ("auto", None, 63, False),           # one asset fewer: no pool
+    ("auto", ["T-001", "T-002"], 64, False),   # two of the 64 named
 ])
 def test_a_command_starts_the_forkserver_only_where_its_run_has_a_pool(
-        tmp_path, monkeypatch, processes, assets, started):
+        tmp_path, monkeypatch, processes, assets, fleet, started):
     import flows.compute_pool
     from flows.commands.plumbing import start_pool_early
     from flows.config import load_config
@@ -37,7 +40,11 @@ def test_a_command_starts_the_forkserver_only_where_its_run_has_a_pool(
 
     calls = []
     monkeypatch.setattr(flows.compute_pool, "start_forkserver", lambda: calls.append(1))
-    config = load_config(write_config(tmp_path / "fleet.toml", tmp_path, tmp_path / "m.db",
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    telemetry = tmp_path / "telemetry"
+    for number in range(1, fleet + 1):
+        (telemetry / f"asset_id=T-{number:03d}").mkdir(parents=True)
+    config = load_config(write_config(tmp_path / "fleet.toml", telemetry, tmp_path / "m.db",
                                       processes=processes))
     start_pool_early(config, assets)
     assert calls == ([1] if started else [])

@@ -121,9 +121,13 @@ def test_a_worker_that_dies_fails_its_asset_alone(tmp_path, baselined, fleet, co
     assert summary["exit_status"] == 1
 
 
-@pytest.mark.parametrize("setting, cores, expected", [
-    ("auto", 1, 1), ("auto", 2, 2), ("auto", 64, 4), (1, 8, 1), (3, 1, 3)])
-def test_processes_setting(setting, cores, expected):
+@pytest.mark.parametrize("setting, cores, assets, expected", [
+    ("auto", 1, None, 1), ("auto", 2, None, 2), ("auto", 64, None, 4), (1, 8, None, 1),
+    (3, 1, None, 3),
+    # "auto" (the default) only for a run of 64 assets or more; a number as it is
+    ("auto", 2, 64, 2), ("auto", 2, 63, 1), ("auto", 8, 1000, 4), (2, 2, 3, 2)])
+def test_processes_setting(setting, cores, assets, expected):
     from flows.config import NightlySettings
 
-    assert NightlySettings(processes=setting).process_count(cores) == expected
+    assert NightlySettings(processes=setting).process_count(cores, assets) == expected
+    assert NightlySettings().processes == "auto"

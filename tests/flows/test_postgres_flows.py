@@ -229,3 +229,51 @@ def test_nightly_on_two_dask_workers_on_postgres_equals_the_sequential_run(
 
     assert alert_keys(pg_site.alerts) == alert_keys(sequential_dir / "alerts.jsonl")
     assert len(set(alert_keys(pg_site.alerts))) == len(alert_keys(pg_site.alerts)) > 0
+
+
+@pytest.mark.slow
+def test_a_pooled_night_with_plots_on_postgres_records_what_one_process_records(
+        pg_site, postgres_server, fleet, tmp_path, count, capsys):
+    """``fleet-health run`` with a compute pool of two workers (``[nightly] processes = 2``)
+    and the alarms' plots drawn, on PostgreSQL: the same windows, alarms, records, plots and
+    watermarks as the same night in the flow's process alone."""
+    from flows.cli import main
+    from registry import Registry
+
+    def night(config: pathlib.Path, processes: int) -> dict:
+        text = config.read_text().replace('plots = "none"', 'plots = "alarms"')
+        config.write_text(text.replace("processes = 1", f"processes = {processes}"))
+        status = main(["--config", str(config), "run", "--as-of", day(DAYS).isoformat(),
+                       "--asset", PAIR[0], "--asset", PAIR[1], "--json"])
+        summary = json.loads(capsys.readouterr().out)
+        assert status == 0, summary
+        assert summary["extra"]["processes"] == processes
+        return summary
+
+    alone_dir = tmp_path / "alone"
+    alone_dir.mkdir()
+    alone_uri = postgres_server.create_database("flows_pool_alone", template=BASELINED_DB)
+    alone = night(postgres_config(alone_dir / "fleet.toml", fleet.root, alone_uri), 1)
+    pooled = night(pg_site.config, 2)
+
+    def outcome(result):
+        return [(a["asset_id"], a["status"], a["watermark_after"],
+                 [(w["window_start"], w["version"], w["alarm"], w["max_ratio"])
+                  for w in a["windows"]]) for a in result["assets"]]
+
+    assert outcome(pooled) == outcome(alone)
+    registry, reference = pg_site.registry(), Registry(alone_uri, workdir=alone_dir)
+    assert count(registry) == count(reference)
+
+    def plots(store: Registry, result: dict) -> dict:
+        client = store.backend.client
+        return {(a["asset_id"], w["window_start"]):
+                sorted(f.path for f in client.list_artifacts(w["run_id"], "plots"))
+                for a in result["assets"] for w in a["windows"]}
+
+    drawn = plots(registry, pooled)
+    assert drawn == plots(reference, alone)
+    alarmed = {(a["asset_id"], w["window_start"]) for a in pooled["assets"]
+               for w in a["windows"] if w["alarm"]}
+    assert alarmed and all(drawn[key] for key in alarmed)            # T-002's nights
+    assert not any(paths for key, paths in drawn.items() if key not in alarmed)
