@@ -6,8 +6,9 @@ import json
 import re
 from typing import Any, Mapping
 
-from flows.config.settings import (DEFAULT_TELEMETRY_ROOT, DEFAULT_TRACKING_URI, AlertSettings,
-                                   DaskSettings, NightlySettings, ScheduleSettings)
+from flows.config.settings import (AUTO_POOL_MIN_ASSETS, DEFAULT_TELEMETRY_ROOT,
+                                   DEFAULT_TRACKING_URI, AlertSettings, DaskSettings,
+                                   NightlySettings, ScheduleSettings)
 from graybox.telemetry import GridPolicy
 from graybox.telemetry.policy import format_duration
 
@@ -32,6 +33,7 @@ def render_config(*, telemetry_root: str = DEFAULT_TELEMETRY_ROOT,
     column_text = ", ".join(f'{k} = "{v}"' for k, v in columns.items())
     asset_text = ", ".join(f'"{a}"' for a in assets)
     alerts, nightly, schedule = AlertSettings(), NightlySettings(), ScheduleSettings()
+    processes, min_pool = json.dumps(nightly.processes), AUTO_POOL_MIN_ASSETS
     return f'''# fleet-health configuration (every key: docs/configuration.md)
 
 [telemetry]
@@ -57,7 +59,7 @@ retry_delay_seconds = {retry_delay_seconds:g}
 lookback = "{nightly.lookback}"                     # late-arriving windows before the watermark are analysed
 candidate_nights = {candidate_nights}                     # each candidate fitted on the night and the N - 1 before it
 task_runner = "{nightly.task_runner}"            # "dask": batches at once on the [dask] cluster
-processes = {nightly.processes!r}                        # processes computing the candidates ('auto': one per core)
+processes = {processes}                       # processes computing the candidates ("auto": one per core from {min_pool} assets)
 
 # [dask]                                   # with task_runner = "dask" (docs/operations.md)
 # address = "tcp://scheduler:8786"         # an existing cluster; or (not both) a LocalCluster per run:
