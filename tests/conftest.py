@@ -16,7 +16,7 @@ from postgres_server import REPO, PostgresServer, find_initdb, subprocess_env
 MLFLOW_TEMPLATE = "mlflow_template"
 _databases = itertools.count()
 
-#: the test files that take longest (each 25-250 s of one worker on 2 cores, measured with
+#: the test files that take longest (each 10-180 s of one worker on 2 cores, measured with
 #: ``pytest -n 2 --dist loadfile --durations=0``, longest first): ``make test`` runs with
 #: ``--no-loadscope-reorder``, so that xdist hands out whole files in collection order and
 #: these go first (longest-first scheduling), the many short files filling both workers up
@@ -25,24 +25,24 @@ _databases = itertools.count()
 LONGEST_FIRST = (
     "tests/benchmarks/test_zoo.py",
     "tests/flows/test_fault_matrix.py",
-    "tests/flows/test_fault_telemetry.py",
-    "tests/benchmarks/test_progpy_false_alarms.py",
     "tests/benchmarks/test_dask_scale.py",
-    "tests/benchmarks/test_nightly_scale.py",
-    "tests/flows/test_memory.py",
     "tests/flows/test_postgres_flows.py",
+    "tests/benchmarks/test_nightly_scale.py",
+    "tests/flows/test_fault_telemetry.py",
     "tests/flows/test_cli.py",
+    "tests/flows/test_memory.py",
     "tests/benchmarks/test_skab_benchmark.py",
-    "tests/graybox/models/test_progpy.py",
-    "tests/flows/test_demo.py",
     "tests/flows/test_dask.py",
-    "tests/registry/test_mlflow_server.py",
-    "tests/flows/test_check.py",
+    "tests/benchmarks/test_progpy_false_alarms.py",
+    "tests/flows/test_demo.py",
     "tests/flows/test_progpy_fleet.py",
-    "tests/registry/test_tampered_artifacts.py",
-    "tests/graybox/test_hidden_starts_together.py",
+    "tests/flows/test_nightly.py",
     "tests/benchmarks/test_detection_benchmark.py",
+    "tests/registry/test_mlflow_server.py",
     "tests/registry/test_postgres_store.py",
+    "tests/graybox/test_simulator_rates.py",
+    "tests/flows/test_calm_nights.py",
+    "tests/graybox/models/test_progpy.py",
 )
 
 

@@ -136,21 +136,26 @@ def _hold_defaults(parameters: Mapping[str, Any], states: tuple[str, ...]) -> di
 
 
 @functools.cache
-def _read_once(container: type) -> type:
+def _read_once(container: type, constants: bool = False) -> type:
     """``container`` (a ProgPy model's ``StateContainer`` or ``InputContainer``) whose items
     are the same rows, taken from its matrix at the first read: ProgPy finds a key's row with
     ``list.index`` on every read, and a model's ``next_state`` reads each variable many
     times (a third to a half of a pump's ``next_state`` call). Writing an item, deleting one
     or setting the matrix (``x.matrix += ...``, as ``DCMotor`` does) takes the rows again; a
     model that wrote into a row in place and then read that variable would read the old
-    value (ProgPy's catalogue does not: ``DCMotor`` wraps its angle last)."""
+    value (ProgPy's catalogue does not: ``DCMotor`` wraps its angle last). With
+    ``constants`` (inputs) a row of one value throughout is read as that value, as a batch of
+    one sample's is: a model that builds an array from an input it expects to be a number
+    (``CentrifugalPump``'s leak flow from its pressures) then takes a batch in which other
+    inputs vary."""
 
     class ReadOnce(container):
         _rows = None
 
         def __getitem__(self, key):
             if self._rows is None:
-                self._rows = {k: (row[0] if len(row) == 1 else row)
+                self._rows = {k: (row[0] if len(row) == 1 or (constants and np.all(row == row[0]))
+                                  else row)
                               for k, row in zip(self._keys, self._matrix)}
             return self._rows[key]
 
@@ -179,7 +184,7 @@ def progpy_rates(model, full: np.ndarray, inputs: np.ndarray, step: float) -> np
     """ProgPy's ``dx`` of a continuous model, ``(next_state(x, u, step) - x) / step`` of a
     discrete one, at the state columns ``full`` (n_states, T) and inputs (n_inputs, T)."""
     state = _read_once(model.StateContainer)(full.copy())
-    load = _read_once(model.InputContainer)(inputs.copy())
+    load = _read_once(model.InputContainer, constants=True)(inputs.copy())
     if not model.is_discrete:
         return np.asarray(model.dx(state, load).matrix, dtype=float).reshape(full.shape)
     following = np.asarray(model.next_state(state, load, step).matrix, dtype=float)
@@ -368,8 +373,9 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         self._measured_outputs = np.array([self.states.index(o) for o in measured], dtype=int)
         self._computed_rows = np.array([self.progpy_outputs.index(o) for o in computed],
                                        dtype=int)
-        #: whether ProgPy takes a batch whose inputs vary (None: no such batch seen yet)
-        self._inputs_batch: bool | None = None
+        #: per input, whether ProgPy takes a batch in which it varies (None: no batch with
+        #: varying inputs seen yet; :meth:`_inputs_free_in_a_batch`)
+        self._free_inputs: np.ndarray | None = None
 
     @functools.cached_property
     def diagnosable(self) -> tuple[str, ...]:
@@ -468,32 +474,55 @@ class ProgPyModel(WhiteBoxModel, abstract=True):
         return values.reshape(len(self.progpy_outputs), full.shape[1])
 
     def _vectorised_rates(self, full: np.ndarray, u: np.ndarray) -> np.ndarray:
-        uniform = bool(np.all(u == u[:1]))
-        if self._inputs_batch is None and not uniform:
-            self._inputs_batch = self._batch_handles_varying_inputs(full, u)
-        if uniform:
+        varies = np.any(u != u[:1], axis=0)
+        if not varies.any():
             return self._progpy_rates(full, u[:1].T)
-        if self._inputs_batch:
+        if self._free_inputs is None:
+            self._free_inputs = self._inputs_free_in_a_batch(full, u)
+        key = varies & ~self._free_inputs
+        if not key.any():
             return self._progpy_rates(full, u.T)
-        # One batch per distinct input: some vectorised ProgPy models fail (or, worse, build
-        # a T x T matrix) when the inputs vary within a batch (CentrifugalPump's leak flow).
-        distinct, which = np.unique(u, axis=0, return_inverse=True)
+        # One batch per distinct value of the inputs a batch may not vary in: some vectorised
+        # ProgPy models fail (or, worse, build a T x T matrix) when those vary within a batch
+        # (CentrifugalPump's leak flow, from the two pressures; its voltage may vary).
+        distinct, which = np.unique(u[:, key], axis=0, return_inverse=True)
         which = which.reshape(-1)
         order = np.argsort(which, kind="stable")
         bounds = np.cumsum(np.bincount(which, minlength=len(distinct)))[:-1]
         rates = np.empty_like(full)
-        for row, columns in zip(distinct, np.split(order, bounds)):
-            rates[:, columns] = self._progpy_rates(full[:, columns], row[:, None])
+        for columns in np.split(order, bounds):
+            rates[:, columns] = self._progpy_rates(full[:, columns], u[columns].T)
         return rates
 
-    def _batch_handles_varying_inputs(self, full: np.ndarray, u: np.ndarray) -> bool:
-        """Whether a batch with varying inputs gives the per-sample rates (probed on up to 3
-        samples with distinct inputs, on the first batch whose inputs vary)."""
-        _, first = np.unique(u, axis=0, return_index=True)
-        probe = np.sort(first)[:3]
-        alone = np.concatenate([self._progpy_rates(full[:, [t]], u[[t]].T) for t in probe], axis=1)
+    def _inputs_free_in_a_batch(self, full: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Per input, whether a batch in which it varies gives the per-sample rates: probed
+        on the first batch whose inputs vary, on up to 3 of its samples with distinct values
+        of that input and every other input as in the first of them; then the free inputs
+        varying together (all held to a batch of one value each if that fails). An input
+        that does not vary in that batch cannot be probed and is held."""
+        free = np.zeros(u.shape[1], dtype=bool)
+        for column in np.flatnonzero(np.any(u != u[:1], axis=0)):
+            _, first = np.unique(u[:, column], return_index=True)
+            probe = np.sort(first)[:3]
+            inputs = np.repeat(u[probe[:1]], len(probe), axis=0)
+            inputs[:, column] = u[probe, column]
+            free[column] = self._takes_a_batch(full[:, probe], inputs)
+        if np.count_nonzero(free) > 1:
+            _, first = np.unique(u[:, free], axis=0, return_index=True)
+            probe = np.sort(first)[:3]
+            inputs = np.repeat(u[probe[:1]], len(probe), axis=0)
+            inputs[:, free] = u[np.ix_(probe, free)]
+            if not self._takes_a_batch(full[:, probe], inputs):
+                free[:] = False
+        return free
+
+    def _takes_a_batch(self, full: np.ndarray, inputs: np.ndarray) -> bool:
+        """Whether ProgPy's rates of these samples (states ``full`` (n, k), ``inputs``
+        (k, n_inputs)) in one batch are those it gives each sample alone."""
+        alone = np.concatenate([self._progpy_rates(full[:, [t]], inputs[[t]].T)
+                                for t in range(full.shape[1])], axis=1)
         try:
-            together = self._progpy_rates(full[:, probe], u[probe].T)
+            together = self._progpy_rates(full, inputs.T)
         except (ValueError, TypeError, IndexError):
             return False
         if together.shape != alone.shape:

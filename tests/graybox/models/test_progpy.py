@@ -222,6 +222,32 @@ def test_discrete_pump_rates_are_progpys_next_state():
         (torque - friction - back) / p["I"], rel=1e-9)
 
 
+def test_a_batch_varies_the_inputs_progpy_takes_varying_and_is_cut_by_the_others():
+    """ProgPy's pump builds its leak flow as a list of one number per sample: a batch in which
+    its pressures varied would make that a T x T matrix. Its voltage and synchronous speed
+    may vary within a batch. The rates are ProgPy's one sample at a time either way, from
+    one ProgPy call per distinct pair of pressures (not per distinct row of inputs)."""
+    model = pump()
+    x, u = operating_points(8)
+    u[4:, 2] += 1e5                                    # a second discharge pressure
+    expected = progpy_rates(progpy_pump(), x, u)
+    np.testing.assert_allclose(model.derivatives(x, u), expected, rtol=1e-9, atol=1e-12)
+    # which inputs a batch may vary in, probed on that first batch: the voltage and the
+    # synchronous speed; the pressures not; the ambient did not vary, so it was not probed
+    assert model._free_inputs.tolist() == [False, True, False, False, True]
+    calls = []
+    original = model._progpy_rates
+    model._progpy_rates = lambda full, inputs: calls.append(full.shape[1]) or original(full, inputs)
+    np.testing.assert_allclose(model.derivatives(x, u), expected, rtol=1e-9, atol=1e-12)
+    assert calls == [4, 4]
+    # the same samples one pressure pair only: one call for all eight
+    calls.clear()
+    u[4:, 2] -= 1e5
+    np.testing.assert_allclose(model.derivatives(x, u), progpy_rates(progpy_pump(), x, u),
+                               rtol=1e-9, atol=1e-12)
+    assert calls == [8]
+
+
 def test_overrides_reach_the_dynamics():
     x, u = operating_points()
     base, heavy = pump().derivatives(x, u), pump(I=100.0).derivatives(x, u)
