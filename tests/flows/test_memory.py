@@ -72,15 +72,16 @@ def test_a_baseline_batch_stays_within_its_memory_budget(tmp_path):
     with a small budget, above the process's after start-up."""
     from flows.demo import simulated_fleet, write_simulation
 
-    spec = simulated_fleet(6, 3, seed=3, sample_interval=1.0, healthy=True)
+    spec = simulated_fleet(4, 3, seed=3, sample_interval=1.0, healthy=True)
     write_simulation(spec, tmp_path / "telemetry")
     assets = [v.asset_id for v in spec.vehicles]
     small = run_worker(tmp_path / "telemetry", tmp_path / "small", 200, assets)
-    assert small["statuses"] == ["ok"] * 6
-    assert len(small["groups"]) > 1 and sum(small["groups"]) == 6
+    assert small["statuses"] == ["ok"] * 4
+    assert len(small["groups"]) > 1 and sum(small["groups"]) == 4
     assert small["peak"] - small["start"] <= small["above"], small
     # the same batch with room for everything fits all assets at once and needs well over
-    # the memory the budget kept it to (measured: 2.2-3.6 times): the budget kept it down
+    # the memory the budget kept it to (measured: 2.2 times on these four assets, 2.2-3.6 on
+    # six): the budget kept it down
     large = run_worker(tmp_path / "telemetry", tmp_path / "large", 10_000, assets)
-    assert large["groups"] == [6]
+    assert large["groups"] == [4]
     assert large["peak"] - large["start"] > 1.5 * (small["peak"] - small["start"]), (small, large)
