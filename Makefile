@@ -1,9 +1,11 @@
 # Two commands: `make demo` installs and runs the demo, `make test` installs and runs the tests.
 PYTHON ?= python3
 VENV ?= .venv
-# the suite runs its test files on two processes (2 cores: about 9 min), the
-# longest files first (tests/conftest.py: LONGEST_FIRST)
-TEST_WORKERS ?= 2
+# the suite runs its test files on three processes, the longest files first
+# (tests/conftest.py: LONGEST_FIRST): on 2 cores a third fills the time the others wait for
+# servers and child processes (the suite's CPU is about 1,150 s; 601 s of wall on three,
+# 638-646 s on two: docs/performance.md, "Three test processes on two cores")
+TEST_WORKERS ?= 3
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # pip byte-compiles what it installs on one core (about 50 of a 76-s install); the same
