@@ -14,6 +14,7 @@ fleet's order and are the same.
 """
 from __future__ import annotations
 
+import json
 import logging
 from typing import Sequence
 
@@ -205,6 +206,10 @@ def run_over_fleet(summary: RunSummary, job: BatchJob, config: FleetConfig, desc
     with batch_runner(config) as runner:
         processes = _processes(config, runner, job, len(fleet.assets))
         summary.extra["processes"] = processes
+        if processes > 1:
+            progress.note(f"{description}: {processes} worker processes compute the "
+                          f"candidates, this one records them ([nightly] processes = "
+                          f"{json.dumps(config.nightly.processes)})")
         parts = batches(list(fleet.assets), batch_size_for(len(fleet.assets),
                                                            config.nightly.batch_size,
                                                            runner.slots))

@@ -63,9 +63,22 @@ def _candidates(registry) -> list:
 
 def test_a_pooled_night_records_what_the_sequential_night_records(tmp_path, baselined, fleet,
                                                                     config_writer, harness):
+    import io
+
+    from flows import progress
+
     alone, alone_registry = _store(tmp_path, baselined, fleet, config_writer, "alone", 1)
     pooled, pooled_registry = _store(tmp_path, baselined, fleet, config_writer, "pooled", 2)
-    expected, got = _night(alone), _night(pooled)
+    lines = {}
+    for name, config in (("alone", alone), ("pooled", pooled)):
+        stream = io.StringIO()
+        with progress.reporting(progress.LineReporter(stream)):
+            lines[name] = (_night(config), stream.getvalue())
+    (expected, said_alone), (got, said) = lines["alone"], lines["pooled"]
+    # the progress lines say who computes: the pool's workers, or nothing extra
+    assert "2 worker processes compute the candidates, this one records them " \
+           "([nightly] processes = 2)" in said
+    assert "worker processes" not in said_alone
 
     assert got["exit_status"] == expected["exit_status"] == 0
     assert [a["asset_id"] for a in got["assets"]] == list(ASSETS)
