@@ -114,14 +114,10 @@ def recorded_windows(backend: Backend, asset_id: str, last: int) -> list[tuple[s
     model versions by their tags, newest first, without the runs' metrics (a run search
     loads every metric of every run: 5-7 against 26-37 ms per asset on a store of 1,000
     assets); on an SQLAlchemy store two queries of the versions' tag rows
-    (:meth:`registry.store.sql_writes.SqlWriter.version_tag_values`, 0.5 against 5 ms)."""
+    (:func:`recorded_windows_of`, 0.5 against 5 ms)."""
+    if backend.sql_writer() is not None:
+        return recorded_windows_of(backend, [asset_id], last)[asset_id]
     model = naming.model_name(asset_id)
-    writer = backend.sql_writer()
-    if writer is not None:
-        tags = call_with_retry(writer.version_tag_values, model, naming.TAG_ROLE,
-                               naming.CANDIDATE, (naming.TAG_WINDOW_START, naming.TAG_WINDOW_END),
-                               last, policy=backend.retry, what="read the recorded windows")
-        return [(t.get(naming.TAG_WINDOW_START), t.get(naming.TAG_WINDOW_END)) for t in tags]
     clause = (f"name = {naming.quote(model)} and "
               f"tags.`{naming.TAG_ROLE}` = '{naming.CANDIDATE}'")
     versions = backend.client.search_model_versions(clause, max_results=max(1, last),
@@ -134,11 +130,8 @@ def baseline_window_end(backend: Backend, asset_id: str) -> str | None:
     """``window_end`` of the version holding the asset's ``baseline`` alias (the ISO string
     as tagged; None without a baseline): one query of its tag's row on an SQLAlchemy store,
     without loading or verifying the version (:func:`registry.review.reference` does both)."""
-    writer = backend.sql_writer()
-    if writer is not None:
-        return call_with_retry(writer.alias_version_tag, naming.model_name(asset_id),
-                               naming.BASELINE, naming.TAG_WINDOW_END, policy=backend.retry,
-                               what="read the baseline's window")
+    if backend.sql_writer() is not None:
+        return baseline_window_ends(backend, [asset_id])[asset_id]
     version = backend.version_by_alias(asset_id, naming.BASELINE)
     return None if version is None else (version.tags or {}).get(naming.TAG_WINDOW_END)
 

@@ -15,9 +15,10 @@ not at all, so no half-recorded fit is ever left behind by this path.
 The same class answers the nightly path's other look-ups in one query or session each, with
 MLflow's entities where MLflow returns entities: a fit key's runs (:meth:`SqlWriter.runs_with_tag`),
 the version holding an alias (:meth:`SqlWriter.version_by_alias`), the windows tagged on an
-asset's newest candidates (:meth:`SqlWriter.version_tag_values`), and the watermark, a
-registered model's tag, read and advanced (:meth:`SqlWriter.model_tag`,
-:meth:`SqlWriter.advance_model_tag`).
+asset's newest candidates (:meth:`SqlWriter.version_tag_values_of`), the baseline's window
+(:meth:`SqlWriter.alias_version_tag_of`), and the watermark, a registered model's tag, read
+and advanced (:meth:`SqlWriter.model_tag_of`, :meth:`SqlWriter.advance_model_tag`); the reads
+take many models at once (a batch's planning), one model being a list of one.
 
 Any other store (an ``mlflow server``) has no writer (:meth:`SqlWriter.of` is None) and keeps
 the client path. Like :mod:`registry.store.model_headers`, this reads MLflow's store
@@ -252,25 +253,10 @@ class SqlWriter:
                 SqlAlias.workspace == row.workspace)]
             return version
 
-    def alias_version_tag(self, name: str, alias: str, key: str) -> str | None:
-        """The tag ``key`` of the version holding ``alias`` (None when the model, the alias,
-        the version or the tag is absent): one query of the tag's row, without the version's
-        entity (:meth:`version_by_alias` reads it whole: three queries)."""
-        return self.alias_version_tag_of([name], alias, key).get(name)
-
-    def version_tag_values(self, name: str, key: str, value: str, keys: Sequence[str],
-                           last: int) -> list[dict[str, str]]:
-        """The tags ``keys`` of the ``last`` newest versions of the model ``name`` (by version
-        number, deleted ones left out) whose tag ``key`` is ``value``, newest first: what
-        ``search_model_versions`` with that name and tag, ordered by ``version_number DESC``,
-        returns of them, in two queries of the tags' rows instead of every version's entity
-        (:meth:`version_tag_values_of` of one model).
-        """
-        return self.version_tag_values_of([name], key, value, keys, last)[name]
-
-    # -- the same reads for many models at once (a night's planning of a batch) --------------
+    # -- reads of many models at once (a night's planning of a batch; one model: a list of one)
     def model_tag_of(self, names: Sequence[str], key: str) -> dict[str, str]:
-        """:meth:`model_tag` of each of ``names`` (absent: not in the result): one query per
+        """The value of each registered model's tag ``key`` (a model or tag that is absent is
+        not in the result): the tags' rows alone, whatever the models' history, one query per
         :data:`NAMES_PER_QUERY` names."""
         T = self.r.SqlRegisteredModelTag
         found: dict[str, str] = {}
@@ -282,7 +268,10 @@ class SqlWriter:
 
     def alias_version_tag_of(self, names: Sequence[str], alias: str, key: str
                              ) -> dict[str, str]:
-        """:meth:`alias_version_tag` of each of ``names`` (absent: not in the result)."""
+        """Per model, the tag ``key`` of the version holding ``alias`` (absent from the result
+        when the model, the alias, the version or the tag is): the tag's row, without the
+        version's entity (:meth:`version_by_alias` reads it whole: three queries), one query
+        per :data:`NAMES_PER_QUERY` names."""
         SqlModelVersion, SqlAlias = self.r.SqlModelVersion, self.r.SqlRegisteredModelAlias
         SqlTag = self.r.SqlModelVersionTag
         found: dict[str, str] = {}
@@ -303,10 +292,13 @@ class SqlWriter:
 
     def version_tag_values_of(self, names: Sequence[str], key: str, value: str,
                               keys: Sequence[str], last: int) -> dict[str, list[dict[str, str]]]:
-        """:meth:`version_tag_values` of each of ``names`` (a model without such versions:
-        an empty list): the ``last`` newest versions per model ranked in the database
-        (``row_number`` over each model's versions), then their tags, in two queries per
-        :data:`NAMES_PER_QUERY` names."""
+        """Per model, the tags ``keys`` of its ``last`` newest versions (by version number,
+        deleted ones left out) whose tag ``key`` is ``value``, newest first (a model without
+        such versions: an empty list): what ``search_model_versions`` with that name and tag,
+        ordered by ``version_number DESC``, returns of them. The versions are ranked in the
+        database (``row_number`` over each model's versions), then their tags read: two
+        queries of the tags' rows per :data:`NAMES_PER_QUERY` names instead of every
+        version's entity."""
         from sqlalchemy import func
 
         SqlModelVersion, SqlTag = self.r.SqlModelVersion, self.r.SqlModelVersionTag
@@ -341,11 +333,6 @@ class SqlWriter:
                     found[name][number][tag] = text
         return {name: [versions[n] for n in sorted(versions, reverse=True)]
                 for name, versions in found.items()}
-
-    def model_tag(self, name: str, key: str) -> str | None:
-        """The value of a registered model's tag (None when the tag or the model is absent):
-        one query of the tag's row, whatever the model's history."""
-        return self.model_tag_of([name], key).get(name)
 
     def advance_model_tag(self, name: str, key: str, value: str,
                           newer: Callable[[str | None], bool]) -> str | None:

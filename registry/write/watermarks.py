@@ -23,12 +23,8 @@ from registry.store.retry import call_with_retry, is_passing_failure
 
 def watermark(backend: Backend, asset_id: str) -> pd.Timestamp | None:
     """End (exclusive, UTC) of the asset's last committed window, or None if none yet."""
-    writer = backend.sql_writer()
-    if writer is not None:      # the tag's row alone
-        value = call_with_retry(writer.model_tag, naming.model_name(asset_id),
-                                naming.TAG_WATERMARK, policy=backend.retry,
-                                what="read the watermark")
-        return None if not value else pd.Timestamp(value)
+    if backend.sql_writer() is not None:      # the tag's row alone
+        return watermarks(backend, [asset_id])[asset_id]
     model = backend.registered_model(asset_id)
     if model is None:
         return None
