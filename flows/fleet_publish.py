@@ -24,6 +24,7 @@ from flows.fleet_view import (DEFAULT_NIGHTS, DEFAULT_TOP, VIEW_FILE, collect_vi
                               night_document)
 from flows.html_report import png_data_uri
 from flows.results import RunSummary
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -77,17 +78,8 @@ def publish_or_note(summary: RunSummary, config) -> None:
         note = publish_fleet_view(summary, config)
     except Exception as error:  # noqa: BLE001 - the picture must never fail the night
         message = f"the fleet heat map was not published: {type(error).__name__}: {error}"
-        _run_logger().warning(message)
+        run_logger(logger).warning(message)
         summary.extra["fleet_view"] = {"published": False, "error": message}
     else:
         summary.extra["fleet_view"] = {"published": True, **note}
 
-
-def _run_logger():
-    from prefect.exceptions import MissingContextError
-    from prefect.logging import get_run_logger
-
-    try:
-        return get_run_logger()
-    except MissingContextError:
-        return logger
