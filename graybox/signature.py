@@ -127,6 +127,12 @@ class Signature:
         A baseline's windows (their first timestamps, ISO) left out because they held too
         little operation to fit (:func:`graybox.calibration.fit_baselines`); None where none
         was.
+    holds : FrozenMap of str to float or None
+        A baseline's channels that held one value for a while with nothing in the plant to
+        explain it (a coarse reading of a steady plant): channel -> the longest such hold in
+        its windows, seconds (``TelemetryWindow.holds``). Its candidates may hold a value
+        longer before they read as stuck (:meth:`graybox.GridPolicy.with_holds`). None where
+        no channel held (a reading at full precision) or for a candidate.
     """
 
     channels: tuple[ChannelSignature, ...]
@@ -145,11 +151,16 @@ class Signature:
     tuning: ParameterEstimate | None = None
     conditions: OperatingConditions | None = None
     left_out: tuple[str, ...] | None = None
+    holds: FrozenMap[str, float] | None = None
 
     #: written only when present, so signatures stored before them read and write as before
     omitted_when_none: ClassVar[frozenset[str]] = frozenset({"integration", "hidden_starts",
                                                              "tuning", "conditions",
-                                                             "left_out"})
+                                                             "left_out", "holds"})
+
+    def __post_init__(self):
+        if self.holds is not None and not isinstance(self.holds, FrozenMap):
+            object.__setattr__(self, "holds", FrozenMap(self.holds))
 
     @property
     def integration_used(self) -> Integration:

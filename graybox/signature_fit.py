@@ -21,6 +21,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from graybox.analysis_rate import choose_analysis_interval, decimate, decimation_factor
+from graybox.frozen_map import FrozenMap
 from graybox.exceptions import GrayBoxError, InsufficientDataError, ShortWindowsError
 from graybox.integration import (DEFAULT_SUBSTEPS, ERROR_POINTS, MAX_SUBSTEPS, Integration,
                                  IntegrationError, choose_integration)
@@ -37,7 +38,7 @@ from graybox.segment_cache import SegmentCache
 from graybox.state_estimation import (INITIAL_FIT_MIN_SAMPLES, WindowStates, estimate_states,
                                       window_arrays)
 from graybox.telemetry.policy import format_duration
-from graybox.telemetry.window import window_periods
+from graybox.telemetry.window import TelemetryWindow, window_periods
 from graybox.tiers import TIER_KINDS, Tier
 from graybox.tiers.base import channel_fields
 from graybox.tiers.fit_state import AssetFit, ChannelFit, per_window
@@ -368,7 +369,18 @@ def _finish(item: AssetFit, settings: GrayBoxSettings, clock: StageClock | None,
                      item.sample_interval, channels[0].n_samples, settings, item.asset_id,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval,
                      integration=item.integration, hidden_starts=item.hidden_starts,
-                     tuning=item.tuning, conditions=item.conditions)
+                     tuning=item.tuning, conditions=item.conditions,
+                     holds=longest_holds(item.request.windows))
+
+
+def longest_holds(windows) -> FrozenMap | None:
+    """Per channel, the longest hold over ``windows`` (``TelemetryWindow.holds``; a frame has
+    none); None where there is none."""
+    longest: dict[str, float] = {}
+    for window in windows:
+        for channel, seconds in (window.holds if isinstance(window, TelemetryWindow) else ()):
+            longest[channel] = max(seconds, longest.get(channel, 0.0))
+    return FrozenMap(longest) if longest else None
 
 
 def tuned_request(request: FitRequest) -> tuple[FitRequest, ParameterEstimate | None]:

@@ -31,6 +31,7 @@ importing a user's exports: ``exports`` (reading CSV/Parquet into UTC rows), ``m
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Collection, Sequence
 
 from graybox.telemetry.gridding import grid_rows, to_grid
@@ -39,7 +40,8 @@ from graybox.telemetry.layout import (ASSET_ID_PATTERN, list_assets, list_dates,
 from graybox.telemetry.policy import GridPolicy, duration_seconds
 from graybox.telemetry.reading import newest_timestamp, read_raw, read_rows
 from graybox.exceptions import TelemetryError
-from graybox.telemetry.validation import data_rows, period_starts, validate, validate_rows
+from graybox.telemetry.validation import (data_rows, longest_holds, period_starts, validate,
+                                         validate_rows)
 from graybox.telemetry.window import TelemetryWindow
 from graybox.telemetry.writing import write_telemetry
 
@@ -49,8 +51,8 @@ __all__ = ["ASSET_ID_PATTERN", "validate_asset_id", "GridPolicy", "TelemetryWind
 
 
 def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=None,
-                policy: GridPolicy = GridPolicy(), inputs: Collection[str] = ()
-                ) -> TelemetryWindow:
+                policy: GridPolicy = GridPolicy(), inputs: Collection[str] = (),
+                holds: bool = False) -> TelemetryWindow:
     """Read, validate and grid one asset's telemetry over ``[start, end)``.
 
     Parameters
@@ -70,6 +72,9 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     inputs : collection of str, optional
         Columns exempt from the stuck check (``model.input_columns``: commands and setpoints
         may hold a value for hours). By default every column is checked.
+    holds : bool, default False
+        Also find each channel's longest unexplained hold (``TelemetryWindow.holds``): a new
+        baseline's windows, read with :meth:`GridPolicy.for_baseline`.
 
     Returns
     -------
@@ -91,4 +96,7 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
         raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
                              f"(grid running)")
     rows, dt_ns = validate_rows(rows, asset_id, policy, inputs, logged.ts)
-    return grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))
+    window = grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))
+    if holds:
+        window = replace(window, holds=longest_holds(rows, policy, dt_ns, inputs))
+    return window

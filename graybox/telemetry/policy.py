@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import datetime
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 import pandas as pd
@@ -25,6 +25,14 @@ _DEFAULT_STUCK_AFTER = 600.0
 #: 10 minutes (a 0.1-degree reading every 5 minutes holds for two samples as a matter of
 #: course)
 MIN_STUCK_SAMPLES = 10
+#: a baseline learns how long each channel held one value where nothing explained it
+#: (:func:`graybox.telemetry.validation.longest_holds`): from runs this many samples long
+#: (shorter ones, doubled, stay under :data:`MIN_STUCK_SAMPLES`)
+MIN_HOLD_SAMPLES = MIN_STUCK_SAMPLES // 2
+#: its candidates may hold a value this many times as long as the baseline's longest hold ...
+HOLD_FACTOR = 2.0
+#: ... and at most this long (seconds); a baseline's own windows may hold one that long
+HOLD_CAP = 6 * 3600.0
 
 
 def duration_seconds(value, what: str = "duration") -> float:
@@ -207,6 +215,49 @@ class GridPolicy:
             return self.stuck_after
         limits = dict(self.stuck_after)
         return limits.get(channel, limits[ALL_CHANNELS])
+
+    def for_baseline(self) -> "GridPolicy":
+        """The policy a new baseline reads its windows with: a checked channel may hold one
+        value up to :data:`HOLD_CAP` (a coarse reading of a steady plant holds for longer
+        than ``stuck_after`` and is not bad telemetry); the baseline records how long each
+        held (``Signature.holds``) and its candidates are read :meth:`with_holds`.
+
+        Returns
+        -------
+        GridPolicy
+        """
+        limits = {channel: limit and max(limit, HOLD_CAP)
+                  for channel, limit in self._limits().items()}
+        return replace(self, stuck_after=limits)
+
+    def with_holds(self, holds: Mapping[str, float] | None) -> "GridPolicy":
+        """The policy a baseline's candidates are read with: a channel the baseline saw hold
+        one value for ``holds[channel]`` seconds, with nothing in the plant to explain it (a
+        1-kPa tyre pressure on the highway), may hold :data:`HOLD_FACTOR` times as long, up to
+        :data:`HOLD_CAP`, before it reads as stuck; never less than its ``stuck_after``.
+
+        Parameters
+        ----------
+        holds : mapping of str to float or None
+            Channel -> longest hold in seconds (``Signature.holds``); None or empty: this
+            policy.
+
+        Returns
+        -------
+        GridPolicy
+        """
+        limits = self._limits()
+        learned = {channel: max(self.stuck_limit(channel), min(HOLD_FACTOR * held, HOLD_CAP))
+                   for channel, held in (holds or {}).items() if self.stuck_limit(channel)}
+        if all(limit == self.stuck_limit(channel) for channel, limit in learned.items()):
+            return self
+        return replace(self, stuck_after={**limits, **learned})
+
+    def _limits(self) -> dict[str, float]:
+        """``stuck_after`` as a mapping with its ``"*"`` key."""
+        if isinstance(self.stuck_after, tuple):
+            return dict(self.stuck_after)
+        return {ALL_CHANNELS: self.stuck_after}
 
 
 def _stuck_limits(value) -> float | tuple[tuple[str, float], ...]:

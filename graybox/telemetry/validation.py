@@ -14,7 +14,8 @@ from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
 from graybox.telemetry.holds import drop_held_rows
 from graybox.telemetry.resent import drop_resent_rows
-from graybox.telemetry.policy import MIN_STUCK_SAMPLES, GridPolicy, format_duration
+from graybox.telemetry.policy import (MIN_HOLD_SAMPLES, MIN_STUCK_SAMPLES, GridPolicy,
+                                      format_duration)
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
@@ -442,16 +443,49 @@ def check_order(rows: Rows, asset_id: str) -> None:
 
 
 def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inputs: set) -> None:
-    ts, n = rows.ts, len(rows)
+    best = None  # (first row, channel, samples, held ns, limit s, samples needed)
+    for j, limit, needed, starts, ends, held in _unexplained_holds(rows, policy, dt_ns, inputs):
+        long = np.flatnonzero(held >= needed)
+        if long.size and (best is None or starts[long[0]] < best[0]):
+            r = long[0]
+            best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]) * dt_ns,
+                    limit, needed)
+    if best is not None:
+        i, j, count, held, limit, needed = best
+        floor = needed > limit_intervals(limit, dt_ns)   # the samples, not the time, decided
+        allowed = max(float(limit), needed * dt_ns / NS_PER_SECOND)
+        _fail(rows, asset_id, "stuck_channel",
+              f"channel {rows.channels[j]!r} stuck at {float(rows.values[j, i])!r} for {count} "
+              f"consecutive samples ({format_duration(held / NS_PER_SECOND)}; "
+              f"stuck_after={format_duration(limit)}" + (
+                  f", and at least {MIN_STUCK_SAMPLES} samples" if floor else "") + ")"
+              + ("" if policy.intermittent else (
+                  "; if the machine stands still then (parked, switched off), declare its "
+                  "operating periods in the class's grid (running = {channel = [low, high]}, "
+                  "intermittent = true) so that a pause is not read as a stuck sensor"))
+              + f"; if {rows.channels[j]!r} holds its value while the machine runs (a coarse "
+                f"reading of a steady machine), give it a longer limit in the class's grid "
+                f"(stuck_after = {{ {rows.channels[j]} = \"6h\" }})", i,
+              channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
+
+
+def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
+                       floor: int | None = None):
+    """Per checked channel (measured, with a ``stuck_after`` limit), its runs of equal samples
+    of at least ``floor`` intervals (default: the samples its limit needs) that neither the
+    plant (:func:`_steady_runs`) nor a part at rest (:func:`_at_rest`) explains: tuples
+    ``(channel index, limit s, samples needed, starts, ends, held intervals)``, the runs in
+    time order."""
+    n = len(rows)
     if n < 2:
         return
-    best = None  # (first row, channel, samples, held ns, limit s)
     paused = separations(rows, policy, dt_ns)
     if not paused.any():
         paused = None
     input_values = [rows.values[j] for j, name in enumerate(rows.channels) if name in inputs]
     measured = [j for j, name in enumerate(rows.channels) if name not in inputs]
     measured_moves = rows.values[measured, 1:] != rows.values[measured, :-1]
+    ts = rows.ts
     for j, name in enumerate(rows.channels):
         limit = policy.stuck_limit(name)
         if name in inputs or limit == 0:
@@ -475,33 +509,28 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
             until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
         needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
-        long = np.flatnonzero(held >= needed)
+        long = np.flatnonzero(held >= (needed if floor is None else floor))
         if long.size:
             long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
         if long.size:  # j is measured: inputs were skipped above
             others = np.delete(measured_moves, measured.index(j), axis=0)
             long = long[~_at_rest(v, starts[long], ends[long], others)]
-        if long.size and (best is None or starts[long[0]] < best[0]):
-            r = long[0]
-            best = (int(starts[r]), j, int(ends[r] - starts[r] + 1), int(held[r]) * dt_ns,
-                    limit, needed)
-    if best is not None:
-        i, j, count, held, limit, needed = best
-        floor = needed > limit_intervals(limit, dt_ns)   # the samples, not the time, decided
-        allowed = max(float(limit), needed * dt_ns / NS_PER_SECOND)
-        _fail(rows, asset_id, "stuck_channel",
-              f"channel {rows.channels[j]!r} stuck at {float(rows.values[j, i])!r} for {count} "
-              f"consecutive samples ({format_duration(held / NS_PER_SECOND)}; "
-              f"stuck_after={format_duration(limit)}" + (
-                  f", and at least {MIN_STUCK_SAMPLES} samples" if floor else "") + ")"
-              + ("" if policy.intermittent else (
-                  "; if the machine stands still then (parked, switched off), declare its "
-                  "operating periods in the class's grid (running = {channel = [low, high]}, "
-                  "intermittent = true) so that a pause is not read as a stuck sensor"))
-              + f"; if {rows.channels[j]!r} holds its value while the machine runs (a coarse "
-                f"reading of a steady machine), give it a longer limit in the class's grid "
-                f"(stuck_after = {{ {rows.channels[j]} = \"6h\" }})", i,
-              channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
+        if long.size:
+            yield j, limit, needed, starts[long], ends[long], held[long]
+
+
+def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection[str] = ()
+                  ) -> tuple[tuple[str, float], ...]:
+    """Per checked channel, the longest time it held one value that the plant does not
+    explain (the runs :func:`_check_stuck` judges), in seconds, where that run is at least
+    :data:`~graybox.telemetry.policy.MIN_HOLD_SAMPLES` samples long: what a healthy
+    baseline's windows teach about a coarse reading of a steady plant
+    (:meth:`GridPolicy.with_holds`). Channels without such a run are left out."""
+    found = []
+    for j, _, _, _, _, held in _unexplained_holds(rows, policy, dt_ns, set(inputs),
+                                                   floor=MIN_HOLD_SAMPLES):
+        found.append((rows.channels[j], float(held.max()) * dt_ns / NS_PER_SECOND))
+    return tuple(found)
 
 
 def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,

@@ -35,6 +35,12 @@ class TelemetryWindow:
     resent : int
         Rows left out because a logger sent them twice (the same timestamp and readings as a
         row before them, ``Rows.resent``); 0: none.
+    holds : tuple of (str, float)
+        Per channel, the longest time (seconds) it held one value that the plant did not
+        explain, where at least :data:`~graybox.telemetry.policy.MIN_HOLD_SAMPLES` samples
+        long (:func:`graybox.telemetry.validation.longest_holds`); read only when asked
+        (``read_window(..., holds=True)``, a baseline's windows); empty: none found or not
+        read.
 
     Notes
     -----
@@ -50,6 +56,7 @@ class TelemetryWindow:
     files: tuple[str, ...]
     unread: tuple[tuple[str, int], ...] = ()
     resent: int = 0
+    holds: tuple[tuple[str, float], ...] = ()
     # per grid point: True where it was filled across a gap (lets split apportion the count)
     _filled_mask: np.ndarray | None = field(repr=False, compare=False, default=None)
     # per grid point: indexes into files of the raw samples bracketing it (lets split name
@@ -159,7 +166,7 @@ class TelemetryWindow:
             windows.append(TelemetryWindow(
                 asset_id=self.asset_id, frame=self.frame.iloc[a:b].copy(),
                 sample_interval=self.sample_interval, filled_samples=int(mask.sum()),
-                files=files, _filled_mask=mask.copy(), _file_span=span,
+                files=files, holds=self.holds, _filled_mask=mask.copy(), _file_span=span,
                 _period_starts=starts))
         return windows
 
