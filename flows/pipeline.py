@@ -333,8 +333,12 @@ def reference_model(reference: LoadedVersion, allowed: frozenset[str]) -> WhiteB
 
 
 def candidate_grid(grid: GridPolicy, reference: LoadedVersion) -> GridPolicy:
-    """The class's grid policy at the reference's sample interval (candidates share its grid)."""
-    return dataclasses.replace(grid, sample_interval=reference.signature.sample_interval)
+    """The class's grid policy at the reference's sample interval (candidates share its grid),
+    its channels allowed to hold a value as long as the reference saw them hold
+    (:meth:`GridPolicy.with_holds`)."""
+    signature = reference.signature
+    return dataclasses.replace(grid, sample_interval=signature.sample_interval
+                               ).with_holds(signature.holds)
 
 
 def read(config: FleetConfig, job: AssetJob, clock: StageClock | None = None
@@ -415,7 +419,8 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                 found[start, end] = read_window(config.telemetry_root, asset.asset_id,
                                                 job.model.required_columns, start=start,
                                                 end=end, policy=job.grid,
-                                                inputs=job.model.input_columns)
+                                                inputs=job.model.input_columns,
+                                                holds=job.reference is None)
             except TelemetryError as error:
                 found[start, end] = error
         if isinstance(found[start, end], TelemetryError):

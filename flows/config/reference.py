@@ -252,7 +252,9 @@ def sections() -> list[Section]:
                             "logger's outage: the asset's result says so)",
                  "stuck_after": "how long a channel may hold one value (`0`: no check), or per "
                                 "channel, `{ \"*\" = \"5min\", pdisch = \"30min\" }`; "
-                                "and at least 10 samples; the model's inputs are exempt",
+                                "and at least 10 samples; the model's inputs are exempt; "
+                                "a baseline's candidates may hold twice the longest hold "
+                                "the baseline saw (at most 6 h)",
                  "min_duration": "least time a window must cover",
                  "ranges": "`{ <column> = [low, high] }`: a channel's plausible values; none: "
                            "the `plausible_spread` bound",
