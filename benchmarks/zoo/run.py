@@ -145,10 +145,17 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
         f"{len(faulty)} faulty assets in {clock['simulation']:.0f} s")
 
     began = time.perf_counter()
-    windows, failed_reads = write_and_read(family, model, policy, frames,
-                                           {v.asset_id for v in vehicles}, baseline_days, nights)
-    clock["write_read"] = time.perf_counter() - began
+    store = tempfile.TemporaryDirectory(prefix=f"zoo-{family.name}-")
+    root = store.name
+    for asset, frame in frames.items():
+        write_telemetry(root, asset, frame)
     del frames
+    # a new baseline reads its days as the baseline flow does (a channel may hold a value up
+    # to the cap; the holds are recorded), its nights as the nightly flow does (with the
+    # holds its baseline saw: GridPolicy.with_holds)
+    windows, failed_reads = read_days(root, model, policy.for_baseline(), [
+        (v.asset_id, day) for v in vehicles for day in range(baseline_days)], holds=True)
+    clock["write_read"] = time.perf_counter() - began
 
     began, cpu = time.perf_counter(), time.process_time()
     ready = [v for v in vehicles if all((v.asset_id, d) in windows for d in range(baseline_days))]
@@ -165,6 +172,18 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     clock["baselines_cpu"] = time.process_time() - cpu
     say(f"{family.name}: {len(baselines)} of {len(vehicles)} baselines in "
         f"{clock['baselines']:.0f} s" + (f"; failed: {failed_baselines}" if failed_baselines else ""))
+
+    began = time.perf_counter()
+    vehicle_of = vehicles_of(vehicles, faulty)
+    for plan, count in [(v, nights) for v in vehicles] + [(f, HORIZON) for f in faulty]:
+        base = baselines.get(vehicle_of[plan.asset_id])
+        read, failed = read_days(root, model, policy.with_holds(
+            base[0].holds if base else None), [(plan.asset_id, baseline_days + night)
+                                               for night in range(count)])
+        windows.update(read)
+        failed_reads.update(failed)
+    store.cleanup()
+    clock["write_read"] += time.perf_counter() - began
 
     jobs = []
     for plan, base, candidates in asset_nights(vehicles, faulty, nights, baselines, windows,
@@ -218,11 +237,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     })
 
 
-def write_and_read(family: Family, model, policy: gb.GridPolicy,
-                   frames: Mapping[str, pd.DataFrame], vehicles: set[str], baseline_days: int,
-                   nights: int) -> tuple[dict, dict]:
-    """Write every asset's telemetry in the store layout and read its days back as the flows
-    do: a vehicle's baseline days and ``nights``, a faulty asset's :data:`HORIZON` nights.
+def read_days(root, model, policy: gb.GridPolicy, days: list[tuple[str, int]],
+              holds: bool = False) -> tuple[dict, dict]:
+    """Read asset-days ``(asset, day)`` of the store at ``root`` as the flows read a window.
 
     Returns
     -------
@@ -230,20 +247,38 @@ def write_and_read(family: Family, model, policy: gb.GridPolicy,
     failed_reads : dict of "asset day N" to the read's error
     """
     windows, failed_reads = {}, {}
+    for asset, day in days:
+        begin = START + pd.Timedelta(days=day)
+        try:
+            windows[asset, day] = gb.read_window(
+                root, asset, model.required_columns, begin, begin + pd.Timedelta(days=1),
+                policy=policy, inputs=model.input_columns, holds=holds)
+        except gb.GrayBoxError as error:
+            failed_reads[f"{asset} day {day}"] = str(error)
+    return windows, failed_reads
+
+
+def write_and_read(family: Family, model, policy: gb.GridPolicy,
+                   frames: Mapping[str, pd.DataFrame], vehicles: set[str], baseline_days: int,
+                   nights: int) -> tuple[dict, dict]:
+    """Write every asset's telemetry in the store layout and read its days back with one
+    ``policy``: a vehicle's baseline days and ``nights``, a faulty asset's :data:`HORIZON`
+    nights (the diagnosis harnesses' reading; :func:`run_family` reads a baseline's days and
+    its nights as the flows do, with the holds the baseline saw).
+
+    Returns
+    -------
+    windows : dict of (asset, day) to TelemetryWindow
+    failed_reads : dict of "asset day N" to the read's error
+    """
     with tempfile.TemporaryDirectory(prefix=f"zoo-{family.name}-") as root:
+        days = []
         for asset, frame in frames.items():
             write_telemetry(root, asset, frame)
             first = baseline_days if asset not in vehicles else 0
             last = baseline_days + (HORIZON if first else nights)
-            for day in range(first, last):
-                begin = START + pd.Timedelta(days=day)
-                try:
-                    windows[asset, day] = gb.read_window(
-                        root, asset, model.required_columns, begin, begin + pd.Timedelta(days=1),
-                        policy=policy, inputs=model.input_columns)
-                except gb.GrayBoxError as error:
-                    failed_reads[f"{asset} day {day}"] = str(error)
-    return windows, failed_reads
+            days += [(asset, day) for day in range(first, last)]
+        return read_days(root, model, policy, days)
 
 
 def night_not_operating(error: gb.GrayBoxError) -> bool:

@@ -41,35 +41,32 @@ ONSET = START + pd.Timedelta(days=1, hours=12)
 #: nights run in ``python -m benchmarks.zoo`` (docs/benchmarks.md), not in the suite (the
 #: coolant loop's hidden metal node at 10 s: 2 baselines of 5 days cost about 95 s of CPU;
 #: the lift-cylinder servo at 10 Hz, 5-9 h of stiff 4-state fits a day: with it in the reduced
-#: run this file took over 12 minutes instead of 3.3, stopped unfinished)
+#: run this file took over 12 minutes instead of 3.3, stopped unfinished). Measured on the
+#: reduced run's own fleet on 2026-11-29 (one process, quiet machine): the coolant loop 26 s
+#: of CPU, the pack 17 s, the drive 43 s, against 1-16 s for the others; the pack's run then
+#: alarmed on 2 of its 4 healthy nights (its temperature's AR tier), a finding of that day
 HEAVY = {"ev_battery", "traction_drive", "cooling_loop", "servo_hydraulic"}
 #: families that miss the false-alarm bound with the protocol's 5-day baseline (a finding,
 #: docs/benchmarks.md): the bus's ridership falls at weekends, and the reduced run's two
-#: nights are a Saturday and a Sunday against a Monday-to-Friday baseline
-#: The held-out wind turbine (written blind, 10-min SCADA rows kept by ``running`` on the
-#: production time) fails a baseline and a night instead, a finding of 2026-11-28
-#: (docs/benchmarks.md): calm days. WINDTU-001's baseline fails on its day 2 (mean wind
-#: 2.6 m/s, 30 producing rows, the longest period 16): "channel 'power': window(s) [2] have 15
-#: residual samples at the 600-s analysis interval; the method needs more than 0 for
-#: differencing plus min_samples = 48 ..."; WINDTU-002's night 1 (45 producing rows, the
-#: longest period 20) has 19 where it needs 65. A turbine's fleet has such days every week.
-#: Since the same day a baseline leaves such a day out (``Signature.left_out``): every
-#: baseline of the zoo's fleet fits; a calm night still fails, and is counted as such.
-MISSES = {"bus_longitudinal", "wind_turbine"}
-#: held-out families kept out of the reduced run only for the suite's time (its 10-minute
-#: limit): the district-heating substation (15 s; its fleet run is in docs/benchmarks.md,
-#: "A sixth blind family") would add about 7 s (its reduced fleet through `python -m
-#: benchmarks.zoo`: 7 s wall); the heat pump (30 s, "A seventh blind family") likewise. The
-#: office air-handling unit (60 s, "An eighth blind family") is kept out too, though not for
-#: time alone: the run's two nights are a Saturday and a Sunday, when the unit never runs (a
-#: no_data read), and at first most of its baselines did not read (a steady 0.1-C supply air
-#: held for 10 samples was a stuck_channel: a finding of 2026-11-28)
-#: The truck's tyre pressures (60 s, "A ninth blind family"): not for time (1.3 s), its
-#: reduced run fails a read (a 1-kPa tyre pressure held 10 samples on the highway: stuck_channel)
-OUTSIDE_THE_REDUCED_RUN = {"heat_substation", "heat_pump", "air_handler", "tyre_pressure"}
+#: nights are a Saturday and a Sunday against a Monday-to-Friday baseline (one of its four
+#: healthy nights alarms)
+MISSES = {"bus_longitudinal"}
+#: held-out families whose reduced run has a night the product reports as not operating,
+#: not scored: the office air-handling unit never runs on Sundays (the night's read is
+#: ``no_data``, the product's idle asset); the wind turbine (written blind, 10-min SCADA rows
+#: kept by ``running`` on the production time) has a calm night that ran too little to fit
+#: (``ShortWindowsError``, settled as not operating). Since 2026-11-28 a baseline leaves such
+#: a day out (``Signature.left_out``) and every baseline fits.
+IDLE_NIGHTS = {"air_handler", "wind_turbine"}
+#: The district-heating substation (15 s, "A sixth blind family"), the heat pump (30 s, "A
+#: seventh blind family") and the truck's tyre pressures (60 s, "A ninth blind family") are
+#: in the reduced run since 2026-11-29 (about 7, 5 and 1.4 s of CPU): the tyres' reduced run
+#: failed a read until a baseline learned how long a coarse reading holds
+#: (``Signature.holds``: a 1-kPa tyre pressure held 10 samples on the highway was a
+#: stuck_channel).
 #: the reduced zoo run: its families and its fleet (5 baseline days, the zoo protocol's own:
 #: day-to-day variation is estimated from them)
-REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES - OUTSIDE_THE_REDUCED_RUN)
+REDUCED = sorted(set(FAMILIES) - HEAVY - MISSES)
 REDUCED_RUN = {"healthy_assets": 2, "baseline_days": 5, "nights": 2, "faulty_per_cell": 0,
                "seed": 3}
 #: a reduced-zoo family's fleet telemetry, simulated with its _one_batch (taken once)
@@ -237,7 +234,8 @@ def _bound(trials: int, rate: float = 0.01, level: float = 0.05) -> int:
 
 @pytest.mark.slow
 def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_alarm_bound():
-    assert HEAVY | MISSES | OUTSIDE_THE_REDUCED_RUN <= set(FAMILIES)
+    assert HEAVY | MISSES | IDLE_NIGHTS <= set(FAMILIES)
+    assert IDLE_NIGHTS <= set(REDUCED)
     results = []
     for name in REDUCED:
         _one_batch(name)
@@ -245,10 +243,22 @@ def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_al
         # run_family simulates it, the same telemetry)
         results.append(run_family(FAMILIES[name], **REDUCED_RUN, frames=_fleets.pop(name, None)))
     for result in results:
-        assert result["failed_reads"] == {} and result["failed_nights"] == {}, result["family"]
         assert result["failed_baselines"] == {}, result["family"]
         assert result["baselines_fitted"] == 2
-        assert result["false_alarms"]["asset_nights"] == 4
+        assert result["failed_nights"] == {}, result["family"]
+        if result["family"] not in IDLE_NIGHTS:
+            assert result["failed_reads"] == {}, result["family"]
+            assert result["false_alarms"]["asset_nights"] == 4
+    # a night the product reports as not operating is neither scored nor a failure: the
+    # unit's Sunday (each asset's read says the machine did not run), the turbine's calm night
+    by_family = {r["family"]: r for r in results}
+    unit = by_family["air_handler"]
+    assert sorted(unit["failed_reads"]) == ["AIRHAN-001 day 6", "AIRHAN-002 day 6"]
+    assert all("[no_data]" in error for error in unit["failed_reads"].values())
+    assert unit["false_alarms"]["asset_nights"] == 2
+    turbine = by_family["wind_turbine"]
+    assert turbine["failed_reads"] == {} and len(turbine["calm_nights"]) == 1
+    assert turbine["false_alarms"]["asset_nights"] == 3
     trials = sum(r["false_alarms"]["asset_nights"] for r in results)
     alarms = sum(r["false_alarms"]["alarms"] for r in results)
     assert alarms <= _bound(trials), {r["family"]: r["healthy_tiers"] for r in results}
