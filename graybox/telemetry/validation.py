@@ -4,6 +4,7 @@ The rules: docs/design.md section 5.1.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Collection, Sequence
 
@@ -14,8 +15,8 @@ from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
 from graybox.telemetry.holds import drop_held_rows
 from graybox.telemetry.resent import drop_resent_rows
-from graybox.telemetry.policy import (MIN_HOLD_SAMPLES, MIN_STUCK_SAMPLES, GridPolicy,
-                                      format_duration)
+from graybox.telemetry.policy import (HOLD_CAP, MIN_HOLD_SAMPLES, MIN_STUCK_SAMPLES,
+                                      GridPolicy, format_duration)
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
@@ -465,8 +466,15 @@ def _check_stuck(rows: Rows, asset_id: str, policy: GridPolicy, dt_ns: int, inpu
                   "intermittent = true) so that a pause is not read as a stuck sensor"))
               + f"; if {rows.channels[j]!r} holds its value while the machine runs (a coarse "
                 f"reading of a steady machine), give it a longer limit in the class's grid "
-                f"(stuck_after = {{ {rows.channels[j]} = \"6h\" }})", i,
+                f"(stuck_after = {{ {rows.channels[j]} = \"{_longer(held)}\" }})", i,
               channel=rows.channels[j], excess=(held / NS_PER_SECOND, allowed))
+
+
+def _longer(held_ns: int) -> str:
+    """The limit a stuck message suggests: 6 h, or twice the hold in whole hours where that is
+    longer (a baseline's windows may already hold a value 6 h: :data:`HOLD_CAP`)."""
+    hours = max(HOLD_CAP, 2.0 * held_ns / NS_PER_SECOND) / 3600.0
+    return format_duration(3600.0 * math.ceil(hours))
 
 
 def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,

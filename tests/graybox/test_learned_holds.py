@@ -101,3 +101,10 @@ def test_a_signature_keeps_the_longest_hold_of_its_windows_through_json():
     assert to_dict(signature)["holds"] == {"omega": 900.0, "theta": 300.0}
     assert from_dict(Signature, to_dict(signature)) == signature
     assert "holds" not in to_dict(make_signature())          # stored as before without them
+
+
+def test_a_hold_longer_than_the_cap_fails_a_baseline_and_the_message_suggests_more(tmp_path):
+    write_telemetry(tmp_path, "TRUCK-1", _day([7 * 60], seed=5))
+    with pytest.raises(gb.GrayBoxError, match=r"for 420 consecutive samples \(7h; "
+                                              r"stuck_after=6h\).*pressure = \"14h\""):
+        _read(tmp_path, 0, gb.GridPolicy().for_baseline(), holds=True)
