@@ -33,6 +33,7 @@ from flows.results import (FAILED, NO_TELEMETRY, AssetResult, RunSummary, descri
 from flows.errors import TransientError
 from flows.compute_pool import active_pool, compute_pool
 from flows.task_runner import SequentialBatches, batch_runner, batch_size_for
+from flows.run_logger import run_logger
 from registry import RegistryError
 
 logger = logging.getLogger(__name__)
@@ -55,7 +56,8 @@ def guard_asset_error(error: BaseException, ref: AssetRef, what: str) -> None:
         raise TransientError(f"asset {ref.asset_id}: {what}: {type(error).__name__}: "
                              f"{error}") from error
     if not isinstance(error, (GrayBoxError, RegistryError)):
-        logger.exception("asset %s: unexpected error while %s", ref.asset_id, what)
+        run_logger(logger).exception("asset %s: unexpected error while %s", ref.asset_id,
+                                     what)
 
 
 def retry_transient(task_, task_run, state) -> bool:
@@ -109,8 +111,8 @@ def task_attempts(state, error: BaseException | str, retries: int) -> int:
             with get_client(sync_client=True) as client:
                 return max(1, client.read_task_run(task_run_id).run_count)
         except Exception:  # noqa: BLE001 - the count is then inferred, as documented
-            logger.warning("could not read task run %s: its attempts are inferred",
-                           task_run_id, exc_info=True)
+            run_logger(logger).warning("could not read task run %s: its attempts are "
+                                       "inferred", task_run_id, exc_info=True)
     transient = isinstance(error, BaseException) and is_transient(error)
     return retries + 1 if transient else 1
 

@@ -22,6 +22,7 @@ from prefect.blocks.core import Block
 
 from flows.config import DEFAULT_CONFIG, load_config
 from flows.results import FAILED, SETTLED, run_summary
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -96,4 +97,4 @@ def notify_hook(flow, flow_run, state) -> None:
         subject, body = message
         block.notify(body=body, subject=subject)
     except Exception:  # noqa: BLE001 - a notification never fails the run
-        logger.exception("fleet-health: could not send the notification")
+        run_logger(logger).exception("fleet-health: could not send the notification")

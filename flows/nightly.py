@@ -118,6 +118,7 @@ from flows.results import (FAILED, NO_BASELINE, OK, STALE, UNUSABLE_BASELINE, UP
                            AssetResult, RunSummary, describe_error, is_transient, now_iso)
 from registry import UnusableBaselineError, load_mlflow
 from flows.run_guard import exclusive_run
+from flows.run_logger import run_logger
 
 # every nightly run opens the registry: its MLflow side loads with this module, so a served
 # run's process, started ahead of its scheduled time (flows.serve), has it before it is due
@@ -326,8 +327,9 @@ def _commit_watermarks(registry, group: list[PendingAsset], clock: StageClock | 
                 raise TransientError(f"advancing the watermarks of {len(ends)} asset(s) "
                                      f"({', '.join(ends)}): {type(error).__name__}: "
                                      f"{error}") from error
-            logger.warning("advancing %d watermarks together failed (%s: %s); advancing "
-                           "each alone", len(ends), type(error).__name__, error)
+            run_logger(logger).warning("advancing %d watermarks together failed (%s: %s); "
+                                       "advancing each alone", len(ends), type(error).__name__,
+                                       error)
     for pending in group:
         if committed is None:
             _commit_watermark(registry, pending, clock)

@@ -22,6 +22,7 @@ from types import SimpleNamespace
 
 from flows.env_seconds import env_seconds
 from flows.run_lock import Holder
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -106,8 +107,8 @@ def _crash(client, run, why: str, notify: bool) -> Orphan:
     message = f"orphaned: {why}; marked Crashed by a later fleet-health run"
     state = Crashed(message=message)
     client.set_flow_run_state(run.id, state, force=True)
-    logger.warning("fleet-health: %s flow run %s (%s) was orphaned (%s): marked Crashed",
-                   flow_name, run.name, run.id, why)
+    run_logger(logger).warning("fleet-health: %s flow run %s (%s) was orphaned (%s): marked "
+                               "Crashed", flow_name, run.name, run.id, why)
     if notify:
         from flows.hooks import notify_hook
 

@@ -55,6 +55,7 @@ from flows.memory import MemoryBudget
 from flows.errors import TransientError
 from flows.results import (FAILED, NOT_OPERATING, STALE, UNUSABLE_BASELINE, AssetResult,
                            WindowResult, describe_error, is_transient)
+from flows.run_logger import run_logger
 from graybox.alert import NIGHTLY, REANALYSIS, Alert, alerts_from_drift, sensor_alert
 from graybox.alert_diagnosis import DiagnosisFailure, alert_entries
 from registry import FitRecord, FitSubmission, LoadedVersion, RegistryError
@@ -855,8 +856,9 @@ def record_group(config: FleetConfig, registry, assets: Sequence[PendingAsset], 
                     f"recording the candidates of {len(assets)} asset(s) "
                     f"({', '.join(a.asset_id for a in assets)}): {type(error).__name__}: "
                     f"{error}") from error
-            logger.warning("recording a group of %d asset(s) together failed (%s: %s); "
-                           "recording each alone", len(assets), type(error).__name__, error)
+            run_logger(logger).warning("recording a group of %d asset(s) together failed "
+                                       "(%s: %s); recording each alone", len(assets),
+                                       type(error).__name__, error)
             for asset in assets:
                 record_candidates(config, registry, asset, reanalysis=reanalysis, clock=clock)
             return

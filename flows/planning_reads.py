@@ -25,6 +25,7 @@ from flows.config import FleetConfig
 from flows.discovery import utc
 from flows.errors import TransientError
 from flows.results import is_transient
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -83,9 +84,9 @@ class PlanningReads:
             if is_transient(error):   # the store is away: the batch is retried
                 raise TransientError(f"reading the registry for {len(asset_ids)} asset(s): "
                                      f"{type(error).__name__}: {error}") from error
-            logger.warning("reading the registry for %d assets together failed (%s: %s); "
-                           "each asset reads alone", len(asset_ids), type(error).__name__,
-                           error)
+            run_logger(logger).warning("reading the registry for %d assets together failed "
+                                       "(%s: %s); each asset reads alone", len(asset_ids),
+                                       type(error).__name__, error)
             return None
         return cls(registry, marks, ends, recorded, last)
 

@@ -52,6 +52,7 @@ from flows.memory import MemoryBudget
 from flows.pipeline import (PendingAsset, candidate_requests, compare, execute, memory_groups,
                             read, report_result, travelling)
 from flows.results import FAILED, AssetResult, describe_error, is_transient
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -194,8 +195,9 @@ def _items(config: FleetConfig, job: BatchJob, chunks: list, futures: list[Futur
         with timed(clock, WAIT_STAGE):
             items, stages = futures[index].result()
     except BrokenProcessPool as error:
-        logger.warning("a compute worker died while computing %s (%s); computing them "
-                       "again one at a time", ", ".join(r.asset_id for r in chunk), error)
+        run_logger(logger).warning("a compute worker died while computing %s (%s); computing "
+                                   "them again one at a time",
+                                   ", ".join(r.asset_id for r in chunk), error)
         pool.restart()      # the chunk's assets alone, with nothing else in the new pool
         items = [item for ref in chunk for item in _alone(pool, job, ref, error, clock)]
         for later in range(index + 1, len(chunks)):     # those the dead pool took with it
@@ -206,9 +208,10 @@ def _items(config: FleetConfig, job: BatchJob, chunks: list, futures: list[Futur
         if is_transient(error):
             raise TransientError(f"computing {', '.join(r.asset_id for r in chunk)}: "
                                  f"{type(error).__name__}: {error}") from error
-        logger.warning("computing %s in a worker failed (%s: %s); computing them in the "
-                       "flow's process", ", ".join(r.asset_id for r in chunk),
-                       type(error).__name__, error)
+        run_logger(logger).warning("computing %s in a worker failed (%s: %s); computing them "
+                                   "in the flow's process",
+                                   ", ".join(r.asset_id for r in chunk),
+                                   type(error).__name__, error)
         here = job.planner()(config, list(chunk), **job.options, registry=commit.registry,
                              clock=clock)
         execute(config, here, clock)

@@ -12,6 +12,7 @@ from flows.orphans import Orphan, crash_orphans
 from flows.results import RunSummary
 from flows.run_lock import RunLock
 from flows.store_probe import require_store
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -52,6 +53,6 @@ def exclusive_run(config, flow: str) -> Iterator[GuardedRun]:
         try:
             guarded.orphans = crash_orphans(lock.orphan, current)
         except Exception as error:  # noqa: BLE001 - the run goes on; the failure is said
-            logger.warning("fleet-health %s: could not check for orphaned flow runs: %s: %s",
-                           flow, type(error).__name__, error)
+            run_logger(logger).warning("fleet-health %s: could not check for orphaned flow "
+                                       "runs: %s: %s", flow, type(error).__name__, error)
         yield guarded

@@ -31,6 +31,7 @@ from flows.env_seconds import env_seconds
 from flows.results import now_iso
 from registry import RegistryError, file_lock, resolve_store
 from flows.errors import RunLockTimeout
+from flows.run_logger import run_logger
 
 logger = logging.getLogger(__name__)
 
@@ -94,7 +95,8 @@ class RunLock:
         except FileNotFoundError:
             return None
         except (ValueError, TypeError) as error:
-            logger.warning("run lock: unreadable %s (%s): ignored", self.holder_path, error)
+            run_logger(logger).warning("run lock: unreadable %s (%s): ignored",
+                                       self.holder_path, error)
             return None
 
     def is_held(self) -> bool:
@@ -149,8 +151,9 @@ class RunLock:
             return
         holder = self.holder()
         self.waited_for = holder
-        logger.warning("fleet-health %s: waiting for %s of this fleet to finish (run lock %s)",
-                       flow, holder.describe() if holder else "another run", self.path)
+        run_logger(logger).warning("fleet-health %s: waiting for %s of this fleet to finish "
+                                   "(run lock %s)", flow,
+                                   holder.describe() if holder else "another run", self.path)
 
     def _write_holder(self, holder: Holder) -> None:
         temporary = self.holder_path.with_suffix(".tmp")
