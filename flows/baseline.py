@@ -26,6 +26,7 @@ from prefect import flow
 
 from graybox.exceptions import GrayBoxError
 from graybox.stage_clock import StageClock, timed
+from graybox.telemetry.policy import format_duration
 
 from flows.batch_job import BatchJob
 from flows.batching import guard_asset_error, run_over_fleet
@@ -111,6 +112,13 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
         # the fit left them out (graybox.calibration.fit_baselines): too little operation
         result.note += (f"; left out, too little operation to fit: "
                         f"{', '.join(f'{t:%Y-%m-%d %H:%M}' for t in left)}")
+    if signature.holds:
+        # a coarse reading of a steady plant: the nights may hold a value twice as long
+        nights = config.classes[pending.ref.vehicle_class].grid.with_holds(signature.holds)
+        result.note += "; held one value with nothing to explain it: " + ", ".join(
+            f"{channel} {format_duration(seconds)} (nights may hold "
+            f"{format_duration(nights.stuck_limit(channel))})"
+            for channel, seconds in signature.holds.items())
 
 
 def _promotion(registry, asset: str, version: int, promote: bool,

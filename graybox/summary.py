@@ -150,6 +150,9 @@ def _header(signature: Signature) -> list[str]:
         fields.append(("Tuning", f"{', '.join(tuning.names)}; "
                                  f"{'converged' if tuning.converged else 'NOT converged'}; "
                                  f"{tuning.n_obs} k-step errors"))
+    if signature.holds:
+        fields.append(("Longest holds", ", ".join(f"{channel} {format_seconds(seconds)}"
+                                                  for channel, seconds in signature.holds.items())))
     lines = title_lines("Gray-box signature") + field_lines(fields)
     if tuning is not None:
         lines += ["-" * WIDTH, "Tuned white-box parameters"]

@@ -55,6 +55,8 @@ def test_a_baseline_learns_how_long_a_reading_holds_and_the_nights_allow_for_it(
     assert status == 0, out.err
     [asset] = json.loads(out.out)["assets"]
     assert asset["status"] == "ok", asset
+    assert asset["note"].endswith("; held one value with nothing to explain it: temperature "
+                                  "15min (nights may hold 30min)")
     signature = Registry(f"sqlite:///{tmp_path / 'mlflow.db'}").baseline("P-001").signature
     assert dict(signature.holds) == {"temperature": 15 * 60.0}
 

@@ -101,6 +101,7 @@ def test_a_signature_keeps_the_longest_hold_of_its_windows_through_json():
     assert to_dict(signature)["holds"] == {"omega": 900.0, "theta": 300.0}
     assert from_dict(Signature, to_dict(signature)) == signature
     assert "holds" not in to_dict(make_signature())          # stored as before without them
+    assert "Longest holds" in signature.summary() and "omega 900 s, theta 300 s" in signature.summary()
 
 
 def test_a_hold_longer_than_the_cap_fails_a_baseline_and_the_message_suggests_more(tmp_path):
