@@ -72,10 +72,7 @@ def plan_asset(config: FleetConfig, ref: AssetRef, windows) -> AssetJob:
         guard_asset_error(error, ref, "loading its white box")
         result.status, result.error = FAILED, describe_error(error)
         return AssetJob(ref, result)
-    # a coarse reading of a steady plant may hold a value for a while: the baseline records
-    # how long (Signature.holds) and its candidates allow for it (candidate_grid)
-    return AssetJob(ref, result, model, grid=vehicle_class.grid.for_baseline(),
-                    stop_at_error=True,
+    return AssetJob(ref, result, model, grid=vehicle_class.grid, stop_at_error=True,
                     windows=tuple(WindowJob(((start, end),)) for start, end in windows))
 
 

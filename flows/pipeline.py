@@ -421,6 +421,9 @@ def _read_windows(config: FleetConfig, job: AssetJob, asset: PendingAsset,
                                                 job.model.required_columns, start=start,
                                                 end=end, policy=job.grid,
                                                 inputs=job.model.input_columns,
+                                                # a new baseline: how long a coarse reading
+                                                # holds is learned (Signature.holds) and
+                                                # allowed its candidates (candidate_grid)
                                                 holds=job.reference is None)
             except TelemetryError as error:
                 found[start, end] = error

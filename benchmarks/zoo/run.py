@@ -151,9 +151,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
         write_telemetry(root, asset, frame)
     del frames
     # a new baseline reads its days as the baseline flow does (a channel may hold a value up
-    # to the cap; the holds are recorded), its nights as the nightly flow does (with the
-    # holds its baseline saw: GridPolicy.with_holds)
-    windows, failed_reads = read_days(root, model, policy.for_baseline(), [
+    # to 6 h; the holds are recorded), its nights as the nightly flow does (with the holds its
+    # baseline saw: GridPolicy.with_holds)
+    windows, failed_reads = read_days(root, model, policy, [
         (v.asset_id, day) for v in vehicles for day in range(baseline_days)], holds=True)
     clock["write_read"] = time.perf_counter() - began
 

@@ -73,8 +73,10 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
         Columns exempt from the stuck check (``model.input_columns``: commands and setpoints
         may hold a value for hours). By default every column is checked.
     holds : bool, default False
-        Also find each channel's longest unexplained hold (``TelemetryWindow.holds``): a new
-        baseline's windows, read with :meth:`GridPolicy.for_baseline`.
+        A new baseline's window: a channel may hold one value up to 6 h
+        (:meth:`GridPolicy.for_baseline`), and each channel's longest hold that the plant
+        does not explain is found (``TelemetryWindow.holds``), where long enough to widen
+        ``policy``'s limit for the baseline's candidates (:meth:`GridPolicy.with_holds`).
 
     Returns
     -------
@@ -95,7 +97,8 @@ def read_window(root, asset_id: str, columns: Sequence[str], start=None, end=Non
     if len(rows) == 0:
         raise TelemetryError(asset_id, "no_data", f"the machine did not run in [{start}, {end}) "
                              f"(grid running)")
-    rows, dt_ns = validate_rows(rows, asset_id, policy, inputs, logged.ts)
+    rows, dt_ns = validate_rows(rows, asset_id, policy.for_baseline() if holds else policy,
+                                inputs, logged.ts)
     window = grid_rows(rows, asset_id, dt_ns, period_starts(rows, policy, dt_ns))
     if holds:
         window = replace(window, holds=longest_holds(rows, policy, dt_ns, inputs))

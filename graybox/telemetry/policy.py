@@ -26,10 +26,8 @@ _DEFAULT_STUCK_AFTER = 600.0
 #: course)
 MIN_STUCK_SAMPLES = 10
 #: a baseline learns how long each channel held one value where nothing explained it
-#: (:func:`graybox.telemetry.validation.longest_holds`): from runs this many samples long
-#: (shorter ones, doubled, stay under :data:`MIN_STUCK_SAMPLES`)
-MIN_HOLD_SAMPLES = MIN_STUCK_SAMPLES // 2
-#: its candidates may hold a value this many times as long as the baseline's longest hold ...
+#: (:func:`graybox.telemetry.validation.longest_holds`); its candidates may hold a value this
+#: many times as long as the baseline's longest hold ...
 HOLD_FACTOR = 2.0
 #: ... and at most this long (seconds); a baseline's own windows may hold one that long
 HOLD_CAP = 6 * 3600.0
@@ -217,10 +215,11 @@ class GridPolicy:
         return limits.get(channel, limits[ALL_CHANNELS])
 
     def for_baseline(self) -> "GridPolicy":
-        """The policy a new baseline reads its windows with: a checked channel may hold one
-        value up to :data:`HOLD_CAP` (a coarse reading of a steady plant holds for longer
-        than ``stuck_after`` and is not bad telemetry); the baseline records how long each
-        held (``Signature.holds``) and its candidates are read :meth:`with_holds`.
+        """The limits a new baseline's windows are checked with (``read_window(...,
+        holds=True)``): a checked channel may hold one value up to :data:`HOLD_CAP` (a
+        coarse reading of a steady plant holds for longer than ``stuck_after`` and is not bad
+        telemetry); the baseline records how long each held (``Signature.holds``) and its
+        candidates are read :meth:`with_holds`.
 
         Returns
         -------

@@ -15,8 +15,8 @@ from graybox.exceptions import TelemetryError
 from graybox.telemetry.layout import NS_PER_SECOND, stamp
 from graybox.telemetry.holds import drop_held_rows
 from graybox.telemetry.resent import drop_resent_rows
-from graybox.telemetry.policy import (HOLD_CAP, MIN_HOLD_SAMPLES, MIN_STUCK_SAMPLES,
-                                      GridPolicy, format_duration)
+from graybox.telemetry.policy import (HOLD_CAP, HOLD_FACTOR, MIN_STUCK_SAMPLES, GridPolicy,
+                                      format_duration)
 from graybox.telemetry.rows import Rows
 
 _NAT = np.iinfo(np.int64).min
@@ -478,10 +478,10 @@ def _longer(held_ns: int) -> str:
 
 
 def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
-                       floor: int | None = None):
+                       share: float = 1.0):
     """Per checked channel (measured, with a ``stuck_after`` limit), its runs of equal samples
-    of at least ``floor`` intervals (default: the samples its limit needs) that neither the
-    plant (:func:`_steady_runs`) nor a part at rest (:func:`_at_rest`) explains: tuples
+    of at least ``share`` of the intervals its limit needs that neither the plant
+    (:func:`_steady_runs`) nor a part at rest (:func:`_at_rest`) explains: tuples
     ``(channel index, limit s, samples needed, starts, ends, held intervals)``, the runs in
     time order."""
     n = len(rows)
@@ -517,7 +517,7 @@ def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
             until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
         needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
-        long = np.flatnonzero(held >= (needed if floor is None else floor))
+        long = np.flatnonzero(held >= math.ceil(share * needed))
         if long.size:
             long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
         if long.size:  # j is measured: inputs were skipped above
@@ -531,12 +531,13 @@ def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection
                   ) -> tuple[tuple[str, float], ...]:
     """Per checked channel, the longest time it held one value that the plant does not
     explain (the runs :func:`_check_stuck` judges), in seconds, where that run is at least
-    :data:`~graybox.telemetry.policy.MIN_HOLD_SAMPLES` samples long: what a healthy
-    baseline's windows teach about a coarse reading of a steady plant
-    (:meth:`GridPolicy.with_holds`). Channels without such a run are left out."""
+    1 / :data:`~graybox.telemetry.policy.HOLD_FACTOR` of what ``policy``'s limit needs (a
+    shorter one would not widen it): what a healthy baseline's windows teach about a coarse
+    reading of a steady plant (:meth:`GridPolicy.with_holds`). Channels without such a run
+    are left out."""
     found = []
     for j, _, _, _, _, held in _unexplained_holds(rows, policy, dt_ns, set(inputs),
-                                                   floor=MIN_HOLD_SAMPLES):
+                                                   share=1.0 / HOLD_FACTOR):
         found.append((rows.channels[j], float(held.max()) * dt_ns / NS_PER_SECOND))
     return tuple(found)
 

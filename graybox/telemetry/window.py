@@ -37,8 +37,8 @@ class TelemetryWindow:
         row before them, ``Rows.resent``); 0: none.
     holds : tuple of (str, float)
         Per channel, the longest time (seconds) it held one value that the plant did not
-        explain, where at least :data:`~graybox.telemetry.policy.MIN_HOLD_SAMPLES` samples
-        long (:func:`graybox.telemetry.validation.longest_holds`); read only when asked
+        explain, where long enough to widen the channel's ``stuck_after``
+        (:func:`graybox.telemetry.validation.longest_holds`); read only when asked
         (``read_window(..., holds=True)``, a baseline's windows); empty: none found or not
         read.
 

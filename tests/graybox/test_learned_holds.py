@@ -1,6 +1,6 @@
 """Known answers: a coarse reading of a steady plant (a 1-kPa tyre pressure on the highway)
 holds one value for longer than ``stuck_after`` with nothing in the plant to explain it. A
-new baseline reads such holds (:meth:`GridPolicy.for_baseline`), records the longest per
+new baseline reads such holds (``read_window(..., holds=True)``), records the longest per
 channel (``TelemetryWindow.holds``, ``Signature.holds``), and its candidates may hold twice
 as long (:meth:`GridPolicy.with_holds`); a sensor frozen for longer is still stuck."""
 from __future__ import annotations
@@ -59,11 +59,11 @@ def test_a_baseline_reads_and_records_the_holds_its_candidates_then_allow(tmp_pa
     # with the default limit a 25-minute hold is a stuck sensor
     with pytest.raises(gb.GrayBoxError, match=r"'pressure' stuck at .* for 25 consecutive"):
         _read(tmp_path, 0, policy)
-    baseline = _read(tmp_path, 0, policy.for_baseline(), holds=True)
+    baseline = _read(tmp_path, 0, policy, holds=True)
     assert baseline.holds == (("pressure", 25 * 60.0),)      # the longest, 25 minutes
     assert _read(tmp_path, 0, policy.for_baseline()).holds == ()   # found only when asked
     # holds of 4 samples are not learned (twice 4 stays under the 10 samples a hold needs)
-    assert _read(tmp_path, 3, policy.for_baseline(), holds=True).holds == ()
+    assert _read(tmp_path, 3, policy, holds=True).holds == ()
 
     learned = policy.with_holds(dict(baseline.holds))
     assert learned.stuck_limit("pressure") == HOLD_FACTOR * 25 * 60.0 == 3000.0
@@ -108,4 +108,24 @@ def test_a_hold_longer_than_the_cap_fails_a_baseline_and_the_message_suggests_mo
     write_telemetry(tmp_path, "TRUCK-1", _day([7 * 60], seed=5))
     with pytest.raises(gb.GrayBoxError, match=r"for 420 consecutive samples \(7h; "
                                               r"stuck_after=6h\).*pressure = \"14h\""):
-        _read(tmp_path, 0, gb.GridPolicy().for_baseline(), holds=True)
+        _read(tmp_path, 0, gb.GridPolicy(), holds=True)
+
+
+def test_only_holds_that_could_widen_the_limit_are_sought():
+    """At 1 s ``stuck_after`` (10 minutes) needs 600 samples: a hold is learned from 300 on
+    (twice it reaches the limit), so the many short runs of a coarse 1-Hz reading are not
+    judged one by one (a second of CPU per day when they were)."""
+    from graybox.telemetry.rows import Rows
+    from graybox.telemetry.validation import longest_holds
+
+    index = pd.date_range(START, periods=3600, freq="1s", name="timestamp")
+
+    def holds_with_one_of(samples: int):
+        values = 850.0 + np.tile(np.repeat([0.0, 3.0], 20), 90)    # holds of 20 samples
+        values[1000:1000 + samples] = 900.0                        # one more, left by 50
+        rows = Rows.from_frame(pd.DataFrame({"pressure": values}, index=index).reset_index())
+        return longest_holds(rows, gb.GridPolicy(), 10 ** 9)
+
+    assert holds_with_one_of(400) == (("pressure", 400.0),)
+    assert holds_with_one_of(299) == ()
+    assert holds_with_one_of(300) == (("pressure", 300.0),)
