@@ -112,10 +112,12 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
     if signature.holds:
         # a coarse reading of a steady plant: the nights may hold a value twice as long
         nights = config.classes[pending.ref.vehicle_class].grid.with_holds(signature.holds)
+        alike: dict[tuple[float, float], list[str]] = {}
+        for channel, seconds in signature.holds.items():
+            alike.setdefault((seconds, nights.stuck_limit(channel)), []).append(channel)
         result.note += "; held one value with nothing to explain it: " + ", ".join(
-            f"{channel} {format_duration(seconds)} (nights may hold "
-            f"{format_duration(nights.stuck_limit(channel))})"
-            for channel, seconds in signature.holds.items())
+            f"{', '.join(channels)} {format_duration(seconds)} (nights may hold "
+            f"{format_duration(limit)})" for (seconds, limit), channels in alike.items())
 
 
 def _promotion(registry, asset: str, version: int, promote: bool,

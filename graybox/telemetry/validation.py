@@ -534,12 +534,34 @@ def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection
     1 / :data:`~graybox.telemetry.policy.HOLD_FACTOR` of what ``policy``'s limit needs (a
     shorter one would not widen it): what a healthy baseline's windows teach about a coarse
     reading of a steady plant (:meth:`GridPolicy.with_holds`). Channels without such a run
-    are left out."""
-    found = []
+    are left out.
+
+    The readings on a grid (:func:`_on_a_grid`: a sensor's resolution) share their longest
+    hold: a plant that stands still holds every coarse reading at once (a truck's tyre
+    pressures and temperatures on the highway), and a day in which one of them happened to
+    hold longest says how long any of them may. A reading at full precision keeps its own.
+    """
+    own = {}
     for j, _, _, _, _, held in _unexplained_holds(rows, policy, dt_ns, set(inputs),
                                                    share=1.0 / HOLD_FACTOR):
-        found.append((rows.channels[j], float(held.max()) * dt_ns / NS_PER_SECOND))
-    return tuple(found)
+        own[j] = float(held.max()) * dt_ns / NS_PER_SECOND
+    coarse = [j for j, name in enumerate(rows.channels)
+              if name not in inputs and policy.stuck_limit(name) and _coarse(rows.values[j])]
+    shared = max((own[j] for j in coarse if j in own), default=0.0)
+    for j in coarse:
+        floor = math.ceil(max(limit_intervals(policy.stuck_limit(rows.channels[j]), dt_ns),
+                              MIN_STUCK_SAMPLES) / HOLD_FACTOR) * dt_ns / NS_PER_SECOND
+        if shared >= floor:
+            own[j] = shared
+    return tuple((rows.channels[j], own[j]) for j in sorted(own))
+
+
+def _coarse(v: np.ndarray) -> bool:
+    """A reading on a grid: it changes at least :data:`MIN_STUCK_SAMPLES` times, by whole
+    multiples of its smallest change (:func:`_on_a_grid`)."""
+    changes = np.abs(np.diff(v))
+    moved = changes[changes > 0]
+    return bool(moved.size >= MIN_STUCK_SAMPLES and _on_a_grid(moved))
 
 
 def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,

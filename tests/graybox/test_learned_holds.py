@@ -21,22 +21,22 @@ START = pd.Timestamp("2026-03-01", tz="UTC")
 
 
 def _day(holds: list[int], seed: int, day: int = 0) -> pd.DataFrame:
-    """A day at 60 s of a pressure on a 1-kPa grid that moves by 2-3 kPa a sample (its noise
-    spans steps, so an exact repeat is not chance) but for holds of the given lengths
-    (samples), each left by 3 kPa; and a speed at full precision, which never repeats."""
+    """A day at 60 s of a pressure on a 2-kPa grid that moves by 2 or 4 kPa a sample (its
+    noise spans steps, so an exact repeat is not chance) but for holds of the given lengths
+    (samples), each left by 6 kPa; and a speed at full precision, which never repeats."""
     rng = np.random.default_rng(seed)
     values, level = [], 850.0
 
     def wander(count):
         nonlocal level
         for _ in range(count):
-            step = rng.choice([2.0, 3.0])
+            step = rng.choice([2.0, 4.0])
             level += step if level < 850.0 - rng.uniform(-15.0, 15.0) else -step
             values.append(level)
 
     for hold in holds:
         wander(30)
-        level += 3.0 if level < 850.0 else -3.0
+        level += 6.0 if level < 850.0 else -6.0
         values.extend([level] * hold)
     wander(1440 - len(values))
     index = pd.date_range(START + pd.Timedelta(days=day), periods=1440, freq="60s",
@@ -56,8 +56,8 @@ def test_a_baseline_reads_and_records_the_holds_its_candidates_then_allow(tmp_pa
         _day([15, 25, 18], seed=1, day=0), _day([45], seed=2, day=1),
         _day([120], seed=3, day=2), _day([4, 4], seed=4, day=3)]))
     policy = gb.GridPolicy()
-    # with the default limit a 25-minute hold is a stuck sensor
-    with pytest.raises(gb.GrayBoxError, match=r"'pressure' stuck at .* for 25 consecutive"):
+    # with the default limit a 15-minute hold is a stuck sensor
+    with pytest.raises(gb.GrayBoxError, match=r"'pressure' stuck at .* for 15 consecutive"):
         _read(tmp_path, 0, policy)
     baseline = _read(tmp_path, 0, policy, holds=True)
     assert baseline.holds == (("pressure", 25 * 60.0),)      # the longest, 25 minutes
@@ -129,3 +129,16 @@ def test_only_holds_that_could_widen_the_limit_are_sought():
     assert holds_with_one_of(400) == (("pressure", 400.0),)
     assert holds_with_one_of(299) == ()
     assert holds_with_one_of(300) == (("pressure", 300.0),)
+
+
+def test_readings_on_a_grid_share_their_longest_hold(tmp_path):
+    """A truck on the highway holds every coarse reading at once: the day's longest hold of
+    one tyre's pressure is what its other coarse readings may hold too; the speed, logged at
+    full precision, never repeats by chance and learns nothing."""
+    day = _day([25], seed=1)
+    other = _day([4], seed=2)["pressure"].to_numpy()               # never holds 5 samples
+    day.insert(1, "pressure_rear", other)
+    write_telemetry(tmp_path, "TRUCK-1", day)
+    window = gb.read_window(tmp_path, "TRUCK-1", ["pressure", "pressure_rear", "speed"],
+                            START, START + pd.Timedelta(days=1), holds=True)
+    assert window.holds == (("pressure", 1500.0), ("pressure_rear", 1500.0))
