@@ -81,8 +81,7 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """``--dist loadfile`` with the files of :data:`POSTGRES_FILES` as one unit, and each
-    zoo family outside the reduced run (``-alone`` ids) as a unit of its own."""
+    """``--dist loadfile`` with the files of :data:`POSTGRES_FILES` as one unit."""
     if config.getvalue("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -90,14 +89,7 @@ def pytest_xdist_make_scheduler(config, log):
     class Scheduling(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
             path = super()._split_scope(nodeid)
-            if path in POSTGRES_FILES:
-                return POSTGRES_FILES[0]
-            if nodeid.endswith("-alone]"):
-                # a zoo family's tests that nothing else in their file reuses (test_zoo.py's
-                # family_id): one unit of their own, so that the file's 6 minutes of one
-                # worker are shared out
-                return f"{path}[{nodeid.rsplit('[', 1)[1]}"
-            return path
+            return POSTGRES_FILES[0] if path in POSTGRES_FILES else path
 
     return Scheduling(config, log)
 

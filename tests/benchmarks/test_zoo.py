@@ -73,15 +73,6 @@ REDUCED_RUN = {"healthy_assets": 2, "baseline_days": 5, "nights": 2, "faulty_per
 _fleets: dict[str, dict[str, pd.DataFrame]] = {}
 
 
-def family_id(name: str) -> str:
-    """The test id of a family: ``<name>-alone`` for a heavy one, whose simulation tests
-    tests/conftest.py lets xdist run on a worker of their own (nothing else in this file
-    reuses its telemetry; the drive's 20-Hz loop costs half a minute of CPU), the others
-    with the rest of the file, which reuses their simulation (the reduced run, the bus's
-    parked-day test)."""
-    return f"{name}-alone" if name in HEAVY else name
-
-
 @functools.cache
 def _one_batch(name: str) -> dict[str, pd.DataFrame]:
     """Day 1 of two healthy vehicles, on the first one's seed one copy per fault kind (large,
@@ -113,7 +104,7 @@ def assert_same_telemetry(left: pd.DataFrame, right: pd.DataFrame, **kwargs) -> 
     pd.testing.assert_frame_equal(left.reset_index(), right.reset_index(), **kwargs)
 
 
-@pytest.mark.parametrize("name", sorted(FAMILIES), ids=family_id)
+@pytest.mark.parametrize("name", sorted(FAMILIES))
 def test_a_family_simulates_its_channels_deterministically(name):
     family = FAMILIES[name]
     frames = dict(_one_batch(name))
@@ -142,7 +133,7 @@ def test_a_day_simulated_alone_equals_the_same_day_in_a_batch():
     assert_same_telemetry(_one_batch("thermal_room")["A-1"], alone)
 
 
-@pytest.mark.parametrize("name", sorted(FAMILIES), ids=family_id)
+@pytest.mark.parametrize("name", sorted(FAMILIES))
 def test_every_fault_changes_the_plant_from_its_onset_only(name):
     frames = dict(_one_batch(name))
     healthy = frames.pop("A-1")
