@@ -370,10 +370,10 @@ def _finish(item: AssetFit, settings: GrayBoxSettings, clock: StageClock | None,
                      item.window_start, item.window_end, analysis_interval=item.analysis_interval,
                      integration=item.integration, hidden_starts=item.hidden_starts,
                      tuning=item.tuning, conditions=item.conditions,
-                     holds=longest_holds(item.request.windows))
+                     holds=holds_over(item.request.windows))
 
 
-def longest_holds(windows) -> FrozenMap | None:
+def holds_over(windows) -> FrozenMap | None:
     """Per channel, the longest hold over ``windows`` (``TelemetryWindow.holds``; a frame has
     none); None where there is none."""
     longest: dict[str, float] = {}

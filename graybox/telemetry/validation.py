@@ -367,6 +367,12 @@ def limit_intervals(seconds: float, dt_ns: int) -> int:
     return int(intervals(round(seconds * NS_PER_SECOND), dt_ns))
 
 
+def _samples_needed(limit: float, dt_ns: int) -> int:
+    """Intervals a hold must last to be stuck under a limit of ``limit`` seconds: the limit,
+    and at least :data:`MIN_STUCK_SAMPLES`."""
+    return max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
+
+
 def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int, **sensor):
     file, row = rows.where(i)
     raise TelemetryError(asset_id, kind, message, file=file, row=row, **sensor)
@@ -516,7 +522,7 @@ def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
             cut = (ends + 1 < n) & paused[np.minimum(ends, n - 2)]
             until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
-        needed = max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
+        needed = _samples_needed(limit, dt_ns)
         long = np.flatnonzero(held >= math.ceil(share * needed))
         if long.size:
             long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
@@ -549,8 +555,8 @@ def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection
               if name not in inputs and policy.stuck_limit(name) and _coarse(rows.values[j])]
     shared = max((own[j] for j in coarse if j in own), default=0.0)
     for j in coarse:
-        floor = math.ceil(max(limit_intervals(policy.stuck_limit(rows.channels[j]), dt_ns),
-                              MIN_STUCK_SAMPLES) / HOLD_FACTOR) * dt_ns / NS_PER_SECOND
+        floor = (math.ceil(_samples_needed(policy.stuck_limit(rows.channels[j]), dt_ns)
+                           / HOLD_FACTOR) * dt_ns / NS_PER_SECOND)
         if shared >= floor:
             own[j] = shared
     return tuple((rows.channels[j], own[j]) for j in sorted(own))

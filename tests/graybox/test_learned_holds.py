@@ -12,7 +12,7 @@ import pytest
 import graybox as gb
 from graybox.record_json import from_dict, to_dict
 from graybox.signature import Signature
-from graybox.signature_fit import longest_holds
+from graybox.signature_fit import holds_over
 from graybox.telemetry.policy import HOLD_CAP, HOLD_FACTOR
 from graybox.telemetry.writing import write_telemetry
 from conftest import make_signature
@@ -94,9 +94,9 @@ def test_a_signature_keeps_the_longest_hold_of_its_windows_through_json():
     windows = [gb.TelemetryWindow("T-001", pd.DataFrame({"omega": [1.0, 2.0, 3.0]}, index),
                                   60.0, 0, (), holds=holds)
                for holds in [(("omega", 600.0),), (("omega", 900.0), ("theta", 300.0)), ()]]
-    holds = longest_holds(windows + [windows[0].frame])
+    holds = holds_over(windows + [windows[0].frame])
     assert dict(holds) == {"omega": 900.0, "theta": 300.0}
-    assert longest_holds(windows[2:]) is None
+    assert holds_over(windows[2:]) is None
     signature = make_signature(holds=holds)
     assert to_dict(signature)["holds"] == {"omega": 900.0, "theta": 300.0}
     assert from_dict(Signature, to_dict(signature)) == signature
