@@ -36,14 +36,12 @@ from flows.commands.report import add_report_command
 from flows.commands.run import add_run_command
 from flows.commands.serve import add_serve_command
 from flows.commands.simulate import add_simulate_command
+from flows.commands.temporary_server import STARTUP_TIMEOUT_MESSAGE
 from flows.config import DEFAULT_CONFIG, DEFAULT_TRACKING_URI, ConfigError, load_config
 from flows.terminal import EXIT_UNAVAILABLE, EXIT_USAGE, print_error
 
 __all__ = ["COMMANDS", "DEFAULT_CONFIG", "DEFAULT_TRACKING_URI", "EPHEMERAL_STARTUP_TIMEOUT",
            "EXIT_UNAVAILABLE", "build_parser", "main"]
-
-_EPHEMERAL_TIMEOUT_MESSAGE = "Timed out while attempting to connect to ephemeral Prefect API"
-
 
 #: the name under which tests and earlier callers know :func:`prefect_environment`
 _prefect_environment = prefect_environment
@@ -123,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.handler(args))
     except RuntimeError as error:
-        if _EPHEMERAL_TIMEOUT_MESSAGE not in str(error):
+        if STARTUP_TIMEOUT_MESSAGE not in str(error):
             raise
         timeout = os.environ.get("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS")
         print_error(f"Prefect's temporary API server did not start within {timeout} s (a busy "
