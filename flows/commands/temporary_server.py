@@ -32,6 +32,7 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 import urllib.error
 import urllib.request
 from typing import Mapping
@@ -49,6 +50,8 @@ STARTUP_TIMEOUT_MESSAGE = "Timed out while attempting to connect to ephemeral Pr
 PREFECT_STARTUP_TIMEOUT = 20.0
 #: environment variables that point Prefect at other settings than the ones read here
 SETTINGS_POINTERS = ("PREFECT_API_URL", "PREFECT_PROFILE", "PREFECT_PROFILES_PATH")
+#: the profile Prefect keeps active by default: no server, a temporary one per process
+EPHEMERAL_PROFILE = "ephemeral"
 
 
 def temporary_server_hint() -> str | None:
@@ -62,23 +65,30 @@ def temporary_server_hint() -> str | None:
 def no_server_set(environ: Mapping[str, str], directory: pathlib.Path) -> bool:
     """Whether Prefect, once imported, will find no server set, decided without importing it.
 
-    True only where certain: none of :data:`SETTINGS_POINTERS` in ``environ``; no
-    ``PREFECT_API_URL`` in the profiles file (``$PREFECT_HOME/profiles.toml``, default
-    ``~/.prefect``); in ``directory`` (where Prefect looks for settings files) no
-    ``prefect.toml``, no ``[tool.prefect]`` in ``pyproject.toml`` and no ``PREFECT_`` line in
-    ``.env``. Anything else may set a server: False, and Prefect decides.
+    True only where certain: none of :data:`SETTINGS_POINTERS` in ``environ``; a profiles
+    file (``$PREFECT_HOME/profiles.toml``, default ``~/.prefect``) that is absent or keeps
+    Prefect's ``ephemeral`` profile active and names no ``PREFECT_API_URL`` (Prefect's own
+    ``local`` and ``cloud`` profiles name a server without the user's file saying so); in
+    ``directory`` (where Prefect looks for settings files) no ``prefect.toml``, no
+    ``[tool.prefect]`` in ``pyproject.toml`` and no ``PREFECT_`` line in ``.env``. Anything
+    else may set a server: False, and Prefect decides.
     """
     if any(environ.get(name) for name in SETTINGS_POINTERS):
         return False
     home = pathlib.Path(environ.get("PREFECT_HOME") or "~/.prefect").expanduser()
-    mentions = ((home / "profiles.toml", "PREFECT_API_URL"),
-                (directory / "pyproject.toml", "tool.prefect"), (directory / ".env", "PREFECT_"))
     try:
+        profiles = home / "profiles.toml"
+        if profiles.is_file():
+            text = profiles.read_text(errors="replace")
+            if "PREFECT_API_URL" in text or tomllib.loads(text).get(
+                    "active", EPHEMERAL_PROFILE) != EPHEMERAL_PROFILE:
+                return False
         if (directory / "prefect.toml").exists():
             return False
         return not any(path.is_file() and word in path.read_text(errors="replace")
-                       for path, word in mentions)
-    except OSError:                       # unreadable: Prefect's own reading decides
+                       for path, word in ((directory / "pyproject.toml", "tool.prefect"),
+                                          (directory / ".env", "PREFECT_")))
+    except (OSError, tomllib.TOMLDecodeError):  # unreadable: Prefect's own reading decides
         return False
 
 

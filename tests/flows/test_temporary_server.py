@@ -32,6 +32,11 @@ def test_no_server_is_set_only_where_nothing_could_set_one(home_and_directory):
 @pytest.mark.parametrize("name, text, certain", [
     ("home/profiles.toml", '[profiles.local]\nPREFECT_API_URL = "http://h:4200/api"\n', False),
     ("home/profiles.toml", '[profiles.local]\nPREFECT_LOGGING_LEVEL = "INFO"\n', True),
+    ("home/profiles.toml", 'active = "ephemeral"\n', True),
+    # Prefect's own "local" profile names a server; the user's file only makes it active
+    ("home/profiles.toml", 'active = "local"\n', False),
+    ("home/profiles.toml", 'active = "ephemeral\n', False),           # not TOML
+
     ("work/prefect.toml", '[logging]\nlevel = "INFO"\n', False),
     ("work/pyproject.toml", '[tool.prefect.api]\nurl = "http://h:4200/api"\n', False),
     ("work/pyproject.toml", '[project]\nname = "x"\n', True),
