@@ -48,8 +48,10 @@ STARTUP_TIMEOUT_MESSAGE = "Timed out while attempting to connect to ephemeral Pr
 #: seconds Prefect waits for its temporary server by default
 #: (``PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS``)
 PREFECT_STARTUP_TIMEOUT = 20.0
-#: environment variables that point Prefect at other settings than the ones read here
-SETTINGS_POINTERS = ("PREFECT_API_URL", "PREFECT_PROFILE", "PREFECT_PROFILES_PATH")
+#: environment variables that point Prefect at a server or other settings than the ones read
+#: here, or that decide whether it may start a temporary server at all
+SETTINGS_POINTERS = ("PREFECT_API_URL", "PREFECT_PROFILE", "PREFECT_PROFILES_PATH",
+                     "PREFECT_SERVER_ALLOW_EPHEMERAL_MODE", "PREFECT_SERVER_EPHEMERAL_ENABLED")
 #: the profile Prefect keeps active by default: no server, a temporary one per process
 EPHEMERAL_PROFILE = "ephemeral"
 

@@ -24,7 +24,8 @@ def home_and_directory(tmp_path):
 def test_no_server_is_set_only_where_nothing_could_set_one(home_and_directory):
     environ, directory = home_and_directory
     assert no_server_set(environ, directory)
-    for name in ("PREFECT_API_URL", "PREFECT_PROFILE", "PREFECT_PROFILES_PATH"):
+    for name in ("PREFECT_API_URL", "PREFECT_PROFILE", "PREFECT_PROFILES_PATH",
+                 "PREFECT_SERVER_ALLOW_EPHEMERAL_MODE"):
         assert not no_server_set({**environ, name: "x"}, directory), name
     assert no_server_set({**environ, "PREFECT_API_URL": ""}, directory)
 
