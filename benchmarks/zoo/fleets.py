@@ -19,7 +19,7 @@ import json
 from dataclasses import dataclass
 
 from benchmarks.detection.metrics import rate
-from benchmarks.zoo.report import false_alarm_cell, share
+from benchmarks.zoo.report import failure_counts, false_alarm_cell, share
 
 #: issue 18's targets: false alarms per healthy asset-night, the bound's limit, large faults
 RATE_TARGET, BOUND_TARGET, LARGE_TARGET = 0.01, 0.02, 0.95
@@ -38,7 +38,8 @@ class PooledFamily:
     small: tuple[int, int]
     large: tuple[int, int]
     failures: int
-    #: nights too short to fit: the product's ``not operating``, neither scored nor failed
+    #: days the product reports as ``not operating`` (:func:`benchmarks.zoo.report.failure_counts`),
+    #: neither scored nor failed
     not_operating: int = 0
 
     @property
@@ -79,9 +80,8 @@ def pool(runs: list[list[dict]]) -> list[PooledFamily]:
             asset_nights=sum(r["false_alarms"]["asset_nights"] for r in results),
             small=tuple(map(sum, zip(*(r["detected_small"] for r in results)))),
             large=tuple(map(sum, zip(*(r["detected_large"] for r in results)))),
-            failures=sum(len(r[k]) for r in results
-                         for k in ("failed_reads", "failed_baselines", "failed_nights")),
-            not_operating=sum(len(r.get("calm_nights", {})) for r in results)))
+            failures=sum(failure_counts(r)[0] for r in results),
+            not_operating=sum(failure_counts(r)[1] for r in results)))
     return out
 
 
@@ -111,7 +111,7 @@ def markdown(families: list[PooledFamily]) -> str:
     return "\n".join([
         "| family | role | seeds | false alarms per healthy asset-night (95 % CI) | "
         "<= 1 %, bound <= 2 % | small faults within 3 nights | large faults within 3 nights | "
-        ">= 95 % large | failures | nights not operating |",
+        ">= 95 % large | failures | days not operating |",
         "|---|---|---|---|---|---|---|---|---|---|",
         *rows, "", *totals])
 

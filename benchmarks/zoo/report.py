@@ -7,6 +7,27 @@ import re
 BEGIN, END = "<!-- zoo:begin -->", "<!-- zoo:end -->"
 
 
+#: kinds of a failed read the product takes for a machine that did not run: an idle day
+#: (``no_data``: the asset's idle status) and one that ran too little to read
+#: (``too_few_samples``: left out of a baseline, a night not monitored), each with a note
+IDLE_READS = ("no_data", "too_few_samples")
+
+
+def failure_counts(result: dict) -> tuple[int, int]:
+    """A family result's failures and its days not operating.
+
+    A read that failed with one of :data:`IDLE_READS` (its message ends in the kind in
+    brackets, as ``str`` of a :class:`graybox.exceptions.TelemetryError` does) and a night
+    settled by :func:`benchmarks.zoo.run.night_not_operating` (``calm_nights``) are days the
+    product reports as not operating, not failures; every other failed read, baseline and
+    night is a failure.
+    """
+    idle = sum(message.rstrip().endswith(tuple(f"[{kind}]" for kind in IDLE_READS))
+               for message in result["failed_reads"].values())
+    failures = sum(len(result[k]) for k in ("failed_reads", "failed_baselines", "failed_nights"))
+    return failures - idle, idle + len(result.get("calm_nights", {}))
+
+
 def share(part: int, whole: int) -> str:
     """``part/whole = N %`` (``-`` for none)."""
     return f"{part}/{whole} = {100 * part / whole:.0f} %" if whole else "-"
@@ -30,8 +51,7 @@ def markdown(results: list[dict], command: str, notes: str = "") -> str:
     """The section: one row per family, then one row per fault kind and magnitude."""
     rows = []
     for r in results:
-        failures = sum(len(r[k]) for k in ("failed_reads", "failed_baselines", "failed_nights"))
-        calm = len(r.get("calm_nights", {}))
+        failures, calm = failure_counts(r)
         rows.append(
             f"| {r['title']} | {'held out' if r['held_out'] else 'tuning'} | "
             f"{r['baselines_fitted']}/{r['healthy_assets']} | "
@@ -65,11 +85,12 @@ seed and baseline (identical telemetry up to the onset, inside the first scored 
 on the three nights from the onset; candidates of {first.get('candidate_nights', '-')}
 nights, as `[nightly] candidate_nights`; telemetry through the store layout and
 `graybox.read_window`. "Tuning" families were used to choose defaults; "held out" ones were not.
-A night whose window ran too little to fit is what the product reports as `not operating`
-(not monitored that night, with a note): counted under "nights not operating", neither scored
-nor a failure.
+A day the product reports as `not operating` (not monitored, with a note) is counted under
+"days not operating", neither scored nor a failure: a day whose read finds the machine idle
+(`no_data`) or running too little to read (`too_few_samples`), and a night whose window ran
+too little to fit.
 
-| family | role | baselines | small faults within 3 nights | large faults within 3 nights | false alarms per healthy asset-night (95 % CI) | healthy alarms by channel/tier | s per asset-night | s per asset-day of baseline | channels needing the network | failures | nights not operating |
+| family | role | baselines | small faults within 3 nights | large faults within 3 nights | false alarms per healthy asset-night (95 % CI) | healthy alarms by channel/tier | s per asset-night | s per asset-day of baseline | channels needing the network | failures | days not operating |
 |---|---|---|---|---|---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 

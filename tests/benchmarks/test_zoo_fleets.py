@@ -68,3 +68,18 @@ def test_nights_too_short_to_fit_are_not_operating_not_failures():
                      [run(2, "tyres", 0, [1, 2], [2, 2])]])
     assert tyres.not_operating == 2 and tyres.failures == 0
     assert "| 0 | 2 |" in markdown([tyres])
+
+
+def test_reads_of_a_machine_that_did_not_run_are_days_not_operating_not_failures():
+    # what the product reports as not operating (an idle day, one that ran too little to
+    # read) against a stuck sensor's read, a failure
+    reads = {"W-1 day 2": "asset 'W-1': the machine did not run in [...) (grid running) [no_data]",
+             "W-1 day 6": "asset 'W-1': 1 sample(s) in the window: two are needed to infer "
+                          "the sample interval [too_few_samples]",
+             "W-2 day 7": "asset 'W-2', file f.parquet, row 58: channel 'p' stuck at 48.0 "
+                          "for 11 consecutive samples [stuck_channel]"}
+    calm = {"W-2 night 3": "window(s) [1] have 12 residual samples"}
+    (turbine,) = pool([[run(1, "turbine", 0, [1, 2], [2, 2], True, reads, calm)]])
+    assert (turbine.failures, turbine.not_operating) == (1, 3)
+    text = markdown([turbine])
+    assert "| failures | days not operating |" in text and "| 1 | 3 |" in text
