@@ -38,8 +38,8 @@ class PooledFamily:
     small: tuple[int, int]
     large: tuple[int, int]
     failures: int
-    #: days the product reports as ``not operating`` (:func:`benchmarks.zoo.report.failure_counts`),
-    #: neither scored nor failed
+    #: days the product reports as ``not operating``, neither scored nor failed
+    #: (:func:`benchmarks.zoo.report.failure_counts`)
     not_operating: int = 0
 
     @property
@@ -73,6 +73,7 @@ def pool(runs: list[list[dict]]) -> list[PooledFamily]:
     out = []
     for name in order:
         results = parts[name]
+        failures, not_operating = map(sum, zip(*(failure_counts(r) for r in results)))
         out.append(PooledFamily(
             family=name, title=results[0]["title"], held_out=results[0]["held_out"],
             seeds=tuple(r["seed"] for r in results),
@@ -80,8 +81,7 @@ def pool(runs: list[list[dict]]) -> list[PooledFamily]:
             asset_nights=sum(r["false_alarms"]["asset_nights"] for r in results),
             small=tuple(map(sum, zip(*(r["detected_small"] for r in results)))),
             large=tuple(map(sum, zip(*(r["detected_large"] for r in results)))),
-            failures=sum(failure_counts(r)[0] for r in results),
-            not_operating=sum(failure_counts(r)[1] for r in results)))
+            failures=failures, not_operating=not_operating))
     return out
 
 

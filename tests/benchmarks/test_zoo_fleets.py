@@ -73,7 +73,8 @@ def test_nights_too_short_to_fit_are_not_operating_not_failures():
 def test_reads_of_a_machine_that_did_not_run_are_days_not_operating_not_failures():
     # what the product reports as not operating (an idle day, one that ran too little to
     # read) against a stuck sensor's read, a failure
-    reads = {"W-1 day 2": "asset 'W-1': the machine did not run in [...) (grid running) [no_data]",
+    reads = {"W-1 day 2": "asset 'W-1': the machine did not run in [a, b) (grid running) "
+                          "[no_data]",
              "W-1 day 6": "asset 'W-1': 1 sample(s) in the window: two are needed to infer "
                           "the sample interval [too_few_samples]",
              "W-2 day 7": "asset 'W-2', file f.parquet, row 58: channel 'p' stuck at 48.0 "
