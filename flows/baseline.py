@@ -25,6 +25,7 @@ import pandas as pd
 from prefect import flow
 
 from graybox.exceptions import GrayBoxError
+from graybox.operating_conditions import covered
 from graybox.stage_clock import StageClock, timed
 from graybox.telemetry.policy import format_duration
 
@@ -118,6 +119,11 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
         result.note += "; held one value with nothing to explain it: " + ", ".join(
             f"{', '.join(channels)} {format_duration(seconds)} (nights may hold "
             f"{format_duration(limit)})" for (seconds, limit), channels in alike.items())
+    ranges = covered(signature.conditions)
+    if ranges:
+        # what its nights are judged against: a night driven beyond says so in its alert
+        result.note += (f"; its days' conditions: {', '.join(ranges)} (a night beyond them "
+                        f"is judged by extrapolation, and its alert says so)")
 
 
 def _promotion(registry, asset: str, version: int, promote: bool,

@@ -194,11 +194,10 @@ def farthest(candidate: OperatingConditions | None, baseline: OperatingCondition
     """
     if candidate is None or baseline is None or candidate.inputs != baseline.inputs:
         return 0.0, None
-    counted = baseline.varying()
-    reach = baseline.reach()
-    counted &= reach > 0
+    counted = _counted(baseline)
     if not counted.any():
         return 0.0, None
+    reach = baseline.reach()
     figures = baseline.figures()
     center = figures.mean(axis=0)
     # each of the candidate's windows on its own: a night far outside the range must not
@@ -207,8 +206,36 @@ def farthest(candidate: OperatingConditions | None, baseline: OperatingCondition
     ratios = np.where(counted, np.abs(windows - center) / np.where(counted, reach, 1.0),
                       -np.inf)
     window, index = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
-    inputs = len(baseline.inputs)
-    name = f"{baseline.inputs[index % inputs]} {'mean' if index < inputs else 'spread'}"
     return float(ratios[window, index]), (
-        f"{name} {windows[window, index]:.4g} (baseline days "
+        f"{_figure_name(baseline, index)} {windows[window, index]:.4g} (baseline days "
         f"{figures[:, index].min():.4g} to {figures[:, index].max():.4g})")
+
+
+def covered(baseline: OperatingConditions | None) -> tuple[str, ...]:
+    """The figures :func:`outside` counts for a baseline, each with its days' range, said for
+    an engineer: the conditions its nights are judged against (a night beyond them is said
+    so in its alert, :func:`farthest`). Empty where no figure counts (a plant driven alike
+    every day, or no exogenous input).
+
+    Examples
+    --------
+    ``("outdoor_temp mean 8.12 to 12.3",)``
+    """
+    if baseline is None:
+        return ()
+    figures = baseline.figures()
+    return tuple(f"{_figure_name(baseline, index)} {figures[:, index].min():.4g} to "
+                 f"{figures[:, index].max():.4g}"
+                 for index in np.flatnonzero(_counted(baseline)))
+
+
+def _counted(baseline: OperatingConditions) -> np.ndarray:
+    """Per figure, whether :func:`outside` counts it: its windows differ beyond chance
+    (:meth:`OperatingConditions.varying`) and reach from their centre."""
+    return baseline.varying() & (baseline.reach() > 0)
+
+
+def _figure_name(conditions: OperatingConditions, index: int) -> str:
+    """``"<input> mean"`` or ``"<input> spread"`` for a column of :meth:`figures`."""
+    inputs = len(conditions.inputs)
+    return f"{conditions.inputs[index % inputs]} {'mean' if index < inputs else 'spread'}"

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Sequence
 
 from scipy import special
 
+from graybox.operating_conditions import covered
+
 if TYPE_CHECKING:
     from graybox.drift import Drift
     from graybox.signature import ChannelSignature, Signature
@@ -153,6 +155,9 @@ def _header(signature: Signature) -> list[str]:
     if signature.holds:
         fields.append(("Longest holds", ", ".join(f"{channel} {format_seconds(seconds)}"
                                                   for channel, seconds in signature.holds.items())))
+    ranges = covered(signature.conditions)
+    if ranges:
+        fields.append(("Days' conditions", "; ".join(ranges)))
     lines = title_lines("Gray-box signature") + field_lines(fields)
     if tuning is not None:
         lines += ["-" * WIDTH, "Tuned white-box parameters"]

@@ -8,6 +8,8 @@ the setpoint is a command, held for minutes at a time.
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 import pandas as pd
 from flowtest_config import config_text
@@ -71,14 +73,16 @@ def holds(n: int, dt: float, rng: np.random.Generator, low: float, high: float,
 
 
 def pump_period(model: LinearStateSpace, start: pd.Timestamp, seconds: float, dt: float,
-                rng: np.random.Generator, longest_hold: float = 900.0) -> pd.DataFrame:
+                rng: np.random.Generator, longest_hold: float = 900.0,
+                inlet_offset: float = 0.0) -> pd.DataFrame:
     """One operating period of a :class:`~graybox.models.PumpLoop`: the pressure setpoint
-    held 5 to ``longest_hold / 60`` minutes at a time, a slowly varying inlet temperature."""
+    held 5 to ``longest_hold / 60`` minutes at a time, a slowly varying inlet temperature
+    (``inlet_offset`` degC above the daily cycle: a warmer day)."""
     n = int(seconds / dt)
     t = np.arange(n) * dt
     day_seconds = ((start - start.normalize()).total_seconds() + t)
     setpoint = holds(n, dt, rng, 4.0, 8.0, 300.0, longest_hold)
-    inlet = 18.0 + 4.0 * np.sin(2 * np.pi * day_seconds / 86_400.0)
+    inlet = 18.0 + inlet_offset + 4.0 * np.sin(2 * np.pi * day_seconds / 86_400.0)
     u = np.column_stack([setpoint, inlet])
     x = simulate(model, u, dt, process_std=[0.05, 0.05, 0.02, 0.01],
                  sensor_std=[0.01, 0.01, 0.005, 0.005], rng=rng)
@@ -89,10 +93,11 @@ def pump_period(model: LinearStateSpace, start: pd.Timestamp, seconds: float, dt
 
 
 def pump_days(start: pd.Timestamp, days: int, ran: dict[int, float], dt: float = 5.0,
-              seed: int = 7) -> pd.DataFrame:
+              seed: int = 7, inlet_offsets: Sequence[float] = ()) -> pd.DataFrame:
     """``days`` days of a healthy :class:`~graybox.models.PumpLoop` from ``start``, sampled
     every ``dt`` seconds: 90 minutes from 06:00 and from 13:00, except on the days of ``ran``
-    (day -> seconds), which run that long from 09:00 (a machine that ran too little)."""
+    (day -> seconds), which run that long from 09:00 (a machine that ran too little); day
+    ``k``'s inlet ``inlet_offsets[k]`` degC warmer (none without them)."""
     from graybox.models import PumpLoop
 
     rng = np.random.default_rng(seed)
@@ -101,6 +106,7 @@ def pump_days(start: pd.Timestamp, days: int, ran: dict[int, float], dt: float =
         day = start + pd.Timedelta(days=k)
         periods = ([(pd.Timedelta("9h"), ran[k])] if k in ran else
                    [(pd.Timedelta("6h"), 5_400.0), (pd.Timedelta("13h"), 5_400.0)])
-        frames += [pump_period(PumpLoop(), day + offset, seconds, dt, rng)
-                   for offset, seconds in periods]
+        warmer = inlet_offsets[k] if k < len(inlet_offsets) else 0.0
+        frames += [pump_period(PumpLoop(), day + offset, seconds, dt, rng,
+                               inlet_offset=warmer) for offset, seconds in periods]
     return pd.concat(frames, ignore_index=True)

@@ -7,7 +7,7 @@ from conftest import make_channel, make_signature
 
 from graybox.drift import Drift, compute_drift
 from graybox.models.base import WhiteBoxModel
-from graybox.operating_conditions import (OperatingConditions, exogenous_inputs,
+from graybox.operating_conditions import (OperatingConditions, covered, exogenous_inputs,
                                           farthest, operating_conditions, outside)
 from graybox.record_json import from_dict, to_dict
 from graybox.signature import Signature
@@ -104,6 +104,20 @@ def test_a_figure_counts_only_where_the_baseline_windows_differ_beyond_chance():
     noisy = _conditions([5.0, 8.0, 10.0], residual=2.7)
     assert not noisy.varying()[0]
     assert outside(_conditions([13.0]), noisy) == 0.0
+
+
+def test_the_conditions_a_baseline_covers_are_the_figures_outside_counts_with_their_range():
+    # the mean varies between the windows (5 to 10), the spread does not: one figure
+    assert covered(_conditions([5.0, 8.0, 10.0], residual=0.5)) == ("outdoor mean 5 to 10",)
+    assert covered(_conditions([5.0, 8.0, 10.0], [1.0, 1.5, 2.0], residual=0.1)) == (
+        "outdoor mean 5 to 10", "outdoor spread 1 to 2")
+    # days that differ by chance alone, a single window, no record: nothing judged outside
+    assert covered(_conditions([5.0, 8.0, 10.0], residual=2.7)) == ()
+    assert covered(_conditions([5.0])) == covered(None) == ()
+    # said in the signature's summary, where an engineer reads what its nights are judged on
+    summary = make_signature(conditions=_conditions([5.0, 8.0, 10.0], residual=0.5)).summary()
+    assert "Days' conditions:       outdoor mean 5 to 10" in summary
+    assert "Days' conditions" not in make_signature().summary()
 
 
 def test_a_night_beyond_the_baselines_conditions_has_its_tiers_changes_discounted():
