@@ -110,3 +110,25 @@ def pump_days(start: pd.Timestamp, days: int, ran: dict[int, float], dt: float =
         frames += [pump_period(PumpLoop(), day + offset, seconds, dt, rng,
                                inlet_offset=warmer) for offset, seconds in periods]
     return pd.concat(frames, ignore_index=True)
+
+
+def fit_pump_baseline(tmp_path, frame: pd.DataFrame, start: pd.Timestamp, days: int, capsys,
+                      extra: str = "") -> dict:
+    """``fleet-health baseline fit --all --json`` over ``days`` from ``start`` of one pump
+    ``P-001`` whose telemetry is ``frame`` (``extra`` ends its class); the asset's result."""
+    import json
+
+    from flows.cli import main
+    from graybox.telemetry import write_telemetry
+
+    root = tmp_path / "telemetry"
+    write_telemetry(root, "P-001", frame)
+    config = tmp_path / "fleet.toml"
+    config.write_text(pump_config(root, tmp_path / "mlflow.db", extra))
+    status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
+                   start.isoformat(), "--end", (start + pd.Timedelta(days=days)).isoformat(),
+                   "--json"])
+    out = capsys.readouterr()
+    assert status == 0, out.err
+    [asset] = json.loads(out.out)["assets"]
+    return asset

@@ -5,12 +5,10 @@ its alert says so; the engineer reads the range when the baseline is fitted, not
 alert. A pump whose inlet is 3 degC warmer each day than the day before."""
 from __future__ import annotations
 
-import json
-
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_config, pump_days
+from plant_telemetry import fit_pump_baseline, pump_days
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 DAYS = 4
@@ -18,20 +16,8 @@ DAYS = 4
 
 @pytest.mark.slow
 def test_a_baseline_names_the_conditions_of_its_days(harness, tmp_path, capsys):
-    from flows.cli import main
-    from graybox.telemetry import write_telemetry
-
-    root = tmp_path / "telemetry"
     frame = pump_days(START, DAYS, {}, inlet_offsets=[0.0, 3.0, 6.0, 9.0])
-    write_telemetry(root, "P-001", frame)
-    config = tmp_path / "fleet.toml"
-    config.write_text(pump_config(root, tmp_path / "mlflow.db"))
-    status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
-                   START.isoformat(), "--end", (START + pd.Timedelta(days=DAYS)).isoformat(),
-                   "--json"])
-    out = capsys.readouterr()
-    assert status == 0, out.err
-    [asset] = json.loads(out.out)["assets"]
+    asset = fit_pump_baseline(tmp_path, frame, START, DAYS, capsys)
     assert asset["status"] == "ok"
     # the first and the warmest day's mean inlet, over the pump's operating samples
     days = frame.groupby(pd.to_datetime(frame["timestamp"]).dt.date)["inlet_temperature"].mean()

@@ -5,12 +5,10 @@ turbine, a machine idle most of the day), on its fifth 2 minutes, less than the 
 ``min_duration``. Before, the whole baseline failed on either day."""
 from __future__ import annotations
 
-import json
-
 import pandas as pd
 import pytest
 
-from plant_telemetry import pump_config, pump_days
+from plant_telemetry import fit_pump_baseline, pump_days
 
 START = pd.Timestamp("2026-03-01", tz="UTC")
 DAYS = 5
@@ -21,21 +19,9 @@ UNREAD_DAY = 4         # 2 minutes: shorter than the grid's min_duration, not re
 @pytest.mark.slow
 def test_a_day_with_too_little_operation_is_left_out_of_the_baseline_and_named(
         harness, tmp_path, capsys):
-    from flows.cli import main
-    from graybox.telemetry import write_telemetry
-
-    root = tmp_path / "telemetry"
-    write_telemetry(root, "P-001", pump_days(START, DAYS, {SHORT_DAY: 240.0,
-                                                          UNREAD_DAY: 120.0}))
-    config = tmp_path / "fleet.toml"
-    config.write_text(pump_config(root, tmp_path / "mlflow.db",
-                                  "grid = { intermittent = true, min_duration = \"3min\" }"))
-    status = main(["--config", str(config), "baseline", "fit", "--all", "--start",
-                   START.isoformat(), "--end", (START + pd.Timedelta(days=DAYS)).isoformat(),
-                   "--json"])
-    out = capsys.readouterr()
-    assert status == 0, out.err
-    [asset] = json.loads(out.out)["assets"]
+    asset = fit_pump_baseline(
+        tmp_path, pump_days(START, DAYS, {SHORT_DAY: 240.0, UNREAD_DAY: 120.0}), START, DAYS,
+        capsys, "grid = { intermittent = true, min_duration = \"3min\" }")
     assert asset["status"] == "ok"
     assert "(windows 2026-03-01, 2026-03-02, 2026-03-04); " in asset["note"]
     assert ("left out 1 window(s) with too little operation to read (shorter than the grid's "
