@@ -104,8 +104,16 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
     left = [pd.Timestamp(t) for t in signature.left_out or ()]
     used = ", ".join(f"{w.start:%Y-%m-%d}" for w in windows
                      if not any(w.start <= t < w.end for t in left))
-    # after what the reading noted (windows without rows or too short to read, left out)
-    result.note = f"{note} (windows {used})" + (f"; {result.note}" if result.note else "")
+    parts = [f"{note} (windows {used})"]
+    ranges = covered(signature.conditions)
+    if ranges:
+        # what its nights are judged against: a night driven beyond says so in its alert
+        parts.append(f"its days' conditions: {', '.join(ranges)} (a night beyond them is "
+                     f"judged by extrapolation, and its alert says so)")
+    if result.note:
+        # what the reading noted (windows without rows or too short to read, left out)
+        parts.append(result.note)
+    result.note = "; ".join(parts)
     if left:
         # the fit left them out (graybox.calibration.fit_baselines): too little operation
         result.note += (f"; left out, too little operation to fit: "
@@ -119,11 +127,6 @@ def record_baseline(registry, config: FleetConfig, pending: PendingAsset, fit, p
         result.note += "; held one value with nothing to explain it: " + ", ".join(
             f"{', '.join(channels)} {format_duration(seconds)} (nights may hold "
             f"{format_duration(limit)})" for (seconds, limit), channels in alike.items())
-    ranges = covered(signature.conditions)
-    if ranges:
-        # what its nights are judged against: a night driven beyond says so in its alert
-        result.note += (f"; its days' conditions: {', '.join(ranges)} (a night beyond them "
-                        f"is judged by extrapolation, and its alert says so)")
 
 
 def _promotion(registry, asset: str, version: int, promote: bool,

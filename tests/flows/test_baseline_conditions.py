@@ -22,6 +22,9 @@ def test_a_baseline_names_the_conditions_of_its_days(harness, tmp_path, capsys):
     # the first and the warmest day's mean inlet, over the pump's operating samples
     days = frame.groupby(pd.to_datetime(frame["timestamp"]).dt.date)["inlet_temperature"].mean()
     expected = f"inlet_temperature mean {days.iloc[0]:.4g} to {days.iloc[-1]:.4g}"
-    assert "; its days' conditions: " in asset["note"] and expected in asset["note"]
-    assert asset["note"].endswith("(a night beyond them is judged by extrapolation, and its "
-                                  "alert says so)")
+    # right after the windows it was fitted on
+    assert asset["note"].startswith("v1 is the candidate; ")
+    assert ("(windows 2026-03-01, 2026-03-02, 2026-03-03, 2026-03-04); its days' conditions: "
+            in asset["note"]) and expected in asset["note"]
+    assert "(a night beyond them is judged by extrapolation, and its alert says so)" in \
+        asset["note"]
