@@ -21,6 +21,7 @@ from typing import Any
 
 from graybox.calibration import Calibration
 from graybox.drift import Drift
+from graybox.operating_conditions import covered
 from graybox.signature import TIER_KINDS, Signature
 from registry.store import naming
 from graybox.alert_diagnosis import diagnosis_document
@@ -213,6 +214,10 @@ def describe(fit: ResolvedFit, baseline_version: int | None) -> str:
     if s.calibration is not None:
         text += (f" Calibrated on {s.calibration.n_windows} healthy windows at a false-alarm "
                  f"rate of {s.calibration.false_alarm_rate:g} per window.")
+    ranges = covered(s.signature.conditions) if s.drift is None else ()
+    if ranges:
+        text += (f" Its days' conditions, which its nights are judged against (a night beyond "
+                 f"them by extrapolation): {'; '.join(ranges)}.")
     if s.drift is not None:
         worst = max(s.drift.entries, key=lambda e: -1 if e.ratio is None else e.ratio)
         text += f" Compared with baseline version {baseline_version}:"

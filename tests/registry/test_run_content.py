@@ -1,5 +1,6 @@
 """What a candidate's MLflow run shows of a level change discounted outside the baseline's
-operating range: the ``outside`` metric, the drift document and the version description."""
+operating range: the ``outside`` metric, the drift document and the version description; and
+what a baseline's version description says of the conditions its nights are judged against."""
 from __future__ import annotations
 
 import dataclasses
@@ -8,6 +9,7 @@ import pytest
 
 from graybox.drift import compute_drift
 from graybox.level_tier import LevelTier
+from graybox.operating_conditions import OperatingConditions
 from graybox.parameter_estimate import ParameterEstimate
 from registry.write.run_content import describe, drift_document, drift_from_document, fit_metrics
 from registry.write.submission import FitSubmission, ResolvedFit
@@ -49,6 +51,26 @@ def test_a_night_outside_the_baselines_range_says_so_in_its_run():
     # inside the range nothing is said
     inside = compute_drift(_signature(0.55, (130.0, 1.5)), baseline)
     assert not any(name.startswith("outside.") for name in fit_metrics(candidate, None, inside))
+
+
+def test_a_baseline_version_names_the_conditions_of_its_days():
+    # three days at 5, 8 and 10 C outdoors, each day's eight pieces scattering +-0.5 around
+    # its mean: the days differ beyond chance in their mean, not in their spread
+    pieces = [tuple((m + d,) for d in (0.5, -0.5) * 4) for m in (5.0, 8.0, 10.0)]
+    conditions = OperatingConditions(("outdoor",), ((5.0,), (8.0,), (10.0,)),
+                                     ((1.0,),) * 3, tuple(pieces),
+                                     tuple(((1.0,),) * 8 for _ in range(3)))
+    baseline = dataclasses.replace(_signature(0.40, (100.0, 1.0)), conditions=conditions)
+    submission = FitSubmission("T-001", "pump", baseline, role="baseline", plots=False)
+    text = describe(ResolvedFit(submission, "2026-01-01T00:00:00+00:00",
+                                "2026-01-04T00:00:00+00:00", "hash", "key"), None)
+    assert text.endswith("Its days' conditions, which its nights are judged against (a night "
+                         "beyond them by extrapolation): outdoor mean 5 to 10.")
+    # a plant driven alike every day has none to name
+    alike = dataclasses.replace(submission, signature=_signature(0.40, (100.0, 1.0)))
+    assert "conditions" not in describe(ResolvedFit(alike, "2026-01-01T00:00:00+00:00",
+                                                    "2026-01-04T00:00:00+00:00", "hash",
+                                                    "key"), None)
 
 
 def test_a_tuned_baseline_shows_each_estimate_with_its_interval_in_its_run():
