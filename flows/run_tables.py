@@ -154,5 +154,27 @@ def alert_table(alerts: Sequence[Alert], title: str | None = None):
     return table
 
 
+def outside_line(alerts: Sequence[Alert]) -> str | None:
+    """One line under the alert table when some alerts' nights were driven beyond their
+    baseline's conditions (``Alert.conditions``): how many, on which assets, and what judges
+    such nights without extrapolating. None when there are none.
+
+    Examples
+    --------
+    ``"2 of 3 alerts (AHU-1, AHU-2) are on nights driven beyond their baseline's conditions
+    ...``
+    """
+    beyond = [a for a in alerts if a.conditions]
+    if not beyond:
+        return None
+    assets = sorted({a.asset_id for a in beyond})
+    named = ", ".join(assets[:10]) + (f" and {len(assets) - 10} more" if len(assets) > 10
+                                      else "")
+    return (f"{len(beyond)} of {len(alerts)} alert{'' if len(alerts) == 1 else 's'} ({named}) "
+            f"{'is' if len(beyond) == 1 else 'are'} on nights driven beyond their baseline's "
+            f"conditions (the hint names the input): a baseline refitted over days that include "
+            f"such conditions judges them without extrapolating (docs/baselines.md).")
+
+
 def _escape(text: str) -> str:
     return escape(text or "")

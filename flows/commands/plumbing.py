@@ -11,7 +11,7 @@ from typing import Callable, Sequence
 from flows import progress
 from flows.config import ConfigError, FleetConfig, load_config
 from flows.errors import FlowFailed, StoreUnavailable, UsageError
-from flows.run_tables import alert_table, fleet_table
+from flows.run_tables import alert_table, fleet_table, outside_line
 from flows.results import MONITORED, RunSummary, state_summary
 from flows.store_probe import bound_mlflow_requests, require_store
 from flows.commands.temporary_server import TemporaryServer
@@ -163,6 +163,9 @@ def report_summary(args: argparse.Namespace, summary: RunSummary, title: str) ->
         console.print(fleet_table(summary, title=title))
         if summary.alerts:
             console.print(alert_table(summary.alerts))
+            beyond = outside_line(summary.alerts)
+            if beyond:
+                console.print(beyond)
         elif summary.flow != "baseline":
             console.print("No alerts.")
         counts = ", ".join(f"{n} {status}" for status, n in summary.counts().items() if n)
