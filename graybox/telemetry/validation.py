@@ -373,6 +373,12 @@ def _samples_needed(limit: float, dt_ns: int) -> int:
     return max(limit_intervals(limit, dt_ns), MIN_STUCK_SAMPLES)
 
 
+def _shortest_run(limit: float, dt_ns: int, share: float = 1.0) -> int:
+    """Intervals a run must last to count: ``share`` of :func:`_samples_needed` (1 for the
+    stuck check, 1 / :data:`HOLD_FACTOR` for what a baseline learns), rounded up."""
+    return math.ceil(share * _samples_needed(limit, dt_ns))
+
+
 def _fail(rows: Rows, asset_id: str, kind: str, message: str, i: int, **sensor):
     file, row = rows.where(i)
     raise TelemetryError(asset_id, kind, message, file=file, row=row, **sensor)
@@ -523,7 +529,7 @@ def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
             until = np.where(cut, ts[ends] + dt_ns, until)
         held = intervals(until - ts[starts], dt_ns)
         needed = _samples_needed(limit, dt_ns)
-        long = np.flatnonzero(held >= math.ceil(share * needed))
+        long = np.flatnonzero(held >= _shortest_run(limit, dt_ns, share))
         if long.size:
             long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
         if long.size:  # j is measured: inputs were skipped above
@@ -555,8 +561,8 @@ def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection
               if name not in inputs and policy.stuck_limit(name) and _coarse(rows.values[j])]
     shared = max((own[j] for j in coarse if j in own), default=0.0)
     for j in coarse:
-        floor = (math.ceil(_samples_needed(policy.stuck_limit(rows.channels[j]), dt_ns)
-                           / HOLD_FACTOR) * dt_ns / NS_PER_SECOND)
+        floor = (_shortest_run(policy.stuck_limit(rows.channels[j]), dt_ns, 1.0 / HOLD_FACTOR)
+                 * dt_ns / NS_PER_SECOND)
         if shared >= floor:
             own[j] = shared
     return tuple((rows.channels[j], own[j]) for j in sorted(own))
