@@ -38,6 +38,11 @@ SIDE_SAMPLES = 3
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
+#: an input kicks the plant at a run's end where its step there is more than this many times
+#: its largest step inside the run (:func:`_steady_runs`)
+KICK_FACTOR = 2.0
+#: steps before a run, or at its end, in which an input's kick explains it (the plant's lag)
+KICK_LAG = 3
 
 
 def validate(raw: pd.DataFrame, asset_id: str, policy: GridPolicy = GridPolicy(),
@@ -581,14 +586,18 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
     """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where both ends of the
     run are explained by the plant, so that the hold is a steady reading, not a frozen sensor.
 
-    An end is explained where an input that holds one value through the whole run changes
-    (a fixed-speed pump switched on or off: its power holds between), or where the channel
-    moves by its resolution, its smallest change (50.5 to 50.0 kW) if it is a coarse reading
-    (it changes in at least :data:`COARSE_SHARE` of its steps, or, a slow process, at least
-    :data:`MIN_STUCK_SAMPLES` times, :data:`SLOW_STEP_SHARE` of them by its smallest step), or at
-    the edge of the window or of an operating period (``paused``, per step; not both ends). A frozen sensor freezes and recovers whenever it does and
-    then jumps to wherever the process went: at a sensor's noise its smallest change is rare,
-    and a setpoint held all day does not explain a run that neither starts nor ends with it.
+    An end is explained where an input kicks the plant there (:func:`_kicks`: it steps by
+    more than :data:`KICK_FACTOR` times its largest step inside the run, so one that holds
+    one value through the run changes at all, a fixed-speed pump switched on or off, and one
+    that wanders moves as it never did during the hold, a cloud over a clipping solar array
+    whose heat sink held a degree for an hour), or where the channel moves by its resolution,
+    its smallest change (50.5 to 50.0 kW) if it is a coarse reading (it changes in at least
+    :data:`COARSE_SHARE` of its steps, or, a slow process, at least
+    :data:`MIN_STUCK_SAMPLES` times, :data:`SLOW_STEP_SHARE` of them by its smallest step),
+    or at the edge of the window or of an operating period (``paused``, per step; not both
+    ends). A frozen sensor freezes and recovers whenever it does and then jumps to wherever
+    the process went: at a sensor's noise its smallest change is rare, and a setpoint held
+    all day does not explain a run that neither starts nor ends with it.
     A reading on a grid (:func:`_on_a_grid`) also holds by chance where the process stands
     still between two of its steps (a room logged to 0.1 C with 0.05 C of noise holds 10
     minutes about once a year of 30-s samples): a run that sits among its neighbours'
@@ -622,12 +631,35 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
             begins |= still
             closes |= still
     for u in inputs:
-        changed = np.concatenate([[True], u[1:] != u[:-1]])  # u[i] differs from u[i - 1]
-        last_change = np.maximum.accumulate(np.where(changed, np.arange(n), 0))
-        holds = last_change[ends] <= starts                    # no change inside the run
-        begins |= holds & ~first & changed[starts]
-        closes |= holds & ~last & changed[np.minimum(ends + 1, n - 1)]
+        kick_in, kick_out = _kicks(u, starts, ends)
+        begins |= ~first & kick_in
+        closes |= ~last & kick_out
     return begins & closes & ~(first & last)
+
+
+def _kicks(u: np.ndarray, starts: np.ndarray, ends: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Per run of a channel's equal samples ``starts[r] .. ends[r]``: whether the input ``u``
+    kicked the plant into the run and out of it. Into it: a step in the :data:`KICK_LAG`
+    steps before its first sample of more than :data:`KICK_FACTOR` times the input's largest
+    step inside the run; out of it: such a step in its last :data:`KICK_LAG` steps or the one
+    out of it, against the largest of the run's other steps (the plant follows an input
+    with a lag: a heat sink cools a sample or two after the cloud). Missing values count as
+    no step."""
+    steps = np.abs(np.diff(u))              # steps[i]: from u[i] to u[i + 1]
+    steps[~np.isfinite(steps)] = 0.0
+    into = np.zeros(len(starts), dtype=bool)
+    out = np.zeros(len(starts), dtype=bool)
+    for r, (s, e) in enumerate(zip(starts, ends)):
+        inside = steps[s:e]
+        before = steps[max(s - KICK_LAG, 0):s]
+        into[r] = before.size > 0 and before.max() > KICK_FACTOR * (
+            inside.max() if inside.size else 0.0)
+        turn = max(e - KICK_LAG + 1, s)
+        closing, rest = steps[turn:e + 1], steps[s:turn]
+        out[r] = closing.size > 0 and closing.max() > KICK_FACTOR * (
+            rest.max() if rest.size else 0.0)
+    return into, out
 
 
 def _side_within(v: np.ndarray, first: np.ndarray, direction: int, paused: np.ndarray | None,

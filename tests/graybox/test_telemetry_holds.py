@@ -145,6 +145,29 @@ def test_a_coarse_reading_that_moves_by_its_resolution_is_not_stuck():
     assert stuck_error(frame, inputs=["pumps"]).row == 29
 
 
+def test_a_coarse_reading_left_by_a_jump_as_an_input_kicks_the_plant_is_not_stuck():
+    # a clipping inverter's heat sink: a coarse reading held while the sun wanders by a few
+    # W/m2 a row, left by three steps at once as a cloud cuts the sun by 400 W/m2
+    rng = np.random.default_rng(1)
+    frame = scada_day()
+    steps = rng.choice([-0.5, 0.0, 0.0, 0.5], DAY)
+    steps[29] = 0.5                                      # a 21-row hold reached by one step
+    steps[30:50] = 0.0
+    steps[50] = -1.5                                     # and left by three
+    frame["power"] = 50.0 + np.cumsum(steps)
+    sun = 1000.0 + np.cumsum(rng.normal(0.0, 5.0, DAY))
+    frame["sun"] = sun
+    assert stuck_error(frame, inputs=["pumps", "sun"]).row == 29     # nothing kicked it
+    frame["sun"] = sun - np.where(np.arange(DAY) >= 50, 400.0, 0.0)  # the cloud, then
+    validate(frame, "A-1", inputs=["pumps", "sun"])
+    # a cloud up to three rows before the reading leaves (the plant's lag) explains it too;
+    # ten rows later it says nothing of the hold
+    frame["sun"] = sun - np.where(np.arange(DAY) >= 48, 400.0, 0.0)
+    validate(frame, "A-1", inputs=["pumps", "sun"])
+    frame["sun"] = sun - np.where(np.arange(DAY) >= 60, 400.0, 0.0)
+    assert stuck_error(frame, inputs=["pumps", "sun"]).row == 29
+
+
 def test_a_slow_coarse_reading_that_moves_by_its_resolution_is_not_stuck():
     # a room logged to 0.1 C every 30 s for 5 hours: it changes by one step every 20-40
     # samples (3 % of its steps), each hold 10-20 minutes (stuck_after 10 min)
