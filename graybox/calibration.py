@@ -315,6 +315,10 @@ def fit_baselines(requests: Sequence[FitRequest], settings: GrayBoxSettings | No
     for (p, rest_index, whole), candidate in zip(owners, fitted):
         (days if whole else pairs)[p].append((rests[rest_index], candidate))
     for p, sig, count in jobs:
+        # a piece too bare to describe (the machine stood still through it: its residual is
+        # constant) holds no healthy change; the day's other pieces and the whole day do
+        pairs[p] = [pair for pair in pairs[p] if not isinstance(pair[1], InsufficientDataError)
+                    ] or pairs[p]
         failure = next((x for pair in pairs[p] + days[p] for x in pair
                         if isinstance(x, GrayBoxError)), None)
         if failure is not None:

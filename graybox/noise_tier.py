@@ -186,9 +186,11 @@ def describe_noise(segments: Sequence[np.ndarray] | np.ndarray, lags: int = 20) 
         raise InsufficientDataError(f"{n} samples are too few to describe the noise")
     mean = float(values.mean())
     variance = float(np.mean((values - mean) ** 2))
-    if variance <= 0:
-        raise InsufficientDataError("the residual is constant")
     skewness, kurtosis = shape_moments(values)
+    if variance <= 0 or np.isnan(skewness):
+        # constant to rounding: a stretch where the machine stood still (no moments to
+        # describe; a machine that stops is declared by its class's grid ``running``)
+        raise InsufficientDataError("the residual is constant")
     rho = autocovariance(segments, lags, mean=mean)[1:] / variance
     statistic = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
     pvalue = float(special.chdtrc(lags, statistic))     # scipy.stats.chi2.sf

@@ -158,3 +158,16 @@ def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     assert network_errors(channel, None) is None
     channel.structure = dataclasses.replace(structure, nonlinear_needed=False)
     assert network_errors(channel, prediction) is None
+
+
+def test_a_residual_constant_to_rounding_has_no_moments_to_describe():
+    # an idle lift's speed residual: 7e-10 everywhere, off by float dust here and there
+    values = np.full(1000, 6.8e-10)
+    values[::7] += 1e-25
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # scipy's own "nearly identical"
+        assert np.var(values) > 0 and np.isnan(stats.skew(values))
+    with pytest.raises(InsufficientDataError, match="constant"):
+        describe_noise(values)
+    with pytest.raises(InsufficientDataError, match="constant"):
+        describe_noise(np.zeros(1000))

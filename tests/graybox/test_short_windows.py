@@ -3,7 +3,10 @@
 and says which (``Signature.left_out``); with too few left it fails as before, naming them."""
 from __future__ import annotations
 
+import numpy as np
+
 import graybox as gb
+from graybox.calibration import Calibration
 from graybox.exceptions import ShortWindowsError
 from graybox.record_json import from_dict, to_dict
 from graybox.signature import Signature
@@ -50,3 +53,23 @@ def test_a_candidate_fitted_without_its_earlier_night_that_ran_too_little():
     [error] = gb.fit_signatures([gb.FitRequest(HeatedTank(), [night, short], baseline=baseline,
                                                asset_id="T-1")])
     assert isinstance(error, ShortWindowsError) and error.windows == (1,)
+
+
+def test_a_calibration_piece_where_the_machine_stood_still_is_left_out():
+    """Six hours of one baseline day in which the tank stands still at the ambient temperature
+    with the heater off (its residual constant: nothing to describe) hold no healthy change;
+    the calibration uses the day's other pieces and every threshold is a number. (It failed
+    the baseline with "the residual is constant", and a residual constant only to rounding
+    gave a NaN threshold, refused when the baseline was promoted.)"""
+    days = _days(1.0, 0.0, 1.0)[:5]
+    still = days[2].copy()
+    quiet = slice(len(still) // 4, len(still) // 2)
+    still.iloc[quiet, still.columns.get_indexer(["temp", "ambient", "heater"])] = [15.0, 15.0, 0.0]
+    windows = days[:2] + [still] + days[3:]
+    [result] = gb.fit_baselines([gb.FitRequest(HeatedTank(), windows, asset_id="T-1", seed=0)])
+    signature, calibration = result
+    [(_, whole)] = gb.fit_baselines([gb.FitRequest(HeatedTank(), days, asset_id="T-1", seed=0)])
+    assert calibration.n_windows < whole.n_windows          # the still pieces left out
+    assert all(np.isfinite([t.epsilon, t.mean_zeta, t.dof]).all()
+               for t in calibration.thresholds)
+    assert Calibration.from_dict(calibration.to_dict()) == calibration
