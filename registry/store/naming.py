@@ -123,8 +123,9 @@ def fit_key(asset_id: str, window_start, window_end, role: str, data_hash: str,
     creating a second one.
 
     ``variant`` keeps other kinds of record of the same window apart (a reanalysis against
-    baseline version 3 is ``"reanalysis:v3"``); None is a nightly or baseline fit, whose key
-    is unchanged.
+    baseline version 3 is ``"reanalysis:v3"``; a baseline's is the configuration it was
+    fitted with, :func:`registry.write.submission.configuration_hash`, so a refit with other
+    settings is a new version); None is a nightly fit.
 
     Returns
     -------

@@ -51,6 +51,25 @@ def data_hash(window) -> str:
     return digest.hexdigest()
 
 
+def configuration_hash(signature: Signature, calibration: Calibration | None) -> str:
+    """sha256 of what a baseline was fitted with, as configured: the white box (class,
+    columns, fingerprint, parameters as given, the estimated ones at their starting values),
+    the gray-box settings, which parameters were estimated and the calibration's false-alarm
+    rate. A baseline fitted again on the same telemetry with another configuration is a new
+    fit; with the same one it is the same fit (the result, which may differ in its last digits
+    between processes, is not hashed)."""
+    model = signature.model.to_dict()
+    tuning = signature.tuning
+    if tuning is not None:
+        model["parameters"] = {**model.get("parameters", {}),
+                               **dict(zip(tuning.names, tuning.initial))}
+    text = json.dumps({"model": model, "settings": signature.settings.to_dict(),
+                       "estimate": list(tuning.names) if tuning is not None else [],
+                       "false_alarm_rate": calibration.false_alarm_rate if calibration else None},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 @dataclass(frozen=True)
 class FitSubmission:
     """One fit to record (see :meth:`registry.Registry.record_fit`).
@@ -157,7 +176,12 @@ class FitSubmission:
         if digest is None:
             digest = data_hash(self.window) if self.window is not None else \
                 hashlib.sha256(self.signature.to_json().encode()).hexdigest()
-        variant = f"reanalysis:v{int(self.baseline_version)}" if self.reanalysis else None
+        if self.reanalysis:
+            variant = f"reanalysis:v{int(self.baseline_version)}"
+        elif self.role == naming.BASELINE:
+            variant = "configuration:" + configuration_hash(self.signature, self.calibration)
+        else:
+            variant = None
         key = naming.fit_key(self.asset_id, start, end, self.role, digest, variant=variant)
         return ResolvedFit(self, start, end, digest, key)
 

@@ -1,6 +1,7 @@
 """Recording fits: the run record, the round trip, idempotence, watermarks, history, alerts."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import pathlib
 import urllib.parse
@@ -115,6 +116,28 @@ def test_recording_the_same_window_twice_leaves_one_version_and_one_run(rec, reg
     other = rec.candidate(night=6)
     assert other.created and other.version == first.version + 1
     assert len(_active_runs(registry)) == 2
+
+
+def test_a_baseline_fitted_again_with_another_configuration_is_a_new_version(registry, fits):
+    # the same days fitted again: with the same configuration the same fit (a result that
+    # differs in its last digits between processes included), with other settings or
+    # another false-alarm rate a new one (it was the first version, silently)
+    def record(signature=fits.baseline, calibration=fits.calibration):
+        return registry.record_fit("T-01", "turbine", signature, role="baseline",
+                                   calibration=calibration, window_start=DAY0,
+                                   window_end=DAY0 + pd.Timedelta(days=4),
+                                   data_hash="baseline-data", plots=False)
+
+    first = record()
+    again = record(dataclasses.replace(fits.baseline, n_samples=fits.baseline.n_samples + 1))
+    assert first.created and not again.created and again.version == first.version
+    splits = fits.baseline.settings.calibration_splits + 1
+    other = record(dataclasses.replace(fits.baseline, settings=dataclasses.replace(
+        fits.baseline.settings, calibration_splits=splits)))
+    assert other.created and other.version == first.version + 1
+    rate = record(calibration=dataclasses.replace(fits.calibration, false_alarm_rate=0.005))
+    assert rate.created and rate.version == first.version + 2
+    assert len({first.fit_key, other.fit_key, rate.fit_key}) == 3
 
 
 def test_an_interrupted_recording_is_replaced_not_duplicated(rec, registry):
