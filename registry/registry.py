@@ -86,9 +86,10 @@ class Registry:
     def record_fit(self, submission: FitSubmission | str, *args, **kwargs) -> FitRecord:
         """Record a fit as a run with its pyfunc model, and a new version (alias ``candidate``).
 
-        Idempotent: the same ``(asset_id, window_start, window_end, role, data_hash)``
-        returns the first record (``created=False``) without a new run or version; a
-        recording interrupted half-way is finished or replaced.
+        Idempotent: the same ``(asset_id, window_start, window_end, role, data_hash)`` (and
+        for a baseline the same configuration) returns the first record
+        (``created=False``) without a new run or version; a recording interrupted half-way
+        is finished or replaced.
 
         Parameters
         ----------
