@@ -75,6 +75,11 @@ class InsufficientDataError(GrayBoxError):
     """Too little data for the requested fit (for example a window shorter than the model needs)."""
 
 
+class ConstantSeriesError(InsufficientDataError):
+    """A series with nothing to describe: constant, or constant to rounding (a machine that
+    stood still)."""
+
+
 class ShortWindowsError(InsufficientDataError):
     """Windows of one fit too short for it (too little operation in them).
 

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.linalg import solve_toeplitz, toeplitz
 
 from graybox.autocovariance import autocovariance
-from graybox.exceptions import InsufficientDataError
+from graybox.exceptions import ConstantSeriesError, InsufficientDataError
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,7 @@ def fit_ar(segments: Sequence[np.ndarray] | np.ndarray, order: int | None = None
     top = max_order if order is None else order
     acov, n_obs = autocovariances(segments, top)
     if acov[0] <= 0:
-        raise InsufficientDataError("the series is constant; an AR model cannot be fitted")
+        raise ConstantSeriesError("the series is constant; an AR model cannot be fitted")
     if order is not None:
         return _solve(acov, order, n_obs)
     penalty = 2.0 if criterion == "aic" else np.log(n_obs)

@@ -8,7 +8,7 @@ import numpy as np
 from scipy import special
 
 from graybox.autocovariance import autocovariance
-from graybox.exceptions import InsufficientDataError
+from graybox.exceptions import ConstantSeriesError, InsufficientDataError
 
 #: inverse asymptotic variances of (mean, variance, skewness, excess kurtosis) of a Gaussian
 #: sample, in units of the baseline standard deviation (times N); the noise tier's zeta
@@ -190,7 +190,7 @@ def describe_noise(segments: Sequence[np.ndarray] | np.ndarray, lags: int = 20) 
     if variance <= 0 or np.isnan(skewness):
         # constant to rounding: a stretch where the machine stood still (no moments to
         # describe; a machine that stops is declared by its class's grid ``running``)
-        raise InsufficientDataError("the residual is constant")
+        raise ConstantSeriesError("the residual is constant")
     rho = autocovariance(segments, lags, mean=mean)[1:] / variance
     statistic = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
     pvalue = float(special.chdtrc(lags, statistic))     # scipy.stats.chi2.sf

@@ -15,12 +15,21 @@ import numpy as np
 
 from graybox import record_json
 from graybox.frozen_map import FrozenMap
-from graybox.exceptions import GrayBoxError, StructureMismatchError
+from graybox.exceptions import ConstantSeriesError, GrayBoxError, StructureMismatchError
 from graybox.settings import GrayBoxSettings
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (graybox.signature imports this module)
     from graybox.signature import ChannelSignature
     from graybox.tiers.fit_state import AssetFit
+
+
+def stood_still(channel: str, error: ConstantSeriesError) -> ConstantSeriesError:
+    """A tier's "constant" error, naming the channel and the likely cause: the machine stood
+    still through the window (a class whose machine stops declares when it runs with its
+    grid's ``running``, so that those hours are left out)."""
+    return ConstantSeriesError(f"channel {channel!r}: {error} (did the machine stand still "
+                                 f"all window? a class whose machine stops declares when it "
+                                 f"runs: its grid's `running`)")
 
 
 class Tier:

@@ -7,11 +7,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from graybox.channel_structure import ChannelStructure, Selection
-from graybox.exceptions import InsufficientDataError, ShortWindowsError
+from graybox.exceptions import ConstantSeriesError, ShortWindowsError
 from graybox.linear_tier import LinearTier, fit_ar
 from graybox.settings import GrayBoxSettings
 from graybox.stationarize import choose_differencing
-from graybox.tiers.base import Tier
+from graybox.tiers.base import Tier, stood_still
 from graybox.telemetry.layout import NS_PER_DAY, NS_PER_SECOND
 from graybox.tiers.fit_state import AssetFit, per_window
 
@@ -62,7 +62,7 @@ class LinearTierKind(Tier):
                 pooled = np.concatenate(y)
                 center, scale = float(pooled.mean()), float(pooled.std())
                 if scale <= 0:
-                    raise InsufficientDataError(f"channel {name!r}: the residual is constant")
+                    raise stood_still(name, ConstantSeriesError("the residual is constant"))
             else:
                 center, scale = frozen.center, frozen.scale
             z = [(s - center) / scale for s in y]
@@ -78,7 +78,10 @@ class LinearTierKind(Tier):
                     scale=scale, tau=0, embedding_dim=0, hidden_units=0, nn_scale=0.0,
                     nonlinear_needed=False, init_seed=0)
             else:
-                linear = fit_ar(z, order=frozen.ar_order)
+                try:
+                    linear = fit_ar(z, order=frozen.ar_order)
+                except ConstantSeriesError as error:
+                    raise stood_still(name, error) from None
             channel.records[self.name] = linear
             channel.w_segments = [linear.innovations(s) for s in z]
             channel.n_samples = int(sum(len(s) for s in z))

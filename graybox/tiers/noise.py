@@ -8,7 +8,8 @@ import numpy as np
 
 from graybox.noise_tier import NoiseTier, describe_noise, sampling_zeta_quantile
 from graybox.settings import GrayBoxSettings
-from graybox.tiers.base import Tier
+from graybox.exceptions import ConstantSeriesError
+from graybox.tiers.base import Tier, stood_still
 from graybox.tiers.fit_state import AssetFit, ChannelFit
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
@@ -36,7 +37,10 @@ class NoiseTierKind(Tier):
         where the network is needed, else the AR residual itself (after the network's delays
         either way)."""
         for channel in asset.channels:
-            channel.records[self.name] = describe_noise(final_residual(channel))
+            try:
+                channel.records[self.name] = describe_noise(final_residual(channel))
+            except ConstantSeriesError as error:
+                raise stood_still(channel.name, error) from None
             channel.network_errors = None      # described: an array of the series' length
 
     def fit_metrics(self, channel: ChannelSignature) -> dict[str, float | None]:

@@ -7,7 +7,7 @@ import numpy as np
 
 import graybox as gb
 from graybox.calibration import Calibration
-from graybox.exceptions import ShortWindowsError
+from graybox.exceptions import InsufficientDataError, ShortWindowsError
 from graybox.record_json import from_dict, to_dict
 from graybox.signature import Signature
 from test_units import HeatedTank, _days
@@ -73,3 +73,15 @@ def test_a_calibration_piece_where_the_machine_stood_still_is_left_out():
     assert all(np.isfinite([t.epsilon, t.mean_zeta, t.dof]).all()
                for t in calibration.thresholds)
     assert Calibration.from_dict(calibration.to_dict()) == calibration
+
+
+def test_a_night_where_the_machine_stood_still_is_an_error_naming_the_channel():
+    days = _days(1.0, 0.0, 1.0)
+    [(baseline, _)] = gb.fit_baselines([gb.FitRequest(HeatedTank(), days[:4], asset_id="T-1",
+                                                      seed=0)])
+    still = days[4].copy()
+    still[["temp", "ambient", "heater"]] = [15.0, 15.0, 0.0]
+    [error] = gb.fit_signatures([gb.FitRequest(HeatedTank(), [still], baseline=baseline,
+                                               asset_id="T-1")])
+    assert isinstance(error, InsufficientDataError)
+    assert "channel 'temp'" in str(error) and "running" in str(error)
