@@ -38,6 +38,9 @@ SIDE_SAMPLES = 3
 #: a run held within this share of the channel's largest magnitude of 0 is at the channel's
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
+#: samples a channel at rest most of the time must move in for its moving samples' span to
+#: be its scale (one corrupt sample then lies beyond their 99th percentile; :func:`_check_ranges`)
+MIN_MOVING = 200
 #: an input kicks the plant at a run's end where its step there is more than this many times
 #: its largest step inside the run (:func:`_steady_runs`)
 KICK_FACTOR = 2.0
@@ -421,6 +424,11 @@ def _check_ranges(rows: Rows, asset_id: str, policy: GridPolicy) -> None:
             centre, allowed = (low + high) / 2, (high - low) / 2
         elif policy.plausible_spread > 0:
             p1, median, p99 = np.percentile(v, [1, 50, 99])
+            resting = v == median
+            if resting.mean() >= 0.5 and len(v) - np.count_nonzero(resting) >= MIN_MOVING:
+                # a part at rest most of the time (a lift's speed, 0 at 98 % of a Sunday's
+                # samples): its scale is how far it moves when it moves
+                p1, p99 = np.percentile(np.append(v[~resting], median), [1, 99])
             scale = (p99 - p1) or abs(median)
             if scale == 0:
                 continue  # a channel all zero but for a few samples: only ranges can judge it
