@@ -225,6 +225,9 @@ def error_estimate(f, x: np.ndarray, u0: np.ndarray, u1: np.ndarray, dt: float,
 
 
 #: what a white box that is not finite at the data's states is told to check
+#: what a stiff white box does about it (a class attribute, not a fleet.toml setting)
+STIFF_HINT = ('a stiff model declares integrator = "rosenbrock" as a class attribute of its '
+              'white box')
 _FINITE_ADVICE = ("A white box must be finite wherever the plant runs: check square roots and "
                   "logarithms of quantities that can turn negative, divisions that can reach "
                   "zero, and tables read beyond their breakpoints")
@@ -283,8 +286,7 @@ def check_finite_prediction(model, x: np.ndarray, u0: np.ndarray, u1: np.ndarray
         f"{type(model).__name__}: the prediction over one sample is not finite from "
         f"{rows.size} of the data's states, though derivatives(x, u) is finite there (the "
         f"first: {_first_row(model, x, u0, rows[0])}): the white box is not finite within "
-        f"the sample, or its integration diverges (a stiff model declares integrator = "
-        f"\"rosenbrock\"). {_FINITE_ADVICE}")
+        f"the sample, or its integration diverges ({STIFF_HINT}). {_FINITE_ADVICE}")
 
 
 def _check_growth(model, x: np.ndarray, u: np.ndarray, dt: float) -> None:
@@ -362,7 +364,7 @@ def choose_integration(model, x: np.ndarray, u: np.ndarray, dt: float,
             substeps *= 2
     method, substeps, state, ratio = worst
     advice = (_stiff_advice(model, x0, u0, dt) if method == "rosenbrock" else
-              "a stiff model declares integrator = \"rosenbrock\"")
+              STIFF_HINT)
     raise IntegrationError(
         f"{type(model).__name__}: state {model.states[state]!r} cannot be integrated over the "
         f"{dt:g}-s sample: with {method} and {substeps} sub-steps the error estimate is "

@@ -39,7 +39,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from graybox.exceptions import InsufficientDataError
-from graybox.integration import (Integration, IntegrationError, advance,
+from graybox.integration import (STIFF_HINT, Integration, IntegrationError, advance,
                                  check_finite_prediction)
 from graybox.lockstep import run_in_lockstep
 
@@ -231,7 +231,7 @@ def check_prediction(model, measured: np.ndarray, predicted: np.ndarray, what: s
             f"{type(model).__name__}: the {what} of channel {channel!r} diverges "
             f"({int(bad.sum())} predictions are infinite or lie more than "
             f"{DIVERGENCE_RANGES:g} times the channel's range from the data). Check the "
-            f"model's signs and units; a stiff model declares integrator = \"rosenbrock\"")
+            f"model's signs and units; {STIFF_HINT}")
 
 
 class _Layout:

@@ -276,7 +276,11 @@ def _report(args, findings: list[Finding], status: int, config: FleetConfig | No
     if problems:
         console.print(f"{len(problems)} problem(s) found.")
         for f in problems:
-            print_error(f"{f.area} {f.subject}: {f.detail}" + (f" -> {f.fix}" if f.fix else ""))
+            # a detail that already names its subject (a config error: "fleet.toml: ...")
+            # is not prefixed with it again
+            named = f.detail.startswith(f"{f.subject}:")
+            text = f"{f.area} {f.detail}" if named else f"{f.area} {f.subject}: {f.detail}"
+            print_error(text + (f" -> {f.fix}" if f.fix else ""))
     else:
         console.print("All good.")
     return status

@@ -349,7 +349,12 @@ def import_spec(spec: str, what: str = "model spec") -> object:
     try:
         module = importlib.import_module(module_name)
     except ImportError as error:
-        raise ModelSpecError(f"{what} {spec!r}: cannot import {module_name!r}: {error}") from None
+        hint = ""
+        if isinstance(error, ModuleNotFoundError) and error.name == module_name.split(".")[0]:
+            hint = (f" (the folder that holds {error.name!r} must be importable where the "
+                    f"flows run: e.g. PYTHONPATH=. when it sits beside fleet.toml)")
+        raise ModelSpecError(f"{what} {spec!r}: cannot import {module_name!r}: {error}{hint}"
+                             ) from None
     found = getattr(module, class_name, None)
     if found is None:
         raise ModelSpecError(f"{what} {spec!r}: module {module_name!r} has no {class_name!r}")

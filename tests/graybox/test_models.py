@@ -18,7 +18,9 @@ def test_load_by_spec_with_overrides_and_column_map():
 
 @pytest.mark.parametrize("spec, fragment", [
     ("graybox.models.GasTurbineShaft", "not of the form"),
-    ("no_such_module_xyz:Model", "cannot import"),
+    ("no_such_module_xyz:Model", "cannot import 'no_such_module_xyz'.*PYTHONPATH=. when it "
+                                 "sits beside fleet.toml"),
+    ("graybox.no_such_module_xyz:Model", "cannot import(?!.*PYTHONPATH)"),
     ("graybox.models:NoSuchModel", "has no"),
     ("graybox.exceptions:GrayBoxError", "not a WhiteBoxModel"),
     ("graybox.models:LinearStateSpace", "abstract"),
