@@ -503,7 +503,7 @@ def _longer(held_ns: int) -> str:
 
 
 def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
-                       share: float = 1.0):
+                       share: float = 1.0, wandering: bool = True):
     """Per checked channel (measured, with a ``stuck_after`` limit), its runs of equal samples
     of at least ``share`` of the intervals its limit needs that neither the plant
     (:func:`_steady_runs`) nor a part at rest (:func:`_at_rest`) explains: tuples
@@ -544,7 +544,8 @@ def _unexplained_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: set,
         needed = _samples_needed(limit, dt_ns)
         long = np.flatnonzero(held >= _shortest_run(limit, dt_ns, share))
         if long.size:
-            long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused)]
+            long = long[~_steady_runs(v, starts[long], ends[long], input_values, paused,
+                                      wandering)]
         if long.size:  # j is measured: inputs were skipped above
             others = np.delete(measured_moves, measured.index(j), axis=0)
             long = long[~_at_rest(v, starts[long], ends[long], others)]
@@ -567,8 +568,10 @@ def longest_holds(rows: Rows, policy: GridPolicy, dt_ns: int, inputs: Collection
     hold longest says how long any of them may. A reading at full precision keeps its own.
     """
     own = {}
+    # a wandering input's kick does not take a hold out of what the baseline learns: it is
+    # how long the reading holds on this plant (the night's check still counts the kick)
     for j, _, _, _, _, held in _unexplained_holds(rows, policy, dt_ns, set(inputs),
-                                                   share=1.0 / HOLD_FACTOR):
+                                                   share=1.0 / HOLD_FACTOR, wandering=False):
         own[j] = float(held.max()) * dt_ns / NS_PER_SECOND
     coarse = [j for j, name in enumerate(rows.channels)
               if name not in inputs and policy.stuck_limit(name) and _coarse(rows.values[j])]
@@ -590,7 +593,8 @@ def _coarse(v: np.ndarray) -> bool:
 
 
 def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                 inputs: list[np.ndarray], paused: np.ndarray | None = None) -> np.ndarray:
+                 inputs: list[np.ndarray], paused: np.ndarray | None = None,
+                 wandering: bool = True) -> np.ndarray:
     """Per run of equal samples ``v[starts[r]] .. v[ends[r]]``: True where both ends of the
     run are explained by the plant, so that the hold is a steady reading, not a frozen sensor.
 
@@ -639,13 +643,13 @@ def _steady_runs(v: np.ndarray, starts: np.ndarray, ends: np.ndarray,
             begins |= still
             closes |= still
     for u in inputs:
-        kick_in, kick_out = _kicks(u, starts, ends)
+        kick_in, kick_out = _kicks(u, starts, ends, wandering)
         begins |= ~first & kick_in
         closes |= ~last & kick_out
     return begins & closes & ~(first & last)
 
 
-def _kicks(u: np.ndarray, starts: np.ndarray, ends: np.ndarray
+def _kicks(u: np.ndarray, starts: np.ndarray, ends: np.ndarray, wandering: bool = True
            ) -> tuple[np.ndarray, np.ndarray]:
     """Per run of a channel's equal samples ``starts[r] .. ends[r]``: whether the input ``u``
     kicked the plant into the run and out of it. Into it: a step in the :data:`KICK_LAG`
@@ -653,17 +657,27 @@ def _kicks(u: np.ndarray, starts: np.ndarray, ends: np.ndarray
     step inside the run; out of it: such a step in its last :data:`KICK_LAG` steps or the one
     out of it, against the largest of the run's other steps (the plant follows an input
     with a lag: a heat sink cools a sample or two after the cloud). Missing values count as
-    no step."""
+    no step.
+
+    ``wandering=False`` counts only an input that holds one value through the run and
+    changes right at its edge (a pump switched on or off; a missing value counts as a
+    change): what a baseline's learning of its holds takes as explained
+    (:func:`longest_holds`), so that the holds it learns are those a wandering input's kick
+    explains too, and its candidates are read with the limits it learned before kicks
+    counted."""
     steps = np.abs(np.diff(u))              # steps[i]: from u[i] to u[i + 1]
-    steps[~np.isfinite(steps)] = 0.0
+    steps[~np.isfinite(steps)] = 0.0 if wandering else np.inf
+    lag = KICK_LAG if wandering else 1
     into = np.zeros(len(starts), dtype=bool)
     out = np.zeros(len(starts), dtype=bool)
     for r, (s, e) in enumerate(zip(starts, ends)):
         inside = steps[s:e]
-        before = steps[max(s - KICK_LAG, 0):s]
-        into[r] = before.size > 0 and before.max() > KICK_FACTOR * (
-            inside.max() if inside.size else 0.0)
-        turn = max(e - KICK_LAG + 1, s)
+        top = inside.max() if inside.size else 0.0
+        if not wandering and top > 0:
+            continue
+        before = steps[max(s - lag, 0):s]
+        into[r] = before.size > 0 and before.max() > KICK_FACTOR * top
+        turn = max(e - lag + 1, s)
         closing, rest = steps[turn:e + 1], steps[s:turn]
         out[r] = closing.size > 0 and closing.max() > KICK_FACTOR * (
             rest.max() if rest.size else 0.0)

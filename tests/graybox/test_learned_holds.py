@@ -131,6 +131,31 @@ def test_only_holds_that_could_widen_the_limit_are_sought():
     assert holds_with_one_of(300) == (("pressure", 300.0),)
 
 
+def test_a_hold_an_inputs_kick_explains_at_night_is_still_learned_by_a_baseline():
+    """A reading held 400 samples, reached by one step and left by 50 as an input (wandering
+    by 1 a sample) steps by 30: the night's check takes the kick for the plant's, and a
+    baseline still
+    learns the hold as how long the reading holds on this plant (so that its limits are
+    those it learned before kicks counted)."""
+    from graybox.telemetry.rows import Rows
+    from graybox.telemetry.validation import longest_holds, validate
+
+    index = pd.date_range(START, periods=3600, freq="1s", name="timestamp")
+    values = 850.0 + np.tile(np.repeat([0.0, 3.0], 20), 90)
+    values[990:1000] = 897.0
+    values[1000:1400] = 900.0
+    drive = 50.0 + np.cumsum(np.random.default_rng(3).choice([-1.0, 1.0], 3600))
+    drive[1400:] += 30.0
+    frame = pd.DataFrame({"pressure": values, "drive": drive}, index=index).reset_index()
+    rows = Rows.from_frame(frame)
+    assert longest_holds(rows, gb.GridPolicy(), 10 ** 9, inputs=("drive",)) == (
+        ("pressure", 400.0),)
+    validate(frame, "A-1", gb.GridPolicy(stuck_after="5min"), inputs=("drive",))
+    frame["drive"] = drive - np.where(np.arange(3600) >= 1400, 30.0, 0.0)   # no kick
+    with pytest.raises(gb.TelemetryError, match="stuck"):
+        validate(frame, "A-1", gb.GridPolicy(stuck_after="5min"), inputs=("drive",))
+
+
 def test_readings_on_a_grid_share_their_longest_hold(tmp_path):
     """A truck on the highway holds every coarse reading at once: the day's longest hold of
     one tyre's pressure is what its other coarse readings may hold too; the speed, logged at
