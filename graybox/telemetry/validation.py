@@ -39,7 +39,8 @@ SIDE_SAMPLES = 3
 #: zero (a meter's offset at rest; :func:`_at_rest`)
 REST_SHARE = 0.01
 #: samples a channel at rest most of the time must move in for its moving samples' span to
-#: be its scale (one corrupt sample then lies beyond their 99th percentile; :func:`_check_ranges`)
+#: be its scale (one corrupt sample then lies beyond their 99th percentile;
+#: :func:`_check_ranges`)
 MIN_MOVING = 200
 #: an input kicks the plant at a run's end where its step there is more than this many times
 #: its largest step inside the run (:func:`_steady_runs`)

@@ -28,8 +28,8 @@ def stood_still(channel: str, error: ConstantSeriesError) -> ConstantSeriesError
     still through the window (a class whose machine stops declares when it runs with its
     grid's ``running``, so that those hours are left out)."""
     return ConstantSeriesError(f"channel {channel!r}: {error} (did the machine stand still "
-                                 f"all window? a class whose machine stops declares when it "
-                                 f"runs: its grid's `running`)")
+                               f"all window? a class whose machine stops declares when it "
+                               f"runs: its grid's `running`)")
 
 
 class Tier:
