@@ -204,11 +204,16 @@ class Family:
             ``"healthy"``, and ``"<fault>/small"`` and ``"<fault>/large"``: the asset with each
             fault at each of its magnitudes from the first day's start.
         """
+        return self.simulate(self.fault_day_plans(start, seed), start, days + 1, first_day=1)
+
+    def fault_day_plans(self, start: pd.Timestamp, seed: int = 11) -> list[AssetPlan]:
+        """The plans of :meth:`fault_days`: ``"healthy"``, and ``"<fault>/small"`` and
+        ``"<fault>/large"`` from the day after ``start`` on (for a caller that simulates them
+        together with other plans, :meth:`simulate_together`)."""
         onset = start + pd.Timedelta(days=1)
-        plans = [AssetPlan("healthy", seed)] + [
+        return [AssetPlan("healthy", seed)] + [
             AssetPlan(f"{kind.name}/{size}", seed, kind, kind.magnitudes[i], onset)
             for kind in self.faults for i, size in enumerate(("small", "large"))]
-        return self.simulate(plans, start, days + 1, first_day=1)
 
     def simulate_together(self, requests: Sequence[tuple[Sequence[AssetPlan], pd.Timestamp,
                                                          int, int]]

@@ -73,6 +73,11 @@ REDUCED_RUN = {"healthy_assets": 2, "baseline_days": 5, "nights": 2, "faulty_per
                "seed": 3}
 #: a reduced-zoo family's fleet telemetry, simulated with its _one_batch (taken once)
 _fleets: dict[str, dict[str, pd.DataFrame]] = {}
+#: families whose own physics checks run in this file, on the simulation of the checks above:
+#: a day of the drum boiler's 1-s loop costs about 12 s of CPU (the suite's time), so its
+#: ``Family.fault_days`` are simulated in the same batch (kept in ``_fault_days``)
+PHYSICS_HERE = {"drum_boiler"}
+_fault_days: dict[str, dict[str, pd.DataFrame]] = {}
 
 
 @functools.cache
@@ -92,9 +97,13 @@ def _one_batch(name: str) -> dict[str, pd.DataFrame]:
                                  REDUCED_RUN["baseline_days"])
         requests.append((vehicles, run.START,
                          REDUCED_RUN["baseline_days"] + REDUCED_RUN["nights"], 0))
+    if name in PHYSICS_HERE:
+        requests.append((family.fault_day_plans(START), START, 2, 1))
     frames = family.simulate_together(requests)
     if name in REDUCED:
         _fleets[name] = frames[1]
+    if name in PHYSICS_HERE:
+        _fault_days[name] = frames[-1]
     return frames[0]
 
 
@@ -264,3 +273,59 @@ def test_a_reduced_zoo_fits_every_baseline_with_the_defaults_within_the_false_al
     trials = sum(r["false_alarms"]["asset_nights"] for r in results)
     alarms = sum(r["false_alarms"]["alarms"] for r in results)
     assert alarms <= _bound(trials), {r["family"]: r["healthy_tiers"] for r in results}
+
+
+def _boiler_day() -> dict[str, pd.DataFrame]:
+    """Day 1 of one boiler (seed 11) healthy and with each fault at each magnitude from its
+    start (``Family.fault_days``), simulated with the boiler's checks above."""
+    _one_batch("drum_boiler")
+    return _fault_days["drum_boiler"]
+
+
+def test_the_drum_boilers_loops_hold_the_level_and_the_pressure_and_a_load_step_swells():
+    """The drum boiler (written blind) simulates the physics its docstring sizes the faults
+    by: its loops hold, a load step swells then shrinks the level."""
+    frame = _boiler_day()["healthy"]
+    level, pressure = frame["drum_level"], frame["drum_pressure"]
+    assert abs(level.median()) < 3.0 and 5.0 < level.std() < 25.0
+    assert level.abs().quantile(0.99) < 60.0
+    assert (pressure - pressure.median()).abs().quantile(0.99) < 0.5
+    # steps up of the steam drawn (over 2.5 t/h within a minute): the level first rises
+    # (flashing in the risers: swell), then falls below where it was (shrink)
+    steam = frame["steam_flow"].rolling(12).mean().to_numpy()
+    rise = np.flatnonzero(steam[12:] - steam[:-12] > 2.5) + 12
+    starts = [i for k, i in enumerate(rise) if (k == 0 or i - rise[k - 1] > 60)
+              and 24 < i < len(frame) - 100]
+    assert len(starts) > 10
+    smooth = level.rolling(6, center=True).mean().to_numpy()
+    response = np.mean([smooth[i - 12: i + 60] - smooth[i - 12] for i in starts], axis=0)
+    assert response[:30].max() > 10.0                   # swell within 2.5 minutes
+    assert response[36:].min() < -5.0                    # then shrink, 4-6 minutes after
+
+
+def test_the_drum_boilers_large_faults_change_what_they_should_physically():
+    frames = _boiler_day()
+    healthy = frames["healthy"]
+
+    def change(fault, column):
+        return frames[fault][column].mean() - healthy[column].mean()
+
+    # the same process demand (a counterfactual pair): the steam drawn barely moves
+    for fault in frames:
+        assert abs(change(fault, "steam_flow")) < 0.02, fault
+    # water lost from the circuit: fed on top of the steam (t/h)
+    assert abs(change("tube_leak/large", "feedwater_flow") - 0.3 * 3.6) < 0.1
+    assert abs(change("safety_valve_passing/large", "feedwater_flow") - 0.25 * 3.6) < 0.1
+    fuel = healthy["fuel_flow"].mean()
+    assert 0.02 < change("safety_valve_passing/large", "fuel_flow") / fuel < 0.04
+    # fouling: more gas, a hotter stack and feedwater, the same water
+    assert 0.015 < change("fireside_fouling/large", "fuel_flow") / fuel < 0.04
+    assert 25.0 < change("fireside_fouling/large", "flue_gas_temp") < 50.0
+    assert 0 < change("fireside_fouling/small", "flue_gas_temp") < change(
+        "fireside_fouling/large", "flue_gas_temp")
+    assert abs(change("fireside_fouling/large", "feedwater_flow")) < 0.05
+    # a meter reading 4 % high: the same water, 4 % more of it on the meter
+    ratio = frames["feedwater_meter/large"]["feedwater_flow"].sum() / healthy[
+        "feedwater_flow"].sum()
+    assert abs(ratio - 1.04) < 0.005
+    assert abs(change("feedwater_meter/large", "fuel_flow")) / fuel < 0.002
