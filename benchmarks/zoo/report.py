@@ -11,6 +11,8 @@ BEGIN, END = "<!-- zoo:begin -->", "<!-- zoo:end -->"
 #: (``no_data``: the asset's idle status) and one that ran too little to read
 #: (``too_few_samples``: left out of a baseline, a night not monitored), each with a note
 IDLE_READS = ("no_data", "too_few_samples")
+#: how such a read's message ends (``str`` of a TelemetryError names its kind in brackets)
+_IDLE_ENDINGS = tuple(f"[{kind}]" for kind in IDLE_READS)
 
 
 def failure_counts(result: dict) -> tuple[int, int]:
@@ -22,7 +24,7 @@ def failure_counts(result: dict) -> tuple[int, int]:
     product reports as not operating, not failures; every other failed read, baseline and
     night is a failure.
     """
-    idle = sum(message.rstrip().endswith(tuple(f"[{kind}]" for kind in IDLE_READS))
+    idle = sum(message.rstrip().endswith(_IDLE_ENDINGS)
                for message in result["failed_reads"].values())
     failures = sum(len(result[k]) for k in ("failed_reads", "failed_baselines", "failed_nights"))
     return failures - idle, idle + len(result.get("calm_nights", {}))
