@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import pathlib
 from dataclasses import asdict, dataclass
 
 from flows.commands.plumbing import USAGE_ERRORS, config_options, load, prefect_environment
@@ -68,9 +67,7 @@ def check(args: argparse.Namespace) -> int:
     try:
         config = load(args)
     except USAGE_ERRORS as error:
-        # a configuration error starts with the file's name, the finding's subject
-        detail = str(error).removeprefix(f"{pathlib.PurePath(str(args.config)).name}: ")
-        finding = Finding("config", str(args.config), PROBLEM, detail,
+        finding = Finding("config", str(args.config), PROBLEM, str(error),
                           "fix the named key of the configuration (see "
                           "docs/configuration.md)")
         return _report(args, [finding], EXIT_USAGE)
@@ -279,7 +276,11 @@ def _report(args, findings: list[Finding], status: int, config: FleetConfig | No
     if problems:
         console.print(f"{len(problems)} problem(s) found.")
         for f in problems:
-            print_error(f"{f.area} {f.subject}: {f.detail}" + (f" -> {f.fix}" if f.fix else ""))
+            # a detail that already names its subject (a config error: "fleet.toml: ...")
+            # is not prefixed with it again
+            named = f.detail.startswith(f"{f.subject}:")
+            text = f"{f.area} {f.detail}" if named else f"{f.area} {f.subject}: {f.detail}"
+            print_error(text + (f" -> {f.fix}" if f.fix else ""))
     else:
         console.print("All good.")
     return status
