@@ -108,7 +108,14 @@ def is_transient(error: BaseException) -> bool:
 
 @dataclass
 class WindowResult:
-    """One committed window of an asset."""
+    """One committed window of an asset.
+
+    ``max_ratio`` is the window's largest zeta / epsilon and ``max_ratio_at`` where it is
+    (``"temp nonlinear"``: channel and tier), so that a night below every threshold still
+    says which tier came nearest; ``conditions``, for a window driven beyond every baseline
+    day's input conditions, the input figure farthest outside with the baseline days' range
+    (``Drift.conditions``), alarmed or not: its changes were discounted for it.
+    """
 
     window_start: str
     window_end: str
@@ -117,6 +124,8 @@ class WindowResult:
     alarm: bool
     max_ratio: float | None
     created: bool
+    max_ratio_at: str | None = None
+    conditions: str | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -35,17 +35,27 @@ def _ratio(value) -> str:
 
 
 def fleet_rows(summary: RunSummary) -> list[dict]:
-    """One row per asset (the fleet table)."""
+    """One row per asset (the fleet table): its largest ratio with the channel and tier it
+    is in, and in ``reason``, after a failure's or a note, the first of its windows driven
+    beyond its baseline's conditions (alarmed or not: its changes were discounted)."""
     rows = []
     for a in summary.assets:
-        ratios = [w.max_ratio for w in a.windows if w.max_ratio is not None]
+        rated = [w for w in a.windows if w.max_ratio is not None]
+        top = max(rated, key=lambda w: w.max_ratio) if rated else None
+        beyond = next((w for w in a.windows if w.conditions), None)
+        reason = a.reason()
+        if beyond is not None:
+            reason = "; ".join(filter(None, [
+                reason, f"{window_label(beyond.window_start, beyond.window_end)} beyond its "
+                        f"baseline's conditions: {beyond.conditions}"]))
         rows.append({
             "asset": a.asset_id, "class": a.vehicle_class, "status": a.status,
             "windows": len(a.windows), "alarmed": sum(1 for w in a.windows if w.alarm),
-            "max ratio": _ratio(max(ratios)) if ratios else "",
+            "max ratio": _ratio(top.max_ratio) if top else "",
+            "channel tier": (top.max_ratio_at or "") if top else "",
             "baseline": f"v{a.baseline_version}" if a.baseline_version else "",
             "watermark": _when(a.watermark_after),
-            "reason": a.reason()})
+            "reason": reason})
     return rows
 
 
@@ -116,8 +126,8 @@ def publish_artifacts(summary: RunSummary, config=None) -> None:
 def fleet_table(summary: RunSummary, title: str | None = None):
     rows = fleet_rows(summary)
     table = Table(title=title or f"Fleet ({len(rows)} assets)", title_justify="left")
-    for column in ("asset", "class", "status", "windows", "alarmed", "max ratio", "baseline",
-                   "watermark", "reason"):
+    for column in ("asset", "class", "status", "windows", "alarmed", "max ratio",
+                   "channel tier", "baseline", "watermark", "reason"):
         table.add_column(column, no_wrap=column != "reason",
                          justify="right" if column in ("windows", "alarmed", "max ratio")
                          else "left")
@@ -131,8 +141,8 @@ def fleet_table(summary: RunSummary, title: str | None = None):
         alarmed = str(row["alarmed"]) if row["alarmed"] else ""
         if alarmed:
             alarmed = f"[bold red]{alarmed}[/]"
-        cells += [str(row["windows"]), alarmed, row["max ratio"], row["baseline"],
-                  row["watermark"], _escape(row["reason"])]
+        cells += [str(row["windows"]), alarmed, row["max ratio"], row["channel tier"],
+                  row["baseline"], row["watermark"], _escape(row["reason"])]
         table.add_row(*cells)
     return table
 

@@ -80,16 +80,17 @@ def window_table(summary: RunSummary) -> Table:
     """Every reanalysed window of every asset, with its ratio and alarm, and every window
     that failed."""
     table = Table(title="Reanalysed windows", title_justify="left")
-    for column in ("asset", "window", "against", "max zeta/epsilon", "alarm", "run"):
+    for column in ("asset", "window", "against", "max zeta/epsilon", "channel tier", "alarm",
+                   "run"):
         table.add_column(column, no_wrap=True)
     for asset in summary.assets:
         for w in asset.windows:
             ratio = "" if w.max_ratio is None else f"{w.max_ratio:.2f}"
             table.add_row(asset.asset_id, window_label(w.window_start, w.window_end),
-                          f"v{asset.baseline_version}", ratio,
+                          f"v{asset.baseline_version}", ratio, w.max_ratio_at or "",
                           "[bold red]ALARM[/]" if w.alarm else "ok", w.run_id[:12])
         for error in asset.window_errors:       # the reason is printed below the tables
             table.add_row(asset.asset_id, f"{error.window_start[:16].replace('T', ' ')} ...",
-                          f"v{asset.baseline_version}", "", "[bold]FAILED[/]",
+                          f"v{asset.baseline_version}", "", "", "[bold]FAILED[/]",
                           error.kind or error.type)
     return table

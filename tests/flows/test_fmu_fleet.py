@@ -85,6 +85,10 @@ grid = { min_duration = "4min" }
     # far from the threshold either way (measured: 0.09 and 129 times epsilon)
     assert by_asset["F-001"]["windows"][0]["max_ratio"] < 0.5
     assert by_asset["F-002"]["windows"][0]["max_ratio"] > 10.0
+    # each window names the channel and tier of its largest ratio: F-002's largest alert's
+    top = max(summary["alerts"], key=lambda a: a["ratio"])
+    assert by_asset["F-002"]["windows"][0]["max_ratio_at"] == f"{top['channel']} {top['tier']}"
+    assert by_asset["F-001"]["windows"][0]["max_ratio_at"].split()[0] == "reading"
     slowed = (START + 3 * window).isoformat()
     assert {(a["asset_id"], a["window_start"]) for a in summary["alerts"]} == {("F-002", slowed)}
     assert {a["channel"] for a in summary["alerts"]} == {"reading"}   # the FMU's output
