@@ -36,8 +36,8 @@ def _ratio(value) -> str:
 
 def fleet_rows(summary: RunSummary) -> list[dict]:
     """One row per asset (the fleet table): its largest ratio with the channel and tier it
-    is in, and in ``reason``, after a failure's or a note, the first of its windows driven
-    beyond its baseline's conditions (alarmed or not: its changes were discounted)."""
+    is in, and in ``reason``, after a failure's message or its note, the first of its windows
+    driven beyond its baseline's conditions (alarmed or not: its changes were discounted)."""
     rows = []
     for a in summary.assets:
         rated = [w for w in a.windows if w.max_ratio is not None]
