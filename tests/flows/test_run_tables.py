@@ -61,3 +61,19 @@ def test_the_fleet_row_names_the_nearest_tier_and_a_night_beyond_the_conditions(
         {k: v for k, v in w.to_dict().items() if k not in ("max_ratio_at", "conditions")}
         for w in quiet.windows]})
     assert [w.max_ratio_at for w in old.windows] == [None, None]
+
+
+def test_the_reanalysis_table_names_each_windows_channel_and_tier():
+    from rich.console import Console
+
+    from flows.commands.reanalyze import window_table
+
+    asset = AssetResult("L-05", "lift", "ok", [window(20, 0.76, "temp noise"),
+                                               window(21, None, None)], baseline_version=1)
+    console = Console(width=200, record=True)
+    console.print(window_table(RunSummary("reanalyze", "2026-01-22T00:00:00+00:00",
+                                          assets=[asset])))
+    lines = [line for line in console.export_text().splitlines() if "L-05" in line]
+    assert len(lines) == 2
+    assert "0.76" in lines[0] and "temp noise" in lines[0] and "v1" in lines[0]
+    assert "temp noise" not in lines[1]
