@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from graybox.calibration import fit_baselines as fit_calibrated_baselines
-from graybox.drift import Drift, TierDrift, compute_drift
+from graybox.drift import Drift, compute_drift
 from graybox.exceptions import (GrayBoxError, InsufficientDataError, ModelChangedError,
                                 ShortWindowsError, TelemetryError)
 from graybox.signature_fit import MIN_BASELINE_WINDOWS, FitRequest, fit_signatures
@@ -914,7 +914,7 @@ def _window_recorded(config: FleetConfig, asset: PendingAsset, window: PendingWi
         run_id=record.run_id, scale=config.alerts.scale,
         source=REANALYSIS if reanalysis else NIGHTLY, diagnosis=alert_entries(window.diagnosis))
     asset.result.alerts += alerts
-    nearest = largest_entry(drift)
+    nearest = drift.largest
     asset.result.windows.append(WindowResult(
         record.window_start, record.window_end, None if reanalysis else record.version,
         record.run_id, drift.alarmed, None if nearest is None else nearest.ratio,
@@ -940,12 +940,6 @@ def diagnose_alarm(asset: PendingAsset, window: PendingWindow) -> Diagnosis | Di
         return diagnose(asset.reference.signature, window.parts, asset.model)
     except (GrayBoxError, ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
         return DiagnosisFailure(f"{type(error).__name__}: {error}")
-
-
-def largest_entry(drift: Drift) -> TierDrift | None:
-    """The entry of a drift with the largest zeta / epsilon (None without calibration)."""
-    rated = [e for e in drift.entries if e.ratio is not None]
-    return max(rated, key=lambda e: e.ratio) if rated else None
 
 
 def _plots(policy: str, alarmed: bool) -> bool:

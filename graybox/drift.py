@@ -142,6 +142,13 @@ class Drift:
         return bool(self.alarms)
 
     @property
+    def largest(self) -> TierDrift | None:
+        """The entry with the largest zeta / epsilon: where the window came nearest to an
+        alarm (None where no entry is calibrated)."""
+        rated = [e for e in self.entries if e.ratio is not None]
+        return max(rated, key=lambda e: e.ratio) if rated else None
+
+    @property
     def discounted(self) -> dict[float, list[str]]:
         """The entries discounted outside the baseline's operating range, as
         ``"channel tier"``, grouped by how far outside (the input conditions set one figure

@@ -136,17 +136,15 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
             metrics[entry_metric("epsilon", entry.channel, entry.tier)] = entry.epsilon
             metrics[entry_metric("healthy_zeta", entry.channel, entry.tier)] = entry.mean_zeta
     if drift is not None:
-        ratios = []
         for entry in drift.entries:
             metrics[entry_metric("zeta", entry.channel, entry.tier)] = entry.zeta
             if entry.epsilon is not None:
                 metrics[entry_metric("epsilon", entry.channel, entry.tier)] = entry.epsilon
                 metrics[entry_metric("ratio", entry.channel, entry.tier)] = entry.ratio
-                ratios.append(entry.ratio)
             if entry.outside is not None:
                 metrics[entry_metric("outside", entry.channel, entry.tier)] = entry.outside
-        if ratios:
-            metrics["max_ratio"] = max(ratios)
+        if drift.largest is not None:
+            metrics["max_ratio"] = drift.largest.ratio
         metrics["alarm"] = float(drift.alarmed)
     return {_key(k): float(v) for k, v in metrics.items()
             if v is not None and math.isfinite(float(v))}

@@ -258,3 +258,14 @@ def test_a_noise_epsilon_below_the_moments_sampling_noise_is_raised_to_it():
     assert entry.zeta == pytest.approx(0.0025 + 0.005 + 0.04 / 6 + 0.25 / 24) and not entry.exceeded
     # the linear tier has no such floor: its calibrated epsilon stands
     assert compute_drift(cand, base, calibration).get("omega", "linear").epsilon == pytest.approx(1e-4)
+
+
+def test_a_drifts_largest_entry_is_its_largest_calibrated_ratio():
+    entries = (TierDrift("temp", "noise", 0.38, 0.5, ()),
+               TierDrift("temp", "level", 9.0, None, ()),
+               TierDrift("speed", "linear", 0.2, 0.1, ()),
+               TierDrift("speed", "noise", 0.0, 0.0, ()))
+    largest = Drift(entries, 100).largest
+    assert (largest.channel, largest.tier, largest.ratio) == ("speed", "linear", 2.0)
+    # nothing calibrated: no largest ratio
+    assert Drift(entries[1:2], 100).largest is None
