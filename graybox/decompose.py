@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from graybox.analysis_rate import decimate, decimation_factor
+from graybox.nonlinear_tier import window_centred
 from graybox.models.base import WhiteBoxModel
 from graybox.residual import infer_sample_interval, residual_frame
 from graybox.signature import Signature
@@ -76,7 +77,9 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
         n = channel.linear.order
         w_index = index[n:]
         span = structure.embedding_dim * structure.tau
-        net = structure.nn_scale * channel.nonlinear.predict(w / structure.nn_scale, structure.tau)[0]
+        # the network models the window's AR residual about its mean, as it was fitted
+        net = structure.nn_scale * channel.nonlinear.predict(
+            window_centred([w], [0])[0] / structure.nn_scale, structure.tau)[0]
         noise = w[span:] - net if structure.nonlinear_needed else w[span:]
         out.append(ChannelDecomposition(
             channel.channel, r, pd.Series(z, index), pd.Series(z[n:] - w, w_index),

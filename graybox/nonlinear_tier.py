@@ -24,8 +24,8 @@ from graybox.output_layer_fit import fit_output_layers
 #: bytes per series-sample for J = 8, m = 6, with and without trained input weights)
 CHUNK_SAMPLES = 2 ** 19
 
-__all__ = ["NonlinearTier", "lagged", "lagged_segments", "fit_networks", "FitSettings",
-           "NetworkFit", "initial_weights"]
+__all__ = ["NonlinearTier", "lagged", "lagged_segments", "window_centred", "fit_networks",
+           "FitSettings", "NetworkFit", "initial_weights"]
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,26 @@ def lagged(x: np.ndarray, dim: int, tau: int) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros((0, dim)), np.zeros(0)
     columns = [x[span - k * tau: span - k * tau + n] for k in range(1, dim + 1)]
     return np.column_stack(columns), x[span:]
+
+
+def window_centred(segments: Sequence[np.ndarray], owners: Sequence[int]) -> list[np.ndarray]:
+    """The AR residual the network models: each window's segments less that window's mean.
+
+    Eq. 25 has no biases, so its function is odd and cannot hold a constant: fitted to a
+    residual whose mean has moved (a night warmer than the baseline's days, an unlogged
+    condition), its weights bend to approximate the offset and its function drifts, and the
+    level then alarms as a "nonlinear" change. The level is the level tier's and the noise
+    tier's (the network's errors keep the mean:
+    :func:`graybox.tiers.nonlinear.network_errors`); the network models
+    the residual's dynamics about it.
+    """
+    totals: dict[int, list[float]] = {}
+    for segment, owner in zip(segments, owners):
+        total = totals.setdefault(owner, [0.0, 0])
+        total[0] += float(np.sum(segment))
+        total[1] += len(segment)
+    means = {owner: (t[0] / t[1] if t[1] else 0.0) for owner, t in totals.items()}
+    return [segment - means[owner] for segment, owner in zip(segments, owners)]
 
 
 def lagged_segments(segments: Sequence[np.ndarray], dim: int, tau: int,

@@ -2,11 +2,12 @@
 (:mod:`graybox.noise_tier`)."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from graybox.noise_tier import NoiseTier, describe_noise, sampling_zeta_quantile
+from graybox.nonlinear_tier import window_centred
 from graybox.settings import GrayBoxSettings
 from graybox.exceptions import ConstantSeriesError
 from graybox.tiers.base import Tier, stood_still
@@ -38,7 +39,7 @@ class NoiseTierKind(Tier):
         either way)."""
         for channel in asset.channels:
             try:
-                channel.records[self.name] = describe_noise(final_residual(channel))
+                channel.records[self.name] = describe_noise(final_residual(channel, asset.owners))
             except ConstantSeriesError as error:
                 raise stood_still(channel.name, error) from None
             channel.network_errors = None      # described: an array of the series' length
@@ -88,16 +89,18 @@ class NoiseTierKind(Tier):
         return delta * np.sqrt(baseline.noise.moment_weights)
 
 
-def final_residual(channel: ChannelFit) -> list[np.ndarray]:
+def final_residual(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarray]:
     """What the linear and nonlinear tiers leave of a channel's residual, per segment, after
     the network's delays: a needed network's one-step errors (the nonlinear tier's
     ``network_errors``, from its fit; where its fit kept no prediction, a trained network's,
-    the network is run over the AR residual here), else the AR residual itself."""
+    the network is run over the AR residual here, each window's less its mean as it was
+    fitted, ``owners`` naming each segment's window), else the AR residual itself."""
     structure, w = channel.structure, channel.w_segments
     span = structure.embedding_dim * structure.tau
     if not structure.nonlinear_needed:
         return [s[span:] for s in w]
     if channel.network_errors is not None:
         return channel.network_errors
-    predictions = channel.nonlinear.predict([s / structure.nn_scale for s in w], structure.tau)
+    predictions = channel.nonlinear.predict(
+        [s / structure.nn_scale for s in window_centred(w, owners)], structure.tau)
     return [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]

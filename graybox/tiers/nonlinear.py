@@ -13,7 +13,7 @@ from graybox.embedding import choose_delay, choose_dimension
 from graybox.exceptions import GrayBoxError, InsufficientDataError, StructureMismatchError
 from graybox.network_settings import FitSettings, NetworkFit
 from graybox.nonlinear_tier import (NonlinearTier, fit_networks, initial_weights,
-                                   lagged_segments)
+                                   lagged_segments, window_centred)
 from graybox.settings import GrayBoxSettings
 from graybox.tiers.base import Tier
 from graybox.tiers.fit_state import AssetFit, ChannelFit, per_window
@@ -188,7 +188,8 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                 # network with fixed features too (one minimum: the start only saves
                 # iterations); a trained null network starts where its baseline started
                 source = item.request.warm_start or item.request.baseline
-                problems.append(_design(channel.w_segments, channel.structure))
+                problems.append(_design(window_centred(channel.w_segments, item.owners),
+                                        channel.structure))
                 starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
                                               settings.network.init_scale) if retrain
                               else source.channel(channel.name).nonlinear.weight_arrays())
@@ -216,9 +217,9 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
     fixed = not settings.trains_needed_network
     needed_units = settings.needed_units
     train, test = [], []
-    for _, _, channel in members:
+    for item, _, channel in members:
         heads, tails = [], []
-        for s in channel.w_segments:
+        for s in window_centred(channel.w_segments, item.owners):
             cut = int(round(len(s) * (1 - settings.holdout_fraction)))
             heads.append(s[:cut])
             tails.append(s[cut:])
@@ -248,7 +249,8 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
         chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
         if not chosen:
             continue
-        problems = [_design(members[i][2].w_segments, members[i][2].structure) for i in chosen]
+        problems = [_design(window_centred(members[i][2].w_segments, members[i][0].owners),
+                            members[i][2].structure) for i in chosen]
         trained = (not fixed) if needed else settings.null_network == "trained"
         units, chosen_seeds = needed_units if needed else hidden, [seeds[i] for i in chosen]
         fits = _one_by_one(problems, units,

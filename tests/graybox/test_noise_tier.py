@@ -153,7 +153,7 @@ def test_the_networks_errors_described_from_its_fit_are_the_noise_tiers():
     from graybox.tiers.noise import final_residual
 
     channel.network_errors = network_errors(channel, prediction)
-    assert describe_noise(final_residual(channel)) == described
+    assert describe_noise(final_residual(channel, [0, 0, 0])) == described
     # a network that is not needed, or a fit without a prediction, leaves it to the noise tier
     assert network_errors(channel, None) is None
     channel.structure = dataclasses.replace(structure, nonlinear_needed=False)

@@ -3,15 +3,19 @@
 Known answers: hidden units that are permuted and sign-flipped (``tanh`` is odd, so
 ``(w_j, W_1j) -> (-w_j, -W_1j)`` keeps the function) give zeta 0 although Eq. 28 on the
 weights is large; a changed function gives the mean squared change of its output on the
-reference set; structures stored before the measure keep Eq. 28.
+reference set; structures stored before the measure keep Eq. 28; a residual whose mean
+moved (a biased sensor on a linear white box) leaves the network's function where it was.
 """
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from graybox import FitRequest, fit_signatures
 from graybox.drift import compute_drift
-from graybox.nonlinear_tier import NonlinearTier
+from graybox.models.gas_turbine import LangevinShaft
+from graybox.nonlinear_tier import NonlinearTier, window_centred
 from graybox.tiers import NonlinearTierKind, network_function, reference_set
 
 from tests.graybox.conftest import make_channel, make_signature
@@ -91,3 +95,57 @@ def test_drift_records_eq_28_beside_the_function_space_zeta():
                                                    for k in (1, 2, 3)} | {"W1_1", "W1_2"}
     assert drift.get("omega", "linear").parameter_zeta is None
     assert type(drift).from_dict(drift.to_dict()) == drift
+
+
+def _shaft_window(day, bias=0.0, n=2880, seed=11):
+    """A linear shaft (:class:`LangevinShaft`) driven by a wandering fuel rate and a noisy
+    torque, logged every 10 s, its speed read ``bias`` rad/s high."""
+    model = LangevinShaft()
+    p = model.default_parameters
+    rng = np.random.default_rng([seed, day])
+    dt = 10.0
+    fuel = 1.0 + 0.1 * np.sin(2 * np.pi * np.arange(n) / 900) + 0.01 * rng.standard_normal(n)
+    phi = np.exp(-p["gamma"] * dt)
+    omega = np.empty(n)
+    omega[0] = p["omega_ref"]
+    for t in range(1, n):
+        target = p["omega_ref"] + p["fuel_gain"] * (fuel[t - 1] - p["fuel_ref"]) / p["gamma"]
+        omega[t] = target + phi * (omega[t - 1] - target) + 0.3 * rng.standard_normal()
+    index = pd.date_range("2026-01-01", periods=n, freq="10s", tz="UTC") + pd.Timedelta(days=day)
+    return pd.DataFrame({"omega": omega + bias, "fuel_rate": fuel}, index=index)
+
+
+def test_a_residual_whose_mean_moved_leaves_the_networks_function_where_it_was():
+    """A linear white box and a sensor read 2 rad/s high: the one-step residual moves by a
+    constant, its dynamics not at all. The network (Eq. 25: odd, no biases) models each
+    window's AR residual about that window's mean, so its function and the linear tier stay
+    exactly where the unbiased night puts them; the move is the noise tier's (its mean) and
+    the level tier's."""
+    model = LangevinShaft()
+    baseline = fit_signatures([FitRequest(model, [_shaft_window(d) for d in range(3)],
+                                          asset_id="S")])[0]
+    night, biased = fit_signatures([FitRequest(model, [_shaft_window(3, bias=b)],
+                                               baseline=baseline, asset_id="S")
+                                    for b in (0.0, 2.0)])
+    plain, moved = compute_drift(night, baseline), compute_drift(biased, baseline)
+    for tier in ("nonlinear", "linear"):
+        assert moved.get("omega", tier).zeta == pytest.approx(
+            plain.get("omega", tier).zeta, rel=1e-6, abs=1e-12), tier
+    # the one-step residual moved by (1 - exp(-gamma dt)) x 2 rad/s; the AR residual the
+    # noise tier describes by that, scaled, times 1 - sum(a_i)
+    structure, linear = baseline.channel("omega").structure, biased.channel("omega").linear
+    expected = (2.0 * (1 - np.exp(-0.06 * 10.0)) / structure.scale
+                * (1 - sum(linear.coefficients)))
+    shift = biased.channel("omega").noise.mean - night.channel("omega").noise.mean
+    assert shift == pytest.approx(expected, rel=1e-3)
+    assert moved.get("omega", "noise").zeta > 10 * plain.get("omega", "noise").zeta
+    assert moved.get("omega", "level").zeta > 10 * plain.get("omega", "level").zeta
+
+
+def test_each_windows_segments_lose_that_windows_pooled_mean():
+    # window 1 in two operating segments (its 5 samples' mean: 2), window 0 in one (10)
+    segments = [np.array([1.0, 2.0]), np.array([10.0]), np.array([0.0, 3.0, 4.0])]
+    out = window_centred(segments, [1, 0, 1])
+    np.testing.assert_allclose(out[0], [-1.0, 0.0])
+    np.testing.assert_allclose(out[1], [0.0])
+    np.testing.assert_allclose(out[2], [-2.0, 1.0, 2.0])
