@@ -36,6 +36,10 @@ class ChannelStructure:
         Size of the fixed reference set of delay vectors on which the network's drift is
         measured in function space (:class:`graybox.tiers.NonlinearTierKind`); None (or 0)
         where the drift is Eq. 28 on the weights, as in signatures stored before the measure.
+    centred_network : bool or None
+        True: the network models each window's AR residual less that window's mean
+        (:func:`graybox.nonlinear_tier.window_centred`), as every baseline fitted since
+        2026-11-30 does; None: the residual as it is, as in signatures stored before.
     """
 
     period: int
@@ -51,9 +55,11 @@ class ChannelStructure:
     nonlinear_needed: bool
     init_seed: int
     reference_points: int | None = None
+    centred_network: bool | None = None
 
-    #: written only when set, so structures stored before the measure read and write as before
-    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"reference_points"})
+    #: written only when set, so structures stored before these read and write as before
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"reference_points",
+                                                             "centred_network"})
 
     @property
     def differencing(self) -> Differencing:

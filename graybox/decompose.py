@@ -77,9 +77,10 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
         n = channel.linear.order
         w_index = index[n:]
         span = structure.embedding_dim * structure.tau
-        # the network models the window's AR residual about its mean, as it was fitted
+        # the network's input as it was fitted: the window's AR residual about its mean
+        network_input = window_centred([w], [0])[0] if structure.centred_network else w
         net = structure.nn_scale * channel.nonlinear.predict(
-            window_centred([w], [0])[0] / structure.nn_scale, structure.tau)[0]
+            network_input / structure.nn_scale, structure.tau)[0]
         noise = w[span:] - net if structure.nonlinear_needed else w[span:]
         out.append(ChannelDecomposition(
             channel.channel, r, pd.Series(z, index), pd.Series(z[n:] - w, w_index),

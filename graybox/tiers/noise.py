@@ -7,11 +7,11 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from graybox.noise_tier import NoiseTier, describe_noise, sampling_zeta_quantile
-from graybox.nonlinear_tier import window_centred
 from graybox.settings import GrayBoxSettings
 from graybox.exceptions import ConstantSeriesError
 from graybox.tiers.base import Tier, stood_still
 from graybox.tiers.fit_state import AssetFit, ChannelFit
+from graybox.tiers.nonlinear import network_input
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from graybox.signature import ChannelSignature
@@ -93,8 +93,8 @@ def final_residual(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarra
     """What the linear and nonlinear tiers leave of a channel's residual, per segment, after
     the network's delays: a needed network's one-step errors (the nonlinear tier's
     ``network_errors``, from its fit; where its fit kept no prediction, a trained network's,
-    the network is run over the AR residual here, each window's less its mean as it was
-    fitted, ``owners`` naming each segment's window), else the AR residual itself."""
+    the network is run over its input here, :func:`graybox.tiers.nonlinear.network_input`,
+    ``owners`` naming each segment's window), else the AR residual itself."""
     structure, w = channel.structure, channel.w_segments
     span = structure.embedding_dim * structure.tau
     if not structure.nonlinear_needed:
@@ -102,5 +102,5 @@ def final_residual(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarra
     if channel.network_errors is not None:
         return channel.network_errors
     predictions = channel.nonlinear.predict(
-        [s / structure.nn_scale for s in window_centred(w, owners)], structure.tau)
+        [s / structure.nn_scale for s in network_input(channel, owners)], structure.tau)
     return [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]

@@ -55,7 +55,8 @@ class NonlinearTierKind(Tier):
                     hidden_units=settings.hidden_units,
                     nn_scale=settings.nn_scale_factor * float(np.concatenate(w).std()),
                     nonlinear_needed=False,  # decided after the held-out fit
-                    init_seed=channel.seed, reference_points=settings.reference_points or None)
+                    init_seed=channel.seed, reference_points=settings.reference_points or None,
+                    centred_network=True)
             structure = channel.structure
             span = structure.embedding_dim * structure.tau
             pairs = per_window([max(0, len(s) - span) for s in w], asset.owners)
@@ -160,6 +161,15 @@ def reference_set(baseline: ChannelSignature) -> np.ndarray | None:
     return rng.normal(0.0, spread, (count, structure.embedding_dim))
 
 
+def network_input(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarray]:
+    """The AR residual ``channel``'s network models, per segment: each window's less that
+    window's mean (:func:`window_centred`; ``owners`` names each segment's window), or as it
+    is where the frozen structure was stored before (``centred_network`` None)."""
+    if channel.structure.centred_network:
+        return window_centred(channel.w_segments, owners)
+    return channel.w_segments
+
+
 def _design(segments: list[np.ndarray], structure: ChannelStructure):
     return lagged_segments(segments, structure.embedding_dim, structure.tau, structure.nn_scale)
 
@@ -188,7 +198,7 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                 # network with fixed features too (one minimum: the start only saves
                 # iterations); a trained null network starts where its baseline started
                 source = item.request.warm_start or item.request.baseline
-                problems.append(_design(window_centred(channel.w_segments, item.owners),
+                problems.append(_design(network_input(channel, item.owners),
                                         channel.structure))
                 starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
                                               settings.network.init_scale) if retrain
@@ -219,7 +229,7 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
     train, test = [], []
     for item, _, channel in members:
         heads, tails = [], []
-        for s in window_centred(channel.w_segments, item.owners):
+        for s in network_input(channel, item.owners):
             cut = int(round(len(s) * (1 - settings.holdout_fraction)))
             heads.append(s[:cut])
             tails.append(s[cut:])
@@ -249,7 +259,7 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
         chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
         if not chosen:
             continue
-        problems = [_design(window_centred(members[i][2].w_segments, members[i][0].owners),
+        problems = [_design(network_input(members[i][2], members[i][0].owners),
                             members[i][2].structure) for i in chosen]
         trained = (not fixed) if needed else settings.null_network == "trained"
         units, chosen_seeds = needed_units if needed else hidden, [seeds[i] for i in chosen]
@@ -307,8 +317,9 @@ def _one_by_one(problems: list, hidden: int, starts: list | None, seeds: list | 
 
 def network_errors(channel: ChannelFit, prediction: np.ndarray | None
                    ) -> list[np.ndarray] | None:
-    """A needed network's in-sample one-step errors ``w(t) - nn_scale * f(z(t))``, per
-    segment of the channel (after the network's delays), from the fit's own ``prediction``
+    """A needed network's in-sample one-step errors ``w(t) - nn_scale * f(z(t))`` (``z`` from
+    :func:`network_input`, so the errors keep each window's mean), per segment of the channel
+    (after the network's delays), from the fit's own ``prediction``
     (its design's rows, the segments one after another): what the noise tier describes. None
     for a channel whose network is not needed, or without a prediction (a trained network's
     fit), or one that does not line up with the segments.

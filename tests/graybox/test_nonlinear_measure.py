@@ -140,6 +140,30 @@ def test_a_residual_whose_mean_moved_leaves_the_networks_function_where_it_was()
     assert shift == pytest.approx(expected, rel=1e-3)
     assert moved.get("omega", "noise").zeta > 10 * plain.get("omega", "noise").zeta
     assert moved.get("omega", "level").zeta > 10 * plain.get("omega", "level").zeta
+    assert baseline.channel("omega").structure.centred_network is True
+
+
+def test_a_structure_stored_before_centring_keeps_its_networks_input_as_it_was():
+    """A signature stored before 2026-11-30 has no ``centred_network``: it reads as None,
+    writes as it was read, and its candidates' networks model the residual as it is, the
+    mean included (as they were calibrated): the biased night's network moves."""
+    from graybox.record_json import from_dict, to_dict
+    from graybox.signature import Signature
+
+    model = LangevinShaft()
+    fitted = fit_signatures([FitRequest(model, [_shaft_window(d) for d in range(3)],
+                                        asset_id="S")])[0]
+    stored = to_dict(fitted)
+    for channel in stored["channels"]:
+        del channel["structure"]["centred_network"]
+    baseline = from_dict(Signature, stored)
+    assert baseline.channel("omega").structure.centred_network is None
+    assert to_dict(baseline) == stored
+    night, biased = fit_signatures([FitRequest(model, [_shaft_window(3, bias=b)],
+                                               baseline=baseline, asset_id="S")
+                                    for b in (0.0, 2.0)])
+    plain, moved = compute_drift(night, baseline), compute_drift(biased, baseline)
+    assert moved.get("omega", "nonlinear").zeta > 10 * plain.get("omega", "nonlinear").zeta
 
 
 def test_each_windows_segments_lose_that_windows_pooled_mean():
