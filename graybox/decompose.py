@@ -78,9 +78,9 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
         w_index = index[n:]
         span = structure.embedding_dim * structure.tau
         # the network's input as it was fitted: the window's AR residual about its mean
-        network_input = window_centred([w], [0])[0] if structure.centred_network else w
+        fitted_on = window_centred([w], [0])[0] if structure.centred_network else w
         net = structure.nn_scale * channel.nonlinear.predict(
-            network_input / structure.nn_scale, structure.tau)[0]
+            fitted_on / structure.nn_scale, structure.tau)[0]
         noise = w[span:] - net if structure.nonlinear_needed else w[span:]
         out.append(ChannelDecomposition(
             channel.channel, r, pd.Series(z, index), pd.Series(z[n:] - w, w_index),
