@@ -143,8 +143,9 @@ def fit_metrics(signature: Signature, calibration: Calibration | None,
                 metrics[entry_metric("ratio", entry.channel, entry.tier)] = entry.ratio
             if entry.outside is not None:
                 metrics[entry_metric("outside", entry.channel, entry.tier)] = entry.outside
-        if drift.largest is not None:
-            metrics["max_ratio"] = drift.largest.ratio
+        largest = drift.largest
+        if largest is not None:
+            metrics["max_ratio"] = largest.ratio
         metrics["alarm"] = float(drift.alarmed)
     return {_key(k): float(v) for k, v in metrics.items()
             if v is not None and math.isfinite(float(v))}
