@@ -45,11 +45,14 @@ def effective_sample_size(segments: Sequence[np.ndarray] | np.ndarray) -> float:
     acov = autocovariance(segments, max_lag, method="fft")
     if acov[0] <= 0:
         return float(total)
-    rho = acov / acov[0]
-    tau = -1.0
-    for m in range((len(rho) - 1) // 2 + 1):
-        pair = rho[2 * m] + (rho[2 * m + 1] if 2 * m + 1 < len(rho) else 0.0)
-        if pair <= 0:
-            break
-        tau += 2.0 * pair
-    return float(np.clip(total / max(tau, 1.0), 1.0, total))
+    return float(np.clip(total / integrated_time(acov / acov[0]), 1.0, total))
+
+
+def integrated_time(rho: np.ndarray) -> float:
+    """Geyer's initial positive sequence over autocorrelations ``rho_0 = 1, rho_1, ...``: ``1
+    + 2 sum_k rho_k``, summed over pairs ``rho_2m + rho_2m+1`` while they stay positive; at
+    least 1."""
+    rho = np.append(rho, 0.0 if len(rho) % 2 else [])
+    pairs = rho[0::2] + rho[1::2]
+    stop = int(np.argmax(pairs <= 0)) if np.any(pairs <= 0) else len(pairs)
+    return max(1.0, -1.0 + 2.0 * float(pairs[:stop].sum()))
