@@ -216,7 +216,9 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
             "after_onset": plan.onset is not None and plan.onset < night_start + pd.Timedelta(days=1),
             "alarm": bool(exceeded),
             "exceeded": ";".join(f"{e.channel}/{e.tier}" for e in exceeded),
-            "max_ratio": max((e.ratio for e in drift.entries if e.ratio is not None), default=0.0),
+            "max_ratio": drift.largest.ratio if drift.largest else 0.0,
+            "moved": {f"{e.channel}/{e.tier}": [c.name for c in e.top_changes[:2]]
+                      for e in exceeded},
             "ratios": {f"{e.channel}/{e.tier}": e.ratio for e in drift.entries},
             "outside": {f"{e.channel}/{e.tier}": e.outside for e in drift.entries
                         if e.outside is not None}})
