@@ -74,8 +74,7 @@ def probe_family(family, healthy_assets: int, nights: int, seed: int,
             if not isinstance(candidate, gb.GrayBoxError):
                 drift = gb.compute_drift(candidate, signature, calibration)
                 row["alarm"] = any(e.exceeded for e in drift.entries)
-                row["max_ratio"] = max((e.ratio for e in drift.entries if e.ratio is not None),
-                                       default=0.0)
+                row["max_ratio"] = drift.largest.ratio if drift.largest else 0.0
             try:
                 diagnosis = diagnose(signature, span, time_budget=TIME_BUDGET)
                 row["estimates"] = {h.hypothesis: h.estimate for h in diagnosis.hypotheses}
