@@ -6,10 +6,10 @@ from dataclasses import dataclass
 import pandas as pd
 
 from graybox.analysis_rate import decimate, decimation_factor
-from graybox.nonlinear_tier import window_centred
 from graybox.models.base import WhiteBoxModel
 from graybox.residual import infer_sample_interval, residual_frame
 from graybox.signature import Signature
+from graybox.tiers.nonlinear import network_input
 
 
 @dataclass(frozen=True)
@@ -77,8 +77,7 @@ def decompose(signature: Signature, model: WhiteBoxModel, window) -> list[Channe
         n = channel.linear.order
         w_index = index[n:]
         span = structure.embedding_dim * structure.tau
-        # the network's input as it was fitted: the window's AR residual about its mean
-        fitted_on = window_centred([w], [0])[0] if structure.centred_network else w
+        fitted_on = network_input(structure, [w], [0])[0]      # as the network was fitted
         net = structure.nn_scale * channel.nonlinear.predict(
             fitted_on / structure.nn_scale, structure.tau)[0]
         noise = w[span:] - net if structure.nonlinear_needed else w[span:]

@@ -102,5 +102,5 @@ def final_residual(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarra
     if channel.network_errors is not None:
         return channel.network_errors
     predictions = channel.nonlinear.predict(
-        [s / structure.nn_scale for s in network_input(channel, owners)], structure.tau)
+        [s / structure.nn_scale for s in network_input(structure, w, owners)], structure.tau)
     return [s[span:] - structure.nn_scale * p for s, p in zip(w, predictions)]

@@ -161,13 +161,14 @@ def reference_set(baseline: ChannelSignature) -> np.ndarray | None:
     return rng.normal(0.0, spread, (count, structure.embedding_dim))
 
 
-def network_input(channel: ChannelFit, owners: Sequence[int]) -> list[np.ndarray]:
-    """The AR residual ``channel``'s network models, per segment: each window's less that
+def network_input(structure: ChannelStructure, segments: Sequence[np.ndarray],
+                  owners: Sequence[int]) -> list[np.ndarray]:
+    """The AR residual a channel's network models, per segment: each window's less that
     window's mean (:func:`window_centred`; ``owners`` names each segment's window), or as it
-    is where the frozen structure was stored before (``centred_network`` None)."""
-    if channel.structure.centred_network:
-        return window_centred(channel.w_segments, owners)
-    return channel.w_segments
+    is where the frozen ``structure`` was stored before (``centred_network`` None)."""
+    if structure.centred_network:
+        return window_centred(segments, owners)
+    return list(segments)
 
 
 def _design(segments: list[np.ndarray], structure: ChannelStructure):
@@ -198,8 +199,9 @@ def _fit_networks(prepared: Sequence[AssetFit], settings: GrayBoxSettings,
                 # network with fixed features too (one minimum: the start only saves
                 # iterations); a trained null network starts where its baseline started
                 source = item.request.warm_start or item.request.baseline
-                problems.append(_design(network_input(channel, item.owners),
-                                        channel.structure))
+                problems.append(_design(
+                    network_input(channel.structure, channel.w_segments, item.owners),
+                    channel.structure))
                 starts.append(initial_weights(hidden, dim, channel.structure.init_seed,
                                               settings.network.init_scale) if retrain
                               else source.channel(channel.name).nonlinear.weight_arrays())
@@ -229,7 +231,7 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
     train, test = [], []
     for item, _, channel in members:
         heads, tails = [], []
-        for s in network_input(channel, item.owners):
+        for s in network_input(channel.structure, channel.w_segments, item.owners):
             cut = int(round(len(s) * (1 - settings.holdout_fraction)))
             heads.append(s[:cut])
             tails.append(s[cut:])
@@ -259,7 +261,8 @@ def _fit_fresh(members, dim: int, hidden: int, settings: GrayBoxSettings,
         chosen = [i for i, (_, _, c) in enumerate(members) if c.structure.nonlinear_needed == needed]
         if not chosen:
             continue
-        problems = [_design(network_input(members[i][2], members[i][0].owners),
+        problems = [_design(network_input(members[i][2].structure, members[i][2].w_segments,
+                                          members[i][0].owners),
                             members[i][2].structure) for i in chosen]
         trained = (not fixed) if needed else settings.null_network == "trained"
         units, chosen_seeds = needed_units if needed else hidden, [seeds[i] for i in chosen]
