@@ -441,7 +441,9 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
     # a whole day driven beyond the other days' conditions is discounted as a night would be
     # (graybox.operating_conditions); a piece's conditions are part of a day's (a diurnal
     # cycle), not a day's, so pieces are compared as they are
-    beyond = [outside(whole.conditions, rest.conditions) for rest, whole in days]
+    beyond = {figures: [outside(whole.conditions, rest.conditions, figures)
+                        for rest, whole in days]
+              for figures in {kind.condition_figures for kind in kinds}}
     out = {}
     for channel in baseline.channel_names:
         for kind in kinds:
@@ -449,7 +451,7 @@ def _changes(baseline: Signature, pairs: list[tuple[Signature, Signature]],
                 out[channel, kind.name] = (
                     [_rescaled(kind, rest, piece, channel, night) for rest, piece in pairs],
                     [_rescaled(kind, rest, whole, channel, night, conditions)
-                     for (rest, whole), conditions in zip(days, beyond)])
+                     for (rest, whole), conditions in zip(days, beyond[kind.condition_figures])])
     return out
 
 

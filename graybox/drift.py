@@ -152,7 +152,8 @@ class Drift:
     def discounted(self) -> dict[float, list[str]]:
         """The entries discounted outside the baseline's operating range, as
         ``"channel tier"``, grouped by how far outside (the input conditions set one figure
-        for every tier but the level, see :mod:`graybox.operating_conditions`)."""
+        for the linear and nonlinear tiers, one with the inputs' excitation for the noise
+        tier and the level its own, see :mod:`graybox.operating_conditions`)."""
         groups: dict[float, list[str]] = {}
         for e in self.entries:
             if e.outside is not None:
@@ -221,7 +222,9 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
     Drift
     """
     check_comparable(candidate, baseline)
-    conditions, figure = farthest(candidate.conditions, baseline.conditions)
+    # per kind of tier, how far beyond the baseline's days the figures it answers to lie
+    far = {figures: farthest(candidate.conditions, baseline.conditions, figures)
+           for figures in {kind.condition_figures for kind in kinds}}
     entries = []
     for channel in candidate.channels:
         healthy = baseline.channel(channel.channel)
@@ -229,6 +232,7 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             if not (kind.present(channel) and kind.present(healthy)):
                 continue  # a tier one of them was stored without
             tier = kind.name
+            conditions = far[kind.condition_figures][0]
             names, current = kind.parameters(channel)
             _, reference = kind.parameters(healthy)
             beyond = kind.outside(channel, healthy, conditions)
@@ -249,4 +253,5 @@ def compute_drift(candidate: Signature, baseline: Signature, calibration=None,
             entries.append(TierDrift(channel.channel, tier, zeta, epsilon, changes,
                                      None if parameter_zeta == zeta else parameter_zeta,
                                      beyond if beyond > 1 else None))
+    conditions, figure = max(far.values(), key=lambda pair: pair[0], default=(0.0, None))
     return Drift(tuple(entries), candidate.n_samples, figure if conditions > 1 else None)

@@ -11,9 +11,11 @@ differs by more, and no threshold from those days covers it.
 The conditions are the exogenous inputs (those no controller sets, see
 ``WhiteBoxModel.controlled_inputs``: a fault a loop compensates moves the loop's output, and
 must not read as a night outside the range). Per telemetry window, each input's mean and
-standard deviation over the window's operating samples (level and excitation) are its
-*figures*; the same figures are kept for each of the window's :data:`PIECES` equal pieces (a
-day's pieces are its times of day).
+standard deviation over the window's operating samples and the standard deviation of its
+sample-to-sample steps within segments (level, spread and *excitation*: how hard it was
+stepped, a cloudy day's irradiance against a clear day's) are its *figures*; the same
+figures are kept for each of the window's :data:`PIECES` equal pieces (a day's pieces are
+its times of day).
 
 A baseline's *centre* is the mean of its windows' figures and its *reach* the largest distance
 of one window from the centre, per figure. A figure counts only where the baseline's windows
@@ -24,7 +26,15 @@ load, a mast's afternoon gusts) is the pieces' effect and does not hide the wind
 driven the same way every day has windows that differ by chance alone, and a night a little
 beyond the reach of five such days is not outside anything. A candidate lies :func:`outside`
 by the largest ratio, over the counted figures and over its own windows, of a window's
-distance from the centre to the reach: above 1, it was driven beyond any baseline day. A
+distance from the centre to the reach: above 1, it was driven beyond any baseline day.
+An excitation counts even where the days agree on it, with a reach of at least three
+standard errors of a day's figure from the same analysis's residual (a night stepped three
+times harder than five alike days is outside them however alike they were); it answers
+only to the noise tier (``Tier.condition_figures``): what a coarse white box mispredicts
+from one sample to the next grows with the step, so the residual's variance and tails
+follow the excitation while the AR and network tiers' dynamics follow the operating point.
+A fault whose effect feeds back into an exogenous input (a road's grade per second moves
+with the bus's speed) can be taken for a harder-driven night by the noise tier only. A
 candidate of several nights is as far outside as its farthest night: their average would put
 a night far beyond the range together with one inside it back near the centre.
 :class:`graybox.tiers.Tier` divides the AR, network and noise tiers' changes by that ratio
@@ -42,7 +52,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 from scipy import special
@@ -53,6 +63,8 @@ from graybox.models.base import WhiteBoxModel
 PIECES = 8
 #: significance at which the baseline's windows must differ in a figure for it to count
 VARYING_LEVEL = 0.01
+#: the figures kept per input, in the order of :meth:`OperatingConditions.figures`
+FIGURE_KINDS = ("mean", "spread", "excitation")
 
 
 @dataclass(frozen=True)
@@ -68,6 +80,9 @@ class OperatingConditions:
     piece_means, piece_spreads : tuple of tuple of tuple of float
         Per window, per piece (:data:`PIECES` equal pieces of its operating samples), per
         input: the same figures.
+    excitations, piece_excitations : tuple or None
+        The same per window and per piece for the standard deviation of the input's
+        sample-to-sample steps within segments; None in a record stored before it.
     """
 
     inputs: tuple[str, ...]
@@ -75,10 +90,18 @@ class OperatingConditions:
     spreads: tuple[tuple[float, ...], ...]
     piece_means: tuple[tuple[tuple[float, ...], ...], ...]
     piece_spreads: tuple[tuple[tuple[float, ...], ...], ...]
+    excitations: tuple[tuple[float, ...], ...] | None = None
+    piece_excitations: tuple[tuple[tuple[float, ...], ...], ...] | None = None
+
+    omitted_when_none: ClassVar[frozenset[str]] = frozenset({"excitations",
+                                                             "piece_excitations"})
 
     def figures(self) -> np.ndarray:
-        """Array of shape (windows, 2 * inputs): each window's means, then its spreads."""
-        return np.hstack([_array(self.means), _array(self.spreads)])
+        """Array of shape (windows, k * inputs): each window's means, then its spreads."""
+        parts = [_array(self.means), _array(self.spreads)]
+        if self.excitations is not None:
+            parts.append(_array(self.excitations))
+        return np.hstack(parts)
 
     def reach(self) -> np.ndarray:
         """Per figure, the largest distance of a window from the windows' centre."""
@@ -93,7 +116,7 @@ class OperatingConditions:
         table = self.piece_figures()
         windows = len(self.means)
         if windows < 2 or table is None:
-            return np.zeros(2 * len(self.inputs), dtype=bool)
+            return np.zeros(self.figures().shape[1], dtype=bool)
         pieces = table.shape[1]
         grand = table.mean(axis=(0, 1))
         window_effect = table.mean(axis=1) - grand
@@ -115,14 +138,29 @@ class OperatingConditions:
         return tuple(name for name, moves in zip(self.inputs, means) if moves)
 
     def piece_figures(self) -> np.ndarray | None:
-        """Array of shape (windows, pieces, 2 * inputs), means then spreads; None when the
+        """Array of shape (windows, pieces, k * inputs), means then spreads; None when the
         windows have different numbers of pieces."""
         if len({len(w) for w in self.piece_means}) != 1:
             return None
         means = np.asarray(self.piece_means, float).reshape(len(self.piece_means), -1,
                                                              len(self.inputs))
-        spreads = np.asarray(self.piece_spreads, float).reshape(means.shape)
-        return np.concatenate([means, spreads], axis=2)
+        parts = [means, np.asarray(self.piece_spreads, float).reshape(means.shape)]
+        if self.piece_excitations is not None:
+            parts.append(np.asarray(self.piece_excitations, float).reshape(means.shape))
+        return np.concatenate(parts, axis=2)
+
+    def chance_reach(self) -> np.ndarray:
+        """Per figure, three standard errors of a window's mean from the pieces' variation
+        left after the windows' and the pieces' effects (0 without a table)."""
+        table = self.piece_figures()
+        width = self.figures().shape[1]
+        if len(self.means) < 2 or table is None or table.shape[1] < 2:
+            return np.zeros(width)
+        grand = table.mean(axis=(0, 1))
+        left = (table - grand - (table.mean(axis=1) - grand)[:, None, :]
+                - (table.mean(axis=0) - grand)[None, :, :])
+        within = (left ** 2).sum(axis=(0, 1)) / ((table.shape[0] - 1) * (table.shape[1] - 1))
+        return 3.0 * np.sqrt(within / table.shape[1])
 
 
 def _array(rows) -> np.ndarray:
@@ -159,11 +197,22 @@ def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
     if not positions:
         return None
     owners = np.asarray(owners)
-    figures = {"means": [], "spreads": [], "piece_means": [], "piece_spreads": []}
+    figures = {"means": [], "spreads": [], "piece_means": [], "piece_spreads": [],
+               "excitations": [], "piece_excitations": []}
     for window in np.unique(owners):
-        u = np.concatenate([np.asarray(inputs[i], float).reshape(len(inputs[i]), -1)[:, positions]
-                            for i in np.flatnonzero(owners == window)])
+        parts = [np.asarray(inputs[i], float).reshape(len(inputs[i]), -1)[:, positions]
+                 for i in np.flatnonzero(owners == window)]
+        u = np.concatenate(parts)
+        steps = np.concatenate([np.diff(p, axis=0) for p in parts])
         pieces = [p for p in np.array_split(u, PIECES) if len(p)]
+        step_pieces = [p for p in np.array_split(steps, PIECES)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            figures["excitations"].append(_floats(np.nanstd(steps, axis=0) if len(steps)
+                                                  else np.zeros(len(positions))))
+            figures["piece_excitations"].append(tuple(
+                _floats(np.nanstd(p, axis=0) if len(p) else np.zeros(len(positions)))
+                for p in step_pieces[:len(pieces)]))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)   # a piece with an all-NaN input
             figures["means"].append(_floats(np.nanmean(u, axis=0)))
@@ -174,17 +223,26 @@ def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
                                **{name: tuple(rows) for name, rows in figures.items()})
 
 
-def outside(candidate: OperatingConditions | None, baseline: OperatingConditions | None) -> float:
+def outside(candidate: OperatingConditions | None, baseline: OperatingConditions | None,
+            kinds: Sequence[str] = FIGURE_KINDS) -> float:
     """How far outside its baseline's conditions a candidate was driven: the largest ratio,
-    over the figures whose baseline windows differ (:meth:`OperatingConditions.varying`) and
-    over the candidate's windows, of a window's distance from the baseline's centre to the
+    over the baseline's counted figures of the given kinds (:func:`covered`) and over the
+    candidate's windows, of a window's distance from the baseline's centre to the
     baseline's reach. Above 1: beyond every baseline window. 0 where either lacks the
-    record, their inputs differ, or no figure of the baseline varies."""
-    return farthest(candidate, baseline)[0]
+    record, their inputs differ, or no figure of those kinds counts.
+
+    Parameters
+    ----------
+    candidate, baseline : OperatingConditions or None
+    kinds : sequence of str, default FIGURE_KINDS
+        The kinds of figure that count (``"mean"``, ``"spread"``, ``"excitation"``): a
+        tier's :attr:`~graybox.tiers.Tier.condition_figures`.
+    """
+    return farthest(candidate, baseline, kinds)[0]
 
 
-def farthest(candidate: OperatingConditions | None, baseline: OperatingConditions | None
-             ) -> tuple[float, str | None]:
+def farthest(candidate: OperatingConditions | None, baseline: OperatingConditions | None,
+             kinds: Sequence[str] = FIGURE_KINDS) -> tuple[float, str | None]:
     """:func:`outside` and the figure that sets it, said for an engineer: the input, the
     candidate's value and the range of the baseline's windows (None where nothing counts).
 
@@ -194,15 +252,17 @@ def farthest(candidate: OperatingConditions | None, baseline: OperatingCondition
     """
     if candidate is None or baseline is None or candidate.inputs != baseline.inputs:
         return 0.0, None
-    counted = _counted(baseline)
+    figures = baseline.figures()
+    # a baseline stored before the excitation figure has fewer columns: those it has count
+    width = min(figures.shape[1], candidate.figures().shape[1])
+    counted = (_counted(baseline) & np.isin(_kinds(baseline), list(kinds)))[:width]
     if not counted.any():
         return 0.0, None
-    reach = baseline.reach()
-    figures = baseline.figures()
-    center = figures.mean(axis=0)
+    reach = _reach(baseline)[:width]
+    center = figures.mean(axis=0)[:width]
     # each of the candidate's windows on its own: a night far outside the range must not
     # hide behind a night inside it in their average (a two-night candidate)
-    windows = candidate.figures()
+    windows = candidate.figures()[:, :width]
     ratios = np.where(counted, np.abs(windows - center) / np.where(counted, reach, 1.0),
                       -np.inf)
     window, index = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
@@ -230,12 +290,27 @@ def covered(baseline: OperatingConditions | None) -> tuple[str, ...]:
 
 
 def _counted(baseline: OperatingConditions) -> np.ndarray:
-    """Per figure, whether :func:`outside` counts it: its windows differ beyond chance
-    (:meth:`OperatingConditions.varying`) and reach from their centre."""
-    return baseline.varying() & (baseline.reach() > 0)
+    """Per figure, whether :func:`outside` counts it: a mean or spread where its windows
+    differ beyond chance (:meth:`OperatingConditions.varying`) and reach from their centre,
+    an excitation wherever its reach (:func:`_reach`) is above 0."""
+    excitation = _kinds(baseline) == "excitation"
+    return np.where(excitation, True, baseline.varying()) & (_reach(baseline) > 0)
+
+
+def _reach(baseline: OperatingConditions) -> np.ndarray:
+    """Per figure, the windows' reach; an excitation's is at least its
+    :meth:`OperatingConditions.chance_reach`: days driven alike differ by that much."""
+    reach = baseline.reach()
+    return np.where(_kinds(baseline) == "excitation",
+                    np.maximum(reach, baseline.chance_reach()), reach)
+
+
+def _kinds(conditions: OperatingConditions) -> np.ndarray:
+    """Per column of :meth:`OperatingConditions.figures`, its kind (:data:`FIGURE_KINDS`)."""
+    return np.repeat(FIGURE_KINDS, len(conditions.inputs))[:conditions.figures().shape[1]]
 
 
 def _figure_name(conditions: OperatingConditions, index: int) -> str:
-    """``"<input> mean"`` or ``"<input> spread"`` for a column of :meth:`figures`."""
-    inputs = len(conditions.inputs)
-    return f"{conditions.inputs[index % inputs]} {'mean' if index < inputs else 'spread'}"
+    """``"<input> mean"``, ``"<input> spread"`` or ``"<input> excitation"`` for a column of
+    :meth:`OperatingConditions.figures`."""
+    return f"{conditions.inputs[index % len(conditions.inputs)]} {_kinds(conditions)[index]}"

@@ -53,6 +53,10 @@ class Tier:
         Whether :meth:`fit` runs as each asset is prepared (True) or after every tier's
         :meth:`fit_batch`, as each asset is finished (False: the noise tier, which describes
         what the batched network leaves).
+    condition_figures : tuple of str
+        The kinds of input figure (:data:`graybox.operating_conditions.FIGURE_KINDS`) whose
+        distance beyond the baseline's days :meth:`outside` is given: the inputs' means and
+        spreads by default (the operating point the tier's parameters were fitted at).
 
     Notes
     -----
@@ -86,6 +90,7 @@ class Tier:
     record_type: ClassVar[type] = object
     stage: ClassVar[str] = ""
     early: ClassVar[bool] = True
+    condition_figures: ClassVar[tuple[str, ...]] = ("mean", "spread")
 
     # -- fitting ---------------------------------------------------------------------------
 

@@ -24,6 +24,12 @@ class NoiseTierKind(Tier):
     or as they are (skewness, kurtosis), each divided by its sampling standard deviation under
     the baseline residual's own distribution (:attr:`graybox.noise_tier.NoiseTier.moment_weights`;
     a baseline stored before it: a Gaussian's, :data:`graybox.noise_tier.MOMENT_WEIGHTS`).
+
+    Its changes are discounted beyond the baseline's inputs' excitation too (the spread of
+    their sample-to-sample steps, :mod:`graybox.operating_conditions`): what a coarse white
+    box mispredicts from one sample to the next grows with how far the inputs moved between
+    them, so the residual's variance and tails grow with the excitation where its level and
+    dynamics need not.
     """
 
     name = "noise"
@@ -32,6 +38,7 @@ class NoiseTierKind(Tier):
     record_type = NoiseTier
     stage = "noise"
     early = False
+    condition_figures = ("mean", "spread", "excitation")
 
     def fit(self, asset: AssetFit, settings: GrayBoxSettings) -> None:
         """Describe the final residual (:func:`describe_noise`): the network's one-step errors

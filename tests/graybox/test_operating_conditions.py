@@ -31,19 +31,29 @@ class Thermostat(WhiteBoxModel):
         return u - x
 
 
-def _conditions(means, spreads=None, residual=0.0, cycle=0.0):
-    """One input's figures per window. Its eight pieces add a daily ``cycle`` shared by every
+def _pieces(values, residual=0.0, cycle=0.0):
+    """Eight pieces per window about each window's value: a daily ``cycle`` shared by every
     window and, in the first two windows, ``+-residual`` in turn (zero row and column means:
     the two-way analysis's residual sum of squares is 16 residual**2)."""
-    spreads = spreads or [1.0] * len(means)
-    pattern = np.zeros((len(means), 8))
-    pattern[:2] = residual * np.array([[1, -1] * 4, [-1, 1] * 4])[:len(means)]
+    pattern = np.zeros((len(values), 8))
+    pattern[:2] = residual * np.array([[1, -1] * 4, [-1, 1] * 4])[:len(values)]
     daily = cycle * np.sin(2 * np.pi * np.arange(8) / 8)
-    pieces = np.asarray(means, float)[:, None] + daily + pattern
+    pieces = np.asarray(values, float)[:, None] + daily + pattern
+    return tuple(tuple((float(v),) for v in row) for row in pieces)
+
+
+def _conditions(means, spreads=None, residual=0.0, cycle=0.0, excitations=None,
+                excitation_residual=0.0):
+    """One input's figures per window, its pieces by :func:`_pieces` (spreads piece by piece
+    as the window's); without ``excitations`` a record stored before the excitation figure."""
+    spreads = spreads or [1.0] * len(means)
+    extra = {} if excitations is None else {
+        "excitations": tuple((e,) for e in excitations),
+        "piece_excitations": _pieces(excitations, excitation_residual)}
     return OperatingConditions(("outdoor",), tuple((m,) for m in means),
-                               tuple((s,) for s in spreads),
-                               tuple(tuple((float(v),) for v in row) for row in pieces),
-                               tuple(tuple((float(sd),) for _ in range(8)) for sd in spreads))
+                               tuple((s,) for s in spreads), _pieces(means, residual, cycle),
+                               tuple(tuple((float(sd),) for _ in range(8)) for sd in spreads),
+                               **extra)
 
 
 def test_each_windows_exogenous_inputs_mean_and_spread_over_its_segments():
@@ -62,6 +72,9 @@ def test_each_windows_exogenous_inputs_mean_and_spread_over_its_segments():
     assert [p[0] for p in conditions.piece_means[0]] == [1.0, 3.0, 1.0, 3.0, 5.0, 7.0, 5.0, 7.0]
     assert conditions.piece_means[1][7] == (12.0, 1.0)
     assert conditions.piece_spreads[0] == ((0.0, 0.0),) * 8
+    # the excitation: the spread of the steps within each segment (3 -> 5 is no step)
+    np.testing.assert_allclose(conditions.excitations, [[np.std([2, -2, 2] * 2), 0.0],
+                                                        [np.std([0, 0, 0, 2, 0, 0, 0]), 0.0]])
     assert from_dict(OperatingConditions, json.loads(json.dumps(to_dict(conditions)))) == \
         conditions
     # every input set by a controller: nothing places a night in or outside a range
@@ -169,3 +182,44 @@ def test_calibration_discounts_a_left_out_day_driven_beyond_the_other_days():
     plain_piece = make_signature((make_channel(a=(0.6,), n_samples=500),), n_samples=500)
     plain = _changes(baseline, [(rest, plain_piece)] * 3, [(rest, inside)] * 2)
     assert pieces[0] == pytest.approx(plain["omega", "linear"][0][0])
+
+
+def test_an_excitation_counts_beyond_the_chance_reach_of_days_driven_alike():
+    # three days stepped alike (2.0, 2.05, 1.95): they do not differ beyond chance, yet a
+    # night stepped far harder is outside them. The two-way residual, 16 r^2 over 2 x 7
+    # degrees of freedom, gives a day's mean a standard error sqrt(16 r^2 / 14 / 8); three of
+    # them, 3 r / sqrt(7) = 0.3969 for r = 0.35, exceed the days' own reach of 0.05
+    baseline = _conditions([5.0, 8.0, 10.0], residual=0.1, excitations=[2.0, 2.05, 1.95],
+                           excitation_residual=0.35)
+    assert list(baseline.varying()) == [True, False, False]
+    np.testing.assert_allclose(baseline.chance_reach()[2], 3 * 0.35 / np.sqrt(7))
+    night = _conditions([8.0], excitations=[2.0 + 2 * 3 * 0.35 / np.sqrt(7)])
+    assert outside(night, baseline) == pytest.approx(2.0)
+    assert farthest(night, baseline)[1] == "outdoor excitation 2.794 (baseline days 1.95 to 2.05)"
+    # only where a tier answers to it: the means and spreads alone are inside
+    assert outside(night, baseline, ("mean", "spread")) < 1.0
+    assert covered(baseline) == ("outdoor mean 5 to 10", "outdoor excitation 1.95 to 2.05")
+    # a baseline stored before the figure judges on its means and spreads alone
+    stored = _conditions([5.0, 8.0, 10.0], residual=0.1)
+    assert outside(night, stored) < 1.0
+    assert outside(_conditions([23 / 3 + 16 / 3], excitations=[2.0]), stored) == \
+        pytest.approx(2.0)
+
+
+def test_a_night_stepped_beyond_the_baselines_excitation_has_its_noise_tier_discounted():
+    conditions = dict(residual=0.1, excitations=[2.0, 2.05, 1.95], excitation_residual=0.35)
+    base = make_signature((make_channel(a=(0.5,), moments=(0.0, 1.0, 0.0, 0.0)),),
+                          conditions=_conditions([5.0, 8.0, 10.0], **conditions))
+    moved = make_channel(a=(0.6,), moments=(0.0, 1.2, 0.0, 0.0))
+    night = _conditions([8.0], excitations=[2.0 + 2 * 3 * 0.35 / np.sqrt(7)])
+    drift = compute_drift(make_signature((moved,), conditions=night), base)
+    inside = compute_drift(make_signature((moved,), conditions=_conditions(
+        [8.0], excitations=[2.0])), base)
+    # the noise tier's change halved (zeta quartered); the linear tier's as it is
+    assert drift.get("omega", "noise").outside == pytest.approx(2.0)
+    assert drift.get("omega", "noise").zeta == pytest.approx(
+        inside.get("omega", "noise").zeta / 4)
+    assert drift.get("omega", "linear").outside is None
+    assert drift.get("omega", "linear").zeta == pytest.approx(0.01)
+    assert drift.conditions == "outdoor excitation 2.794 (baseline days 1.95 to 2.05)"
+    assert Signature.from_json(base.to_json()) == base
