@@ -97,7 +97,8 @@ class OperatingConditions:
                                                              "piece_excitations"})
 
     def figures(self) -> np.ndarray:
-        """Array of shape (windows, k * inputs): each window's means, then its spreads."""
+        """Array of shape (windows, k * inputs): each window's means, its spreads, then its
+        excitations where the record has them (:data:`FIGURE_KINDS`)."""
         parts = [_array(self.means), _array(self.spreads)]
         if self.excitations is not None:
             parts.append(_array(self.excitations))
@@ -138,8 +139,8 @@ class OperatingConditions:
         return tuple(name for name, moves in zip(self.inputs, means) if moves)
 
     def piece_figures(self) -> np.ndarray | None:
-        """Array of shape (windows, pieces, k * inputs), means then spreads; None when the
-        windows have different numbers of pieces."""
+        """Array of shape (windows, pieces, k * inputs), the columns of :meth:`figures`;
+        None when the windows have different numbers of pieces."""
         if len({len(w) for w in self.piece_means}) != 1:
             return None
         means = np.asarray(self.piece_means, float).reshape(len(self.piece_means), -1,
@@ -150,8 +151,9 @@ class OperatingConditions:
         return np.concatenate(parts, axis=2)
 
     def chance_reach(self) -> np.ndarray:
-        """Per figure, three standard errors of a window's mean from the pieces' variation
-        left after the windows' and the pieces' effects (0 without a table)."""
+        """Per figure, three standard errors of a window's figure from the pieces' variation
+        the two-way analysis of :meth:`varying` leaves (``3 sqrt(within / pieces)``): how far
+        windows that differ by chance alone may lie apart. 0 without a table."""
         table = self.piece_figures()
         width = self.figures().shape[1]
         if len(self.means) < 2 or table is None or table.shape[1] < 2:
@@ -203,22 +205,19 @@ def operating_conditions(model: WhiteBoxModel, inputs: Sequence[np.ndarray],
         parts = [np.asarray(inputs[i], float).reshape(len(inputs[i]), -1)[:, positions]
                  for i in np.flatnonzero(owners == window)]
         u = np.concatenate(parts)
-        steps = np.concatenate([np.diff(p, axis=0) for p in parts])
+        steps = np.concatenate([np.diff(p, axis=0) for p in parts])   # none across segments
         pieces = [p for p in np.array_split(u, PIECES) if len(p)]
-        step_pieces = [p for p in np.array_split(steps, PIECES)]
+        step_pieces = np.array_split(steps, PIECES)[:len(pieces)]
         with warnings.catch_warnings():
+            # a piece with an all-NaN input, or no step at all: its figure is 0 (_floats)
             warnings.simplefilter("ignore", RuntimeWarning)
-            figures["excitations"].append(_floats(np.nanstd(steps, axis=0) if len(steps)
-                                                  else np.zeros(len(positions))))
-            figures["piece_excitations"].append(tuple(
-                _floats(np.nanstd(p, axis=0) if len(p) else np.zeros(len(positions)))
-                for p in step_pieces[:len(pieces)]))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)   # a piece with an all-NaN input
             figures["means"].append(_floats(np.nanmean(u, axis=0)))
             figures["spreads"].append(_floats(np.nanstd(u, axis=0)))
+            figures["excitations"].append(_floats(np.nanstd(steps, axis=0)))
             figures["piece_means"].append(tuple(_floats(np.nanmean(p, axis=0)) for p in pieces))
             figures["piece_spreads"].append(tuple(_floats(np.nanstd(p, axis=0)) for p in pieces))
+            figures["piece_excitations"].append(tuple(_floats(np.nanstd(p, axis=0))
+                                                      for p in step_pieces))
     return OperatingConditions(tuple(model.inputs[i] for i in positions),
                                **{name: tuple(rows) for name, rows in figures.items()})
 
