@@ -223,3 +223,26 @@ def test_a_night_stepped_beyond_the_baselines_excitation_has_its_noise_tier_disc
     assert drift.get("omega", "linear").zeta == pytest.approx(0.01)
     assert drift.conditions == "outdoor excitation 2.794 (baseline days 1.95 to 2.05)"
     assert Signature.from_json(base.to_json()) == base
+
+
+def test_calibration_discounts_a_day_stepped_beyond_the_others_in_the_noise_tier_only():
+    from graybox.calibration import _changes
+
+    alike = dict(residual=0.1, excitations=[2.0, 2.05, 1.95, 2.0], excitation_residual=0.35)
+    rest = make_signature((make_channel(a=(0.5,), n_samples=4000),), n_samples=4000,
+                          conditions=_conditions([5.0, 8.0, 10.0, 7.0], **alike))
+    piece = make_signature((make_channel(a=(0.6,), n_samples=500),), n_samples=500)
+    # the same changes on a day stepped like the others and on one stepped twice the
+    # chance reach beyond them (four days: 16 r^2 over 3 x 7 degrees of freedom, a day's
+    # standard error sqrt(16 r^2 / 21 / 8), three of them 3 r sqrt(2 / 21))
+    moved = dict(a=(0.6,), moments=(0.0, 1.2, 0.0, 0.0))
+    reach = 3 * 0.35 * np.sqrt(2 / 21)
+    inside = make_signature((make_channel(**moved),),
+                            conditions=_conditions([7.5], excitations=[2.0]))
+    stepped = make_signature((make_channel(**moved),),
+                             conditions=_conditions([7.5], excitations=[2.0 + 2 * reach]))
+    baseline = make_signature((make_channel(a=(0.5,), n_samples=5000),), n_samples=5000)
+    changes = _changes(baseline, [(rest, piece)] * 3, [(rest, inside), (rest, stepped)])
+    noise, linear = changes["omega", "noise"][1], changes["omega", "linear"][1]
+    np.testing.assert_allclose(noise[1], noise[0] / 2)
+    np.testing.assert_allclose(linear[1], linear[0])
