@@ -15,6 +15,12 @@ IDLE_READS = ("no_data", "too_few_samples")
 _IDLE_ENDINGS = tuple(f"[{kind}]" for kind in IDLE_READS)
 
 
+def idle_read(message: str) -> bool:
+    """Whether a failed read's message is of one of :data:`IDLE_READS`: a day the product
+    takes for a machine that did not run (left out of a baseline, a night not monitored)."""
+    return message.rstrip().endswith(_IDLE_ENDINGS)
+
+
 def failure_counts(result: dict) -> tuple[int, int]:
     """A family result's failures and its days not operating.
 
@@ -24,8 +30,7 @@ def failure_counts(result: dict) -> tuple[int, int]:
     product reports as not operating, not failures; every other failed read, baseline and
     night is a failure.
     """
-    idle = sum(message.rstrip().endswith(_IDLE_ENDINGS)
-               for message in result["failed_reads"].values())
+    idle = sum(map(idle_read, result["failed_reads"].values()))
     failures = sum(len(result[k]) for k in ("failed_reads", "failed_baselines", "failed_nights"))
     return failures - idle, idle + len(result.get("calm_nights", {}))
 

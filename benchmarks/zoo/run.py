@@ -29,6 +29,7 @@ from graybox.telemetry.writing import write_telemetry
 from benchmarks.detection.grid import trailing_nights
 from benchmarks.detection.metrics import rate
 from benchmarks.zoo.family import AssetPlan, Family
+from benchmarks.zoo.report import idle_read
 from flows.config.settings import NightlySettings
 
 START = pd.Timestamp("2026-01-05", tz="UTC")
@@ -158,8 +159,10 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     clock["write_read"] = time.perf_counter() - began
 
     began, cpu = time.perf_counter(), time.process_time()
-    ready = [v for v in vehicles if all((v.asset_id, d) in windows for d in range(baseline_days))]
-    requests = [gb.FitRequest(model, [windows[v.asset_id, d] for d in range(baseline_days)],
+    days_read = baseline_days_read([v.asset_id for v in vehicles], baseline_days, windows,
+                                   failed_reads)
+    ready = [v for v in vehicles if v.asset_id in days_read]
+    requests = [gb.FitRequest(model, [windows[v.asset_id, d] for d in days_read[v.asset_id]],
                               asset_id=v.asset_id, seed=i) for i, v in enumerate(ready)]
     fitted = gb.fit_baselines(requests, false_alarm_rate=false_alarm_rate)
     baselines, failed_baselines = {}, {}
@@ -237,6 +240,24 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
                          max(1, sum(len(s.channels) for s, _ in baselines.values()))),
         "analysis_intervals": sorted({s.analysis_step for s, _ in baselines.values()}),
     })
+
+
+def baseline_days_read(assets: list[str], baseline_days: int, windows: Mapping,
+                       failed_reads: Mapping[str, str]) -> dict[str, list[int]]:
+    """Per asset whose baseline can be fitted, the baseline days it is fitted on.
+
+    A day the machine did not run (:func:`benchmarks.zoo.report.idle_read`) is left out, as
+    the baseline flow leaves it out (``flows.pipeline``: too few days left fail the fit,
+    there and in :func:`graybox.fit_baselines`); any other failed read leaves the asset
+    without a baseline, and so does a baseline with no day read.
+    """
+    out = {}
+    for asset in assets:
+        missing = [d for d in range(baseline_days) if (asset, d) not in windows]
+        if len(missing) < baseline_days and all(idle_read(failed_reads[f"{asset} day {d}"])
+                                                for d in missing):
+            out[asset] = [d for d in range(baseline_days) if d not in missing]
+    return out
 
 
 def read_days(root, model, policy: gb.GridPolicy, days: list[tuple[str, int]],

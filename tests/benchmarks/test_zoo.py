@@ -329,3 +329,21 @@ def test_the_drum_boilers_large_faults_change_what_they_should_physically():
         "feedwater_flow"].sum()
     assert abs(ratio - 1.04) < 0.005
     assert abs(change("feedwater_meter/large", "fuel_flow")) / fuel < 0.002
+
+
+def test_a_baseline_leaves_out_the_days_its_machine_did_not_run_as_the_baseline_flow_does():
+    from benchmarks.zoo.run import baseline_days_read
+
+    idle = "asset 'B': the machine did not run in [...] (grid running) [no_data]"
+    short = "asset 'C': the window covers 50min (5 samples at 600 s), ... [too_few_samples]"
+    broken = "asset 'D': row 12 of .../part.parquet: timestamp not increasing [bad_row]"
+    windows = {(a, d): object() for a in "ABCD" for d in range(5)}
+    del windows["B", 2], windows["C", 3], windows["C", 4], windows["D", 1]
+    windows["F", 4] = object()   # E never ran; F ran on one day only
+    failed = {"B day 2": idle, "C day 3": short, "C day 4": short, "D day 1": broken,
+              **{f"E day {d}": idle for d in range(5)},
+              **{f"F day {d}": idle for d in range(4)}}
+    # B and C keep their other days; D's broken day is a failure, not an idle day; E has
+    # none; F's one day goes to the fit, which fails there for fewer than three windows
+    assert baseline_days_read(list("ABCDEF"), 5, windows, failed) == {
+        "A": [0, 1, 2, 3, 4], "B": [0, 1, 3, 4], "C": [0, 1, 2], "F": [4]}
