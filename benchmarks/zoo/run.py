@@ -23,6 +23,7 @@ import pandas as pd
 
 import graybox as gb
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
+from graybox.signature_fit import MIN_BASELINE_WINDOWS
 from graybox.exceptions import ShortWindowsError
 from graybox.telemetry.writing import write_telemetry
 
@@ -161,11 +162,17 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     began, cpu = time.perf_counter(), time.process_time()
     days_read = baseline_days_read([v.asset_id for v in vehicles], baseline_days, windows,
                                    failed_reads)
-    ready = [v for v in vehicles if v.asset_id in days_read]
+    # fewer days than a baseline needs fail it, as the baseline flow fails them
+    failed_baselines = {
+        asset: f"asset {asset!r}: only {len(days)} window(s) with telemetry in the range; a "
+               f"baseline needs at least {MIN_BASELINE_WINDOWS}"
+        for asset, days in days_read.items() if len(days) < MIN_BASELINE_WINDOWS}
+    ready = [v for v in vehicles
+             if v.asset_id in days_read and v.asset_id not in failed_baselines]
     requests = [gb.FitRequest(model, [windows[v.asset_id, d] for d in days_read[v.asset_id]],
                               asset_id=v.asset_id, seed=i) for i, v in enumerate(ready)]
     fitted = gb.fit_baselines(requests, false_alarm_rate=false_alarm_rate)
-    baselines, failed_baselines = {}, {}
+    baselines = {}
     for vehicle, result in zip(ready, fitted):
         if isinstance(result, gb.GrayBoxError):
             failed_baselines[vehicle.asset_id] = str(result)
@@ -244,18 +251,17 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
 
 def baseline_days_read(assets: list[str], baseline_days: int, windows: Mapping,
                        failed_reads: Mapping[str, str]) -> dict[str, list[int]]:
-    """Per asset whose baseline can be fitted, the baseline days it is fitted on.
+    """Per asset whose baseline days read, the days its baseline is fitted on.
 
     A day the machine did not run (:func:`benchmarks.zoo.report.idle_read`) is left out, as
-    the baseline flow leaves it out (``flows.pipeline``: too few days left fail the fit,
-    there and in :func:`graybox.fit_baselines`); any other failed read leaves the asset
-    without a baseline, and so does a baseline with no day read.
+    the baseline flow leaves it out (``flows.pipeline``, where fewer than
+    ``MIN_BASELINE_WINDOWS`` days left fail the baseline); any other failed read leaves the
+    asset out (no baseline; the read is counted as a failure).
     """
     out = {}
     for asset in assets:
         missing = [d for d in range(baseline_days) if (asset, d) not in windows]
-        if len(missing) < baseline_days and all(idle_read(failed_reads[f"{asset} day {d}"])
-                                                for d in missing):
+        if all(idle_read(failed_reads[f"{asset} day {d}"]) for d in missing):
             out[asset] = [d for d in range(baseline_days) if d not in missing]
     return out
 
