@@ -23,7 +23,6 @@ import pandas as pd
 
 import graybox as gb
 from graybox.calibration import DEFAULT_FALSE_ALARM_RATE
-from graybox.signature_fit import MIN_BASELINE_WINDOWS
 from graybox.exceptions import ShortWindowsError
 from graybox.telemetry.writing import write_telemetry
 
@@ -162,17 +161,13 @@ def run_family(family: Family, healthy_assets: int = 30, baseline_days: int = 5,
     began, cpu = time.perf_counter(), time.process_time()
     days_read = baseline_days_read([v.asset_id for v in vehicles], baseline_days, windows,
                                    failed_reads)
-    # fewer days than a baseline needs fail it, as the baseline flow fails them
-    failed_baselines = {
-        asset: f"asset {asset!r}: only {len(days)} window(s) with telemetry in the range; a "
-               f"baseline needs at least {MIN_BASELINE_WINDOWS}"
-        for asset, days in days_read.items() if len(days) < MIN_BASELINE_WINDOWS}
-    ready = [v for v in vehicles
-             if v.asset_id in days_read and v.asset_id not in failed_baselines]
+    # fewer days than a baseline needs (none at all too) fail in fit_baselines, as they do
+    # in the baseline flow
+    ready = [v for v in vehicles if v.asset_id in days_read]
     requests = [gb.FitRequest(model, [windows[v.asset_id, d] for d in days_read[v.asset_id]],
                               asset_id=v.asset_id, seed=i) for i, v in enumerate(ready)]
     fitted = gb.fit_baselines(requests, false_alarm_rate=false_alarm_rate)
-    baselines = {}
+    baselines, failed_baselines = {}, {}
     for vehicle, result in zip(ready, fitted):
         if isinstance(result, gb.GrayBoxError):
             failed_baselines[vehicle.asset_id] = str(result)
@@ -254,9 +249,9 @@ def baseline_days_read(assets: list[str], baseline_days: int, windows: Mapping,
     """Per asset whose baseline days read, the days its baseline is fitted on.
 
     A day the machine did not run (:func:`benchmarks.zoo.report.idle_read`) is left out, as
-    the baseline flow leaves it out (``flows.pipeline``, where fewer than
-    ``MIN_BASELINE_WINDOWS`` days left fail the baseline); any other failed read leaves the
-    asset out (no baseline; the read is counted as a failure).
+    the baseline flow leaves it out (too few days left fail the fit, there and in
+    :func:`graybox.fit_baselines`); any other failed read leaves the asset out (no
+    baseline; the read is counted as a failure).
     """
     out = {}
     for asset in assets:
