@@ -114,10 +114,24 @@ class OperatingConditions:
         in a two-way additive analysis of variance of the pieces' figures (window by piece),
         F test at :data:`VARYING_LEVEL`. All False with fewer than two windows or windows of
         unequal piece counts."""
+        analysis = self._two_way()
+        if analysis is None:
+            return np.zeros(self.figures().shape[1], dtype=bool)
+        between, within, window_dof, dof, _ = analysis
+        critical = special.fdtri(window_dof, dof, 1 - VARYING_LEVEL)   # scipy.stats.f.ppf
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
+        return ratio > critical
+
+    def _two_way(self) -> tuple[np.ndarray, np.ndarray, int, int, int] | None:
+        """The two-way additive analysis of variance of the pieces' figures (window by
+        piece): per figure the windows' mean square and the residual mean square, with
+        their degrees of freedom and the pieces per window; None where it cannot be made
+        (fewer than two windows or pieces, or windows of unequal piece counts)."""
         table = self.piece_figures()
         windows = len(self.means)
-        if windows < 2 or table is None:
-            return np.zeros(self.figures().shape[1], dtype=bool)
+        if windows < 2 or table is None or table.shape[1] < 2:
+            return None
         pieces = table.shape[1]
         grand = table.mean(axis=(0, 1))
         window_effect = table.mean(axis=1) - grand
@@ -125,13 +139,7 @@ class OperatingConditions:
         left = table - grand - window_effect[:, None, :] - piece_effect[None, :, :]
         between = pieces * (window_effect ** 2).sum(axis=0) / (windows - 1)
         dof = (windows - 1) * (pieces - 1)
-        if dof < 1:
-            return np.zeros(table.shape[2], dtype=bool)
-        within = (left ** 2).sum(axis=(0, 1)) / dof
-        critical = special.fdtri(windows - 1, dof, 1 - VARYING_LEVEL)   # scipy.stats.f.ppf
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(within > 0, between / within, np.where(between > 0, np.inf, 0.0))
-        return ratio > critical
+        return between, (left ** 2).sum(axis=(0, 1)) / dof, windows - 1, dof, pieces
 
     def varying_inputs(self) -> tuple[str, ...]:
         """The inputs whose windows' means differ by more than chance (:meth:`varying`)."""
@@ -154,16 +162,11 @@ class OperatingConditions:
         """Per figure, three standard errors of a window's figure from the pieces' variation
         the two-way analysis of :meth:`varying` leaves (``3 sqrt(within / pieces)``): how far
         windows that differ by chance alone may lie apart. 0 without a table."""
-        table = self.piece_figures()
-        width = self.figures().shape[1]
-        if len(self.means) < 2 or table is None or table.shape[1] < 2:
-            return np.zeros(width)
-        grand = table.mean(axis=(0, 1))
-        left = (table - grand - (table.mean(axis=1) - grand)[:, None, :]
-                - (table.mean(axis=0) - grand)[None, :, :])
-        within = (left ** 2).sum(axis=(0, 1)) / ((table.shape[0] - 1) * (table.shape[1] - 1))
-        return 3.0 * np.sqrt(within / table.shape[1])
-
+        analysis = self._two_way()
+        if analysis is None:
+            return np.zeros(self.figures().shape[1])
+        _, within, _, _, pieces = analysis
+        return 3.0 * np.sqrt(within / pieces)
 
 def _array(rows) -> np.ndarray:
     return np.asarray(rows, float).reshape(len(rows), -1)
